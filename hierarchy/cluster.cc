@@ -1,0 +1,90 @@
+#include "hierarchy/cluster.h"
+
+#include <cassert>
+
+#include "hierarchy/geometry.h"
+#include "hierarchy/ht_neighbors.h"
+#include "hierarchy/split_rules.h"
+
+namespace simplexdb {
+
+TetCluster Cluster(TetCode code) {
+  TetCluster out{code};
+  // One way round: 3, 4, 3, 4, ... until the ring closes or the walk meets
+  // the boundary.
+  ht::TetCursor cursor(code);
+  int type = 3;
+  while (cursor.Step(type)) {
+    const TetCode next = cursor.code();
+    if (next == code) return out;  // closed ring: an interior edge
+    assert(out.size() < out.capacity());
+    out.push_back(next);
+    type = 7 - type;
+  }
+  // Open fan on the boundary: collect the other side, starting with type 4.
+  cursor = ht::TetCursor(code);
+  type = 4;
+  while (cursor.Step(type)) {
+    assert(out.size() < out.capacity());
+    out.push_back(cursor.code());
+    type = 7 - type;
+  }
+  return out;
+}
+
+namespace {
+
+int PositionOf(const SimplexVertices<3>& v, const Point<3>& p) {
+  for (int i = 0; i < 4; ++i) {
+    if (v[i] == p) return i;
+  }
+  assert(false && "a neighbor across a face lacks a vertex of that face");
+  return 0;
+}
+
+// Walks around the edge {p, q} from `start`, whose vertices are `sv`, first
+// crossing the face that omits vertex position `omit`. Appends every
+// tetrahedron met; returns true when the walk closes on `start` and false
+// when it meets the boundary.
+bool WalkAroundEdge(TetCode start, const SimplexVertices<3>& sv, const Point<3>& p,
+                    const Point<3>& q, int omit, TetsAroundEdge& out) {
+  TetCode cur = start;
+  SimplexVertices<3> cv = sv;
+  while (true) {
+    const TetCode next = ht::Neighbor(cur, FaceTypeOmitting<3>(omit));
+    if (next.is_none()) return false;
+    if (next == start) return true;
+    assert(out.size() < out.capacity());
+    out.push_back(next);
+    // The crossed face holds p, q and one more vertex x of `cur`. In `next`
+    // the two faces containing the edge are the crossed one (it omits the
+    // new vertex) and the one omitting x: cross that one next.
+    const int pp = PositionOf(cv, p);
+    const int pq = PositionOf(cv, q);
+    const int px = 0 + 1 + 2 + 3 - pp - pq - omit;
+    const SimplexVertices<3> nv = Vertices(next);
+    omit = PositionOf(nv, cv[px]);
+    cur = next;
+    cv = nv;
+  }
+}
+
+}  // namespace
+
+TetsAroundEdge EdgeNeighbors(TetCode code, int i, int j) {
+  assert(i != j && i >= 0 && i < 4 && j >= 0 && j < 4);
+  const SimplexVertices<3> v = Vertices(code);
+  // The two vertex positions off the edge; each names a face containing it.
+  int off[2];
+  int n = 0;
+  for (int k = 0; k < 4; ++k) {
+    if (k != i && k != j) off[n++] = k;
+  }
+  TetsAroundEdge out{code};
+  if (WalkAroundEdge(code, v, v[i], v[j], off[0], out)) return out;
+  // Open fan (the edge is on the boundary): walk the other side too.
+  WalkAroundEdge(code, v, v[i], v[j], off[1], out);
+  return out;
+}
+
+}  // namespace simplexdb

@@ -1,0 +1,45 @@
+// Clusters and edge neighbors (seed sections 3.4, 3.5 and 4.5).
+//
+// A cluster is the set of same-level simplices that share a simplex's split
+// edge: they must all be split together to keep a mesh conforming. In the HT
+// it has 4 members around a 1/2 pyramid's edge (plane-aligned), 8 around a
+// 1/4 pyramid's (axis-aligned) and 6 around a 1/8 pyramid's (non-aligned; the
+// six roots too); fewer on the boundary of the cube (SEED-ERRATA item 10).
+//
+// Thread safety: pure functions.
+#pragma once
+
+#include <boost/container/static_vector.hpp>
+
+#include "hierarchy/simplex_code.h"
+
+namespace simplexdb {
+
+// Upper bounds on the number of same-level simplices around an edge.
+inline constexpr int kMaxTetCluster = 8;
+inline constexpr int kMaxTetsAroundEdge = 8;
+
+using TetCluster = boost::container::static_vector<TetCode, kMaxTetCluster>;
+using TetsAroundEdge = boost::container::static_vector<TetCode, kMaxTetsAroundEdge>;
+
+// The cluster of `code`: every tetrahedron at its level that shares its split
+// edge v3v4, `code` first, then in order around the edge. Found by
+// alternating the face neighbors of types 3 and 4 (the two faces that
+// contain v3v4), as in Figs. 41, 43 and 45; on the boundary the walk turns
+// back and collects the other side. O(cluster size), constant-time steps.
+// REQUIRES: code.is_valid().
+TetCluster Cluster(TetCode code);
+
+// Every tetrahedron at the level of `code` that contains the edge between
+// its vertex positions `i` and `j` (0-based: 0 is v1), `code` first, then in
+// order around the edge (section 3.4).
+//
+// The walk follows vertex identity, not a fixed sequence of face types:
+// SEED-ERRATA items 4 and 5 (the shared face of two siblings of a 1/8 pyramid
+// lists its vertices in another order, so Fig. 39's sequences fail for 1/4
+// pyramids around v2v3 and v2v4). O(count * level): each step computes the
+// neighbor's vertices.
+// REQUIRES: code.is_valid(), 0 <= i, j <= 3, i != j.
+TetsAroundEdge EdgeNeighbors(TetCode code, int i, int j);
+
+}  // namespace simplexdb

@@ -1,0 +1,181 @@
+// Exact vertex geometry of the simplices in an HT (D = 3) or HP (D = 4).
+//
+// Coordinates are integers on a lattice of side 2^kCoordBits<D> covering the
+// unit cube (hypercube): the unit-cube coordinate is x / 2^kCoordBits. Every
+// vertex of every simplex down to SimplexCode<D>::kMaxLevel is a lattice
+// point, because D levels of bisection halve the cube exactly once.
+//
+//   HT: kCoordBits = 19 (55 levels = 18 full periods + 1).
+//   HP: kCoordBits = 14 (53 levels = 13 full periods + 1).
+//
+// Vertices come from the split rules (hierarchy/split_rules.h) applied from
+// the root down: O(level) per call, no allocation. Traversals that descend
+// the tree should carry the parent's vertices and call ChildVertices() for
+// O(1) per step.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+
+#include "hierarchy/simplex_code.h"
+#include "hierarchy/split_rules.h"
+
+namespace simplexdb {
+
+template <int D>
+inline constexpr int kCoordBits =
+    (SimplexCode<D>::kMaxLevel + D - 1) / D;
+
+template <int D>
+inline constexpr int32_t kDomainSide = int32_t{1} << kCoordBits<D>;
+
+template <int D>
+using Point = std::array<int32_t, D>;
+
+// v1..v_{D+1}, in the seed's order for this simplex.
+template <int D>
+using SimplexVertices = std::array<Point<D>, D + 1>;
+
+// The axis permutation of root `top`: roots are numbered by the lexicographic
+// order of the permutations of 0..D-1.
+template <int D>
+constexpr std::array<int, D> RootPermutation(int top) {
+  std::array<int, D> perm{};
+  for (int i = 0; i < D; ++i) perm[i] = i;
+  for (int i = 0; i < top; ++i) std::next_permutation(perm.begin(), perm.end());
+  return perm;
+}
+
+// REQUIRES: 0 <= top < SimplexCode<D>::kRoots.
+template <int D>
+constexpr SimplexVertices<D> RootVertices(int top) {
+  const std::array<int, D> perm = RootPermutation<D>(top);
+  SimplexVertices<D> v{};
+  for (int i = 0; i <= D; ++i) {
+    for (int j = 0; j < SplitRules<D>::kRootVertexHotness[i]; ++j) {
+      v[i][perm[j]] = kDomainSide<D>;
+    }
+  }
+  return v;
+}
+
+// The vertices of child `child` of a simplex with vertices `parent` split by
+// rule `split_case` (SplitRules<D>::CaseOf). O(1).
+template <int D>
+constexpr SimplexVertices<D> ChildVertices(const SimplexVertices<D>& parent,
+                                           int split_case, int child) {
+  const auto& edge = SplitRules<D>::kCaseToSplitEdge[split_case];
+  const auto& from = SplitRules<D>::kCaseChildToParentVertex[split_case][child];
+  SimplexVertices<D> v{};
+  for (int c = 0; c < D; ++c) {
+    v[0][c] = (parent[edge[0]][c] + parent[edge[1]][c]) / 2;
+  }
+  for (int j = 0; j < D; ++j) v[j + 1] = parent[from[j]];
+  return v;
+}
+
+namespace internal {
+
+// Points packed into one word, D fields of kPackBits<D> bits (x lowest), so a
+// split is a handful of register operations. The midpoint of two packed
+// points is (a + b) >> 1: every field sum fits its field and is even (the
+// midpoints of split edges are lattice points), so no bit crosses a field.
+template <int D>
+inline constexpr int kPackBits = 64 / D;  // 21 (HT), 16 (HP)
+static_assert(kCoordBits<3> + 1 <= kPackBits<3> && kCoordBits<4> + 1 <= kPackBits<4>);
+
+template <int D>
+constexpr uint64_t Pack(const Point<D>& p) {
+  uint64_t w = 0;
+  for (int i = 0; i < D; ++i) w |= static_cast<uint64_t>(p[i]) << (i * kPackBits<D>);
+  return w;
+}
+
+template <int D>
+constexpr Point<D> Unpack(uint64_t w) {
+  constexpr uint64_t kField = (uint64_t{1} << kPackBits<D>) - 1;
+  Point<D> p{};
+  for (int i = 0; i < D; ++i) p[i] = static_cast<int32_t>((w >> (i * kPackBits<D>)) & kField);
+  return p;
+}
+
+template <int D>
+using PackedVertices = std::array<uint64_t, D + 1>;
+
+template <int D>
+inline constexpr auto kPackedRoots = [] {
+  std::array<PackedVertices<D>, SimplexCode<D>::kRoots> t{};
+  for (int r = 0; r < SimplexCode<D>::kRoots; ++r) {
+    const SimplexVertices<D> v = RootVertices<D>(r);
+    for (int i = 0; i <= D; ++i) t[r][i] = Pack<D>(v[i]);
+  }
+  return t;
+}();
+
+}  // namespace internal
+
+// The vertices of `code`. O(level): one split per level, in registers.
+// REQUIRES: code.is_valid().
+template <int D>
+constexpr SimplexVertices<D> Vertices(SimplexCode<D> code) {
+  internal::PackedVertices<D> v = internal::kPackedRoots<D>[code.top()];
+  const int level = code.level();
+  const uint64_t path = code.path();
+  for (int l = 0; l < level; ++l) {
+    const uint64_t prefix = path >> (level - l);  // the path of the level-l ancestor
+    const int child = static_cast<int>((path >> (level - l - 1)) & 1);
+    const int c = SplitRules<D>::CaseOf(l, prefix);
+    const auto& edge = SplitRules<D>::kCaseToSplitEdge[c];
+    const auto& from = SplitRules<D>::kCaseChildToParentVertex[c][child];
+    internal::PackedVertices<D> n;
+    n[0] = (v[edge[0]] + v[edge[1]]) >> 1;
+    for (int j = 0; j < D; ++j) n[j + 1] = v[from[j]];
+    v = n;
+  }
+  SimplexVertices<D> out{};
+  for (int i = 0; i <= D; ++i) out[i] = internal::Unpack<D>(v[i]);
+  return out;
+}
+
+// The vertex positions of the edge that splitting `code` bisects.
+template <int D>
+constexpr std::array<uint8_t, 2> SplitEdge(SimplexCode<D> code) {
+  return SplitRules<D>::kCaseToSplitEdge[SplitRules<D>::CaseOf(code.level(), code.path())];
+}
+
+// Root adjacency, derived from the root geometry at compile time:
+// kRootFaceToRoot<D>[top][k-1] is the root across face type k of root `top`,
+// or -1 when that face lies on the boundary of the cube. With the seed's
+// labeling the face has the same type on both sides and the rest of a path
+// stays the same across roots (SEED-ERRATA item 3); tests check both.
+template <int D>
+constexpr std::array<std::array<int8_t, D + 1>, SimplexCode<D>::kRoots>
+DeriveRootFaceToRoot() {
+  constexpr int kRoots = SimplexCode<D>::kRoots;
+  std::array<std::array<int8_t, D + 1>, kRoots> table{};
+  for (int r = 0; r < kRoots; ++r) {
+    const SimplexVertices<D> a = RootVertices<D>(r);
+    for (int k = 1; k <= D + 1; ++k) {
+      table[r][k - 1] = -1;
+      const int omit = OmittedVertex<D>(k);
+      for (int s = 0; s < kRoots; ++s) {
+        if (s == r) continue;
+        const SimplexVertices<D> b = RootVertices<D>(s);
+        // Same face type: the other root has the same vertex set on it.
+        bool same = true;
+        for (int i = 0; i <= D && same; ++i) {
+          if (i == omit) continue;
+          same = a[i] == b[i];
+        }
+        if (same) table[r][k - 1] = static_cast<int8_t>(s);
+      }
+    }
+  }
+  return table;
+}
+
+template <int D>
+inline constexpr auto kRootFaceToRoot = DeriveRootFaceToRoot<D>();
+
+}  // namespace simplexdb
