@@ -1,0 +1,132 @@
+// `simplexdb codes` end to end: the JSON-lines contract of DESIGN.md, read
+// back with a JSON parser and checked against geometry.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <set>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "hierarchy/cluster.h"
+#include "hierarchy/geometry.h"
+#include "hierarchy/ht_neighbors.h"
+#include "tests/tools/cli_runner.h"
+
+namespace simplexdb {
+namespace {
+
+using json = nlohmann::ordered_json;  // keeps the key order of the output
+using testing::RunCli;
+
+std::vector<json> ParseLines(const std::string& out) {
+  std::vector<json> lines;
+  std::istringstream in(out);
+  std::string line;
+  while (std::getline(in, line)) lines.push_back(json::parse(line));
+  return lines;
+}
+
+TEST(CodesCli, HtContract) {
+  std::vector<TetCode> codes;
+  for (int top = 0; top < 6; ++top) {
+    for (int level = 0; level <= 4; ++level) {
+      for (uint64_t p = 0; p < (uint64_t{1} << level); ++p) {
+        codes.push_back(TetCode::FromPath(top, p, level));
+      }
+    }
+  }
+  std::mt19937_64 rng(4);
+  for (int i = 0; i < 200; ++i) {
+    const int level = 1 + static_cast<int>(rng() % TetCode::kMaxLevel);  // 1..max
+    codes.push_back(TetCode::FromPath(static_cast<int>(rng() % 6), rng() >> (64 - level), level));
+  }
+  std::string input;
+  for (const TetCode c : codes) input += c.ToString() + "\n";
+  const auto r = RunCli("codes --hierarchy ht", input);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::vector<json> lines = ParseLines(r.out);
+  ASSERT_EQ(lines.size(), codes.size());
+  for (size_t i = 0; i < codes.size(); ++i) {
+    const TetCode c = codes[i];
+    const json& j = lines[i];
+    SCOPED_TRACE(c.ToString());
+    // Keys in the contract's order.
+    std::vector<std::string> keys;
+    for (auto it = j.begin(); it != j.end(); ++it) keys.push_back(it.key());
+    ASSERT_EQ(keys, (std::vector<std::string>{"code", "level", "vertices", "neighbors",
+                                              "parent", "children", "cluster"}));
+    ASSERT_EQ(j["code"], c.ToString());
+    ASSERT_EQ(j["level"], c.level());
+    // Unit-cube coordinates, exactly the lattice vertices scaled.
+    const auto v = Vertices(c);
+    ASSERT_EQ(j["vertices"].size(), 4u);
+    for (int k = 0; k < 4; ++k) {
+      for (int a = 0; a < 3; ++a) {
+        const double x = j["vertices"][k][a].get<double>();
+        ASSERT_GE(x, 0.0);
+        ASSERT_LE(x, 1.0);
+        ASSERT_EQ(x * kDomainSide<3>, v[k][a]);
+      }
+    }
+    ASSERT_EQ(j["neighbors"].size(), 4u);
+    for (int k = 1; k <= 4; ++k) {
+      const TetCode n = ht::NeighborScan(c, k);
+      if (n.is_none()) {
+        ASSERT_TRUE(j["neighbors"][k - 1].is_null());
+      } else {
+        ASSERT_EQ(j["neighbors"][k - 1], n.ToString());
+      }
+    }
+    if (c.level() == 0) {
+      ASSERT_TRUE(j["parent"].is_null());
+    } else {
+      ASSERT_EQ(j["parent"], c.parent().ToString());
+    }
+    if (c.level() == TetCode::kMaxLevel) {
+      ASSERT_TRUE(j["children"].is_null()) << "no deeper level in a 64-bit key";
+    } else {
+      ASSERT_EQ(j["children"], (json{c.child(0).ToString(), c.child(1).ToString()}));
+    }
+    std::set<std::string> cluster;
+    for (const TetCode m : Cluster(c)) cluster.insert(m.ToString());
+    ASSERT_EQ(j["cluster"].get<std::set<std::string>>(), cluster);
+    ASSERT_EQ(j["cluster"][0], c.ToString());
+  }
+}
+
+TEST(CodesCli, BadLinesKeepAlignmentAndFail) {
+  const auto r = RunCli("codes --hierarchy ht", "0:1\nnonsense\n\n7:0\n1:01\n");
+  EXPECT_EQ(r.exit_code, 1);
+  const std::vector<json> lines = ParseLines(r.out);
+  ASSERT_EQ(lines.size(), 4u);  // the blank line is skipped
+  EXPECT_EQ(lines[0]["code"], "0:1");
+  EXPECT_EQ(lines[1]["code"], "nonsense");
+  EXPECT_TRUE(lines[1].contains("error"));
+  EXPECT_NE(lines[2]["error"].get<std::string>().find("out of range"), std::string::npos);
+  EXPECT_EQ(lines[3]["code"], "1:01");
+  EXPECT_NE(r.err.find("line 2"), std::string::npos) << r.err;
+}
+
+TEST(CodesCli, UsageErrors) {
+  EXPECT_EQ(RunCli("codes").exit_code, 2);
+  EXPECT_EQ(RunCli("codes --hierarchy nope").exit_code, 2);
+  EXPECT_EQ(RunCli("frobnicate").exit_code, 2);
+  const auto help = RunCli("--help");
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(help.out.find("codes"), std::string::npos);
+}
+
+TEST(InspectCli, ExplainsACode) {
+  const auto r = RunCli("inspect --hierarchy ht 2:10011");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("1/4 pyramid"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("3:10011"), std::string::npos) << r.out;  // type-4 neighbor
+  EXPECT_NE(r.out.find("8 tetrahedra"), std::string::npos) << r.out;
+  const auto bad = RunCli("inspect 9:1");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("9:1"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace simplexdb

@@ -1,0 +1,31 @@
+// The subcommands of the `simplexdb` tool. Each Register* function adds one
+// subcommand (its options, --help text and callback) to the application.
+//
+// Conventions: results go to stdout, diagnostics to stderr; exit status 0 on
+// success and non-zero with a one-line reason otherwise (tools/main.cc turns
+// a thrown CommandError into that).
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace simplexdb::tools {
+
+// A failure the user caused or can fix: printed as "simplexdb: <what>" and
+// turned into `exit_code`.
+class CommandError : public std::runtime_error {
+ public:
+  explicit CommandError(const std::string& what, int exit_code = 1)
+      : std::runtime_error(what), exit_code_(exit_code) {}
+  int exit_code() const { return exit_code_; }
+
+ private:
+  int exit_code_;
+};
+
+void RegisterCodesCommand(CLI::App& app);
+void RegisterInspectCommand(CLI::App& app);
+
+}  // namespace simplexdb::tools

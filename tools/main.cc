@@ -1,0 +1,34 @@
+// simplexdb: the command-line front end of SimplexDB.
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+
+#include "tools/commands.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "SimplexDB: an out-of-core storage engine for multiresolution scalar\n"
+      "fields on nested simplicial meshes (Hierarchy of Tetrahedra, HT, in 3D;\n"
+      "Hierarchy of Pentatopes, HP, in 4D).\n\n"
+      "Location codes are written T:bits: the root simplex T, then one bit per\n"
+      "level (0 = child 0), e.g. 2:10011. Run `simplexdb <command> --help` for\n"
+      "the options of a command.",
+      "simplexdb"};
+  app.require_subcommand(1);
+  simplexdb::tools::RegisterCodesCommand(app);
+  simplexdb::tools::RegisterInspectCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;  // --help is success; usage errors are 2
+  } catch (const simplexdb::tools::CommandError& e) {
+    std::fprintf(stderr, "simplexdb: %s\n", e.what());
+    return e.exit_code();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "simplexdb: internal error: %s\n", e.what());
+    return 70;
+  }
+  return 0;
+}
