@@ -10,6 +10,8 @@
 // on identical inputs in one run.
 #include <benchmark/benchmark.h>
 
+#include <memory>
+#include <mutex>
 #include <random>
 #include <string>
 #include <vector>
@@ -75,44 +77,68 @@ void RunOverCodes(benchmark::State& state, const std::vector<TetCode>& codes, Fn
   }
 }
 
+// Generates a benchmark's codes the first time it runs, so filtered-out
+// benchmarks cost nothing (worst-case codes take a search to find).
+class LazyCodes {
+ public:
+  LazyCodes(int level, int type, bool worst) : level_(level), type_(type), worst_(worst) {}
+  const std::vector<TetCode>& get() {
+    std::call_once(once_, [this] {
+      codes_ = worst_ ? WorstCaseCodes(level_, type_) : RandomCodes(level_, 7 * level_ + type_);
+      for (const TetCode c : codes_) cursors_.emplace_back(c);
+    });
+    return codes_;
+  }
+  const std::vector<ht::TetCursor>& cursors() {
+    get();
+    return cursors_;
+  }
+
+ private:
+  int level_, type_;
+  bool worst_;
+  std::once_flag once_;
+  std::vector<TetCode> codes_;
+  std::vector<ht::TetCursor> cursors_;
+};
+
 void RegisterNeighborBenchmarks() {
   for (int level : {6, 30, TetCode::kMaxLevel}) {
     for (int type = 1; type <= 4; ++type) {
       for (const bool worst : {false, true}) {
-        const auto codes = std::make_shared<std::vector<TetCode>>(
-            worst ? WorstCaseCodes(level, type) : RandomCodes(level, 7 * level + type));
+        const auto codes = std::make_shared<LazyCodes>(level, type, worst);
         const std::string suffix = "/type" + std::to_string(type) + (worst ? "/worst" : "/random") +
                                    "/depth:" + std::to_string(level);
         benchmark::RegisterBenchmark(("HtNeighbor/scan" + suffix).c_str(),
                                      [codes, type](benchmark::State& s) {
-                                       RunOverCodes(s, *codes, [type](TetCode c) {
+                                       RunOverCodes(s, codes->get(), [type](TetCode c) {
                                          return ht::NeighborScan(c, type);
                                        });
                                      });
         benchmark::RegisterBenchmark(("HtNeighbor/constant" + suffix).c_str(),
                                      [codes, type](benchmark::State& s) {
-                                       RunOverCodes(s, *codes, [type](TetCode c) {
+                                       RunOverCodes(s, codes->get(), [type](TetCode c) {
                                          return ht::Neighbor(c, type);
                                        });
                                      });
         // The cursor's mask is already up to date: the cost of one step in a
-        // walk (cluster, refinement), mask update included.
-        auto cursors = std::make_shared<std::vector<ht::TetCursor>>();
-        for (const TetCode c : *codes) cursors->emplace_back(c);
+        // walk (cluster, refinement), mask update included. Cursors step in
+        // place; crossing the same face again steps back, so the set
+        // alternates between the codes and their neighbors (as hard).
         benchmark::RegisterBenchmark(("HtNeighbor/cursor" + suffix).c_str(),
-                                     [cursors, type](benchmark::State& s) {
+                                     [codes, type](benchmark::State& s) {
+                                       std::vector<ht::TetCursor> cursors = codes->cursors();
                                        size_t i = 0;
                                        for (auto _ : s) {
-                                         ht::TetCursor c = (*cursors)[i];
-                                         benchmark::DoNotOptimize(c.Step(type));
-                                         benchmark::DoNotOptimize(c);
+                                         benchmark::DoNotOptimize(cursors[i].Step(type));
                                          i = (i + 1) & (kCodes - 1);
                                        }
+                                       benchmark::DoNotOptimize(cursors.data());
                                      });
         if (worst) {
           benchmark::RegisterBenchmark(("HtNeighbor/level-scan" + suffix).c_str(),
                                        [codes, type](benchmark::State& s) {
-                                         RunOverCodes(s, *codes, [type](TetCode c) {
+                                         RunOverCodes(s, codes->get(), [type](TetCode c) {
                                            return NeighborByLevelScan<3>(c, type);
                                          });
                                        });

@@ -40,6 +40,7 @@
 #include "hierarchy/geometry.h"
 #include "hierarchy/simplex_code.h"
 #include "hierarchy/split_rules.h"
+#include "util/macros.h"
 
 namespace simplexdb {
 namespace ht {
@@ -121,7 +122,7 @@ constexpr TetCode NeighborScan(TetCode code, int type) {
   if (r != 0) {
     const TailStep s =
         TailSteps<3>::kTable[r][path & ((uint64_t{1} << r) - 1)][type - 1];
-    if (s.flip >= 0) return code.with_path(path ^ (uint64_t{1} << s.flip));
+    if (s.flip != 0) return code.with_path(path ^ s.flip);
     k = s.type;
   }
   for (int shift = r; shift < level; shift += 3) {
@@ -136,71 +137,85 @@ constexpr TetCode NeighborScan(TetCode code, int type) {
   return root < 0 ? TetCode::None() : code.with_top(root);
 }
 
-// The constant-time algorithm on the unpacked state of a code. On success
-// updates `top`, `path` and `mask` in place and returns true; on the
-// boundary returns false and changes nothing.
-// REQUIRES: `mask` is NeighborMask() of (path, level); 1 <= type <= 4.
-constexpr bool StepInPlace(int& top, uint64_t& path, int level, uint64_t& mask,
-                           int type) {
+// What the constant-time step needs that depends only on the level, which
+// never changes along a walk: computed once per cursor.
+struct LevelShape {
+  explicit constexpr LevelShape(int level)
+      : r(level % 3),
+        n(level - r),
+        groups((uint64_t{1} << n) - 1),
+        pos1(kPos1Mask & groups),
+        root_bit(uint64_t{1} << n),
+        tail(&TailSteps<3>::kTable[r]) {}
+
+  int r;              // levels in the tail (below the last full group)
+  int n;              // bits in the group word Q = path >> r
+  uint64_t groups;    // (1 << n) - 1
+  uint64_t pos1;      // bit 1 of every group of Q
+  uint64_t root_bit;  // mask bit n: the parity that reaches the root
+  const std::array<std::array<TailStep, 4>, 4>* tail;  // TailSteps<3>::kTable[r]
+};
+
+// The constant-time algorithm of 3.3 on a code split into its group word
+// `q` (path >> r) and its `tail` (the last r bits). On success updates `top`,
+// `q`, `tail` and `mask` in place and returns true; on the boundary returns
+// false and changes nothing.
+//
+// Written without data-dependent branches: the candidate answers (a flip in
+// the tail; NEIGHBOR_1, _2 and _3/_4 in the groups; a crossing to another
+// root) are all computed and the right one is selected at the end, so
+// random codes cost what worst-case codes cost (bench/ht_bench.cc).
+// REQUIRES: `mask` is NeighborMaskOfGroups(q); `shape` is LevelShape(level);
+//           1 <= type <= 4.
+SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& tail,
+                                             uint64_t& mask, const LevelShape& shape,
+                                             int type) {
   assert(type >= 1 && type <= 4);
-  const int r = level % 3;
-  int k = type;
-  if (r != 0) {
-    const TailStep s =
-        TailSteps<3>::kTable[r][path & ((uint64_t{1} << r) - 1)][type - 1];
-    if (s.flip >= 0) {  // inside the tail: the group word is unchanged
-      path ^= uint64_t{1} << s.flip;
-      return true;
-    }
-    k = s.type;
-  }
-  const uint64_t q = path >> r;
-  const int n = level - r;  // bits in the group word
-  const uint64_t groups = (uint64_t{1} << n) - 1;
-  uint64_t flip;
-  switch (k) {
-    case 1:  // NEIGHBOR_1: the sibling of the tetrahedron at level 3G.
-      if (n == 0) return false;  // a root's type-1 face is on the boundary
-      flip = 1;
-      break;
-    case 2: {  // NEIGHBOR_2 (3.3.2)
-      // Type 2 stops at the deepest group whose bit 1 is 1, as type 1 of the
-      // tetrahedron above that group: flip bit 3 of the group above.
-      const uint64_t test = q & kPos1Mask & groups;
-      flip = (~test + 1) & test;  // lowest set bit; 0 when none
-      flip <<= 1;
-      // No group stops, or the stop is above the top group: a root face of
-      // type 2 or 1, both on the cube's boundary (SEED-ERRATA item 3).
-      if (flip == 0 || flip > groups) return false;
-      break;
-    }
-    default: {  // NEIGHBOR_3 and NEIGHBOR_4 (3.3.3, 3.3.4)
-      // Type 3 stops where bit 2 is 0 (flip bit 1); type 4 where bit 1 equals
-      // bit 3 (flip bit 2). The mask tells which type each group sees.
-      uint64_t test = q ^ ((q & kPos3Mask) << 2);  // bit1 ^ bit3 at bit 1
-      test = ~test;                                // equality at bit 1, ~bit2 at bit 2
-      test &= mask ^ (k == 3 ? kPos2Mask : kPos1Mask);
-      test |= test << 1;
-      test &= kPos1Mask & groups;
-      flip = (~test + 1) & test;
-      if (flip == 0) {
-        // The carry ran past the top group: cross to another root with the
-        // type that reaches level 0 (mask bit n holds the total parity).
-        const bool swapped = (mask >> n) & 1;
-        const int root_type = (k == 3) != swapped ? 3 : 4;
-        const int root = kRootFaceToRoot<3>[top][root_type - 1];
-        if (root < 0) return false;
-        top = root;
-        return true;
-      }
-      // Type 4 in the stopping group: flip bit 2 instead of bit 1.
-      if (((flip & mask) != 0) == (k == 3)) flip >>= 1;
-      break;
-    }
-  }
+  // The tail first (for r = 0 its table row continues with `type`).
+  const TailStep t = (*shape.tail)[tail][type - 1];
+  const int k = t.type;  // the type sought at level 3G; 0 after a tail flip
+
+  // NEIGHBOR_1 (3.3.1): the sibling of the tetrahedron at level 3G; none for
+  // a root (its type-1 face is on the boundary, and `groups` is empty).
+  const uint64_t flip1 = shape.groups & 1;
+
+  // NEIGHBOR_2 (3.3.2): stops at the deepest group whose bit 1 is 1, as type
+  // 1 of the tetrahedron above it: flip bit 3 of the group above. No such
+  // group, or the stop above the top group, means a root face of type 2 or
+  // 1, both on the boundary (SEED-ERRATA item 3).
+  const uint64_t test2 = q & shape.pos1;
+  const uint64_t flip2 = ((test2 & (0 - test2)) << 1) & shape.groups;
+
+  // NEIGHBOR_3 and NEIGHBOR_4 (3.3.3, 3.3.4), at the bit-1 position of
+  // every group: type 3 stops where bit 2 is 0 (flip bit 1), type 4 where
+  // bit 1 equals bit 3 (flip bit 2). The mask says which type each group
+  // sees; seeking type 4 at the bottom inverts it. A zero flip means the
+  // carry ran past the top group.
+  const uint64_t sees4 = mask ^ (uint64_t{0} - uint64_t{k == 4});
+  const uint64_t eq13 = ~(q ^ (q << 2)) & shape.pos1;  // bit 1 == bit 3
+  const uint64_t zero2 = (~q << 1) & shape.pos1;       // bit 2 == 0
+  const uint64_t test34 = (zero2 & ~sees4) | (eq13 & sees4);
+  uint64_t flip34 = test34 & (0 - test34);
+  flip34 >>= (flip34 & sees4) != 0;  // the group sees type 4: flip bit 2
+
+  // Select by k with masks, not branches (a compiler turns conditionals on
+  // k into a jump tree). k == 0: the flip is in the tail.
+  const auto when = [](bool c) { return uint64_t{0} - uint64_t{c}; };  // all ones if c
+  const uint64_t flip =
+      (flip1 & when(k == 1)) | (flip2 & when(k == 2)) | (flip34 & when(k >= 3));
+
+  // 3.3.6: past the top group the type that reaches the root (k, swapped by
+  // the total parity in mask bit n) picks the root across.
+  const bool cross = (k >= 3) & (flip == 0);
+  const bool swapped = (mask & shape.root_bit) != 0;
+  const int other_root = kRootFaceToRoot<3>[top][2 + ((k == 4) ^ swapped)];
+  if (!((k == 0) | (flip != 0) | (cross & (other_root >= 0)))) return false;
+
+  tail ^= t.flip;
+  q ^= flip;
+  top = cross ? other_root : top;
   // UPDATE_MASK (3.3.5): flipping a bit 1 toggles the parity above it.
-  if (flip & kPos1Mask) mask ^= (~flip + 1) << 1;
-  path ^= flip << r;
+  mask ^= (0 - (flip & kPos1Mask)) << 1;
   return true;
 }
 
@@ -211,40 +226,39 @@ class TetCursor {
   // O(1): derives the mask from the code.
   // REQUIRES: code.is_valid().
   explicit constexpr TetCursor(TetCode code)
-      : top_(code.top()),
-        level_(code.level()),
-        path_(code.path()),
-        mask_(NeighborMask(code)) {}
+      : shape_(code.level()),
+        top_(code.top()),
+        q_(code.path() >> shape_.r),
+        tail_(code.path() & ((uint64_t{1} << shape_.r) - 1)),
+        mask_(NeighborMaskOfGroups(q_)) {}
 
-  constexpr TetCode code() const { return TetCode::FromPath(top_, path_, level_); }
+  constexpr TetCode code() const {
+    return TetCode::FromPath(top_, q_ << shape_.r | tail_, level());
+  }
+  constexpr int level() const { return shape_.n + shape_.r; }
   constexpr uint64_t mask() const { return mask_; }
 
   // Moves to the neighbor across the face of `type`. Returns false, and
   // stays, when that face is on the cube's boundary. O(1).
   // REQUIRES: 1 <= type <= 4.
   constexpr bool Step(int type) {
-    return StepInPlace(top_, path_, level_, mask_, type);
+    return StepInPlace(top_, q_, tail_, mask_, shape_, type);
   }
 
  private:
+  LevelShape shape_;
   int top_;
-  int level_;
-  uint64_t path_;
-  uint64_t mask_;
+  uint64_t q_;     // the group word: path >> r
+  uint64_t tail_;  // the last r bits of the path
+  uint64_t mask_;  // the neighbor mask of q_
 };
 
 // The constant-time neighbor of `code` across the face of `type`, or
 // TetCode::None() on the boundary.
 // REQUIRES: code.is_valid(), 1 <= type <= 4.
 constexpr TetCode Neighbor(TetCode code, int type) {
-  int top = code.top();
-  uint64_t path = code.path();
-  const int level = code.level();
-  // Types 1 and 2 can turn into 3 or 4 in the tail, so the mask is always
-  // needed.
-  uint64_t mask = NeighborMask(code);
-  if (!StepInPlace(top, path, level, mask, type)) return TetCode::None();
-  return TetCode::FromPath(top, path, level);
+  TetCursor cursor(code);
+  return cursor.Step(type) ? cursor.code() : TetCode::None();
 }
 
 }  // namespace ht

@@ -200,10 +200,11 @@ struct FaceTransitions {
 // steps" in the HT; up to three in the HP, SEED-ERRATA item 6). The result
 // depends only on r, the r tail bits and the face type, so it is a table.
 //
-//   flip >= 0: the neighbor differs in tail bit `flip` (0 = deepest level).
-//   flip <  0: continue with face type `type` of the ancestor at level D*G.
+//   flip != 0: the neighbor differs in the tail bits set in `flip` (one bit;
+//              bit 0 is the deepest level), and `type` is 0.
+//   flip == 0: continue with face type `type` of the ancestor at level D*G.
 struct TailStep {
-  int8_t flip;
+  uint8_t flip;
   int8_t type;
 };
 
@@ -218,7 +219,7 @@ struct TailSteps {
     for (int r = 0; r < D; ++r) {
       for (uint64_t bits = 0; bits < (uint64_t{1} << r); ++bits) {
         for (int k = 1; k <= D + 1; ++k) {
-          TailStep s{-1, static_cast<int8_t>(k)};
+          TailStep s{0, static_cast<int8_t>(k)};
           int type = k;
           // Level r (relative to the start of the period) up to level 1.
           for (int l = r; l >= 1; --l) {
@@ -229,7 +230,7 @@ struct TailSteps {
             const int c = SplitRules<D>::CaseOf(l - 1, bits >> (shift + 1));
             const int next = up[c][bit][type - 1];
             if (next == 0) {
-              s = TailStep{static_cast<int8_t>(shift), 0};
+              s = TailStep{static_cast<uint8_t>(1u << shift), 0};
               break;
             }
             type = next;
