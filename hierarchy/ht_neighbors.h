@@ -38,6 +38,7 @@
 #include <string_view>
 
 #include "hierarchy/geometry.h"
+#include "hierarchy/group_scan.h"
 #include "hierarchy/simplex_code.h"
 #include "hierarchy/split_rules.h"
 #include "util/macros.h"
@@ -61,37 +62,16 @@ inline constexpr std::string_view kFig38[8][4] = {
     {"110", "Cont 1", "Cont 4", "101"},     // 111
 };
 
-// One Fig. 38 entry, decoded.
-struct GroupStep {
-  bool stop;      // true: `value` is the neighbor's group bits
-  uint8_t value;  // stop ? group bits : the type to continue with
-};
-
-constexpr GroupStep ParseFig38Entry(std::string_view entry) {
-  if (entry.substr(0, 5) == "Cont ") {
-    return GroupStep{false, static_cast<uint8_t>(entry[5] - '0')};
-  }
-  uint8_t bits = 0;
-  for (char c : entry) bits = static_cast<uint8_t>(bits << 1 | (c - '0'));
-  return GroupStep{true, bits};
-}
-
-inline constexpr auto kGroupSteps = [] {
-  std::array<std::array<GroupStep, 4>, 8> t{};
-  for (int bits = 0; bits < 8; ++bits) {
-    for (int k = 0; k < 4; ++k) t[bits][k] = ParseFig38Entry(kFig38[bits][k]);
-  }
-  return t;
-}();
+inline constexpr GroupStepTable<3> kGroupSteps = ParseGroupSteps<3>(kFig38);
 
 // Position masks over Q (3.3.2): bit 1, 2 and 3 of every group.
-inline constexpr uint64_t kPos1Mask = 0x4924924924924924ULL;  // ...100100
-inline constexpr uint64_t kPos2Mask = kPos1Mask >> 1;              // ...010010
-inline constexpr uint64_t kPos3Mask = kPos1Mask >> 2;              // ...001001
+inline constexpr uint64_t kPos1Mask = GroupBitMask<3>(1);  // ...100100
+inline constexpr uint64_t kPos2Mask = GroupBitMask<3>(2);  // ...010010
+inline constexpr uint64_t kPos3Mask = GroupBitMask<3>(3);  // ...001001
 
 static_assert((kPos1Mask & 0x7) == 0x4 && (kPos2Mask & 0x7) == 0x2 &&
               (kPos3Mask & 0x7) == 0x1);
-static_assert((kPos1Mask | kPos2Mask | kPos3Mask) == (~uint64_t{0} >> 1));
+static_assert((kPos1Mask | kPos2Mask | kPos3Mask) == ~uint64_t{0});
 
 // The neighbor mask of the group word `q` (see the header comment).
 constexpr uint64_t NeighborMaskOfGroups(uint64_t q) {
@@ -111,50 +91,11 @@ constexpr uint64_t NeighborMask(TetCode code) {
   return NeighborMaskOfGroups(code.path() >> (code.level() % 3));
 }
 
-// The grouped nearest-common-ancestor scan (3.2, Fig. 38).
+// The grouped nearest-common-ancestor scan (3.2, Fig. 38). O(level / 3).
 // REQUIRES: code.is_valid(), 1 <= type <= 4.
 constexpr TetCode NeighborScan(TetCode code, int type) {
-  assert(type >= 1 && type <= 4);
-  const int level = code.level();
-  const int r = level % 3;
-  const uint64_t path = code.path();
-  int k = type;
-  if (r != 0) {
-    const TailStep s =
-        TailSteps<3>::kTable[r][path & ((uint64_t{1} << r) - 1)][type - 1];
-    if (s.flip != 0) return code.with_path(path ^ s.flip);
-    k = s.type;
-  }
-  for (int shift = r; shift < level; shift += 3) {
-    const GroupStep s = kGroupSteps[(path >> shift) & 7][k - 1];
-    if (s.stop) {
-      return code.with_path((path & ~(uint64_t{7} << shift)) |
-                            uint64_t{s.value} << shift);
-    }
-    k = s.value;
-  }
-  const int root = kRootFaceToRoot<3>[code.top()][k - 1];
-  return root < 0 ? TetCode::None() : code.with_top(root);
+  return GroupScan<3>(code, type, kGroupSteps);
 }
-
-// What the constant-time step needs that depends only on the level, which
-// never changes along a walk: computed once per cursor.
-struct LevelShape {
-  explicit constexpr LevelShape(int level)
-      : r(level % 3),
-        n(level - r),
-        groups((uint64_t{1} << n) - 1),
-        pos1(kPos1Mask & groups),
-        root_bit(uint64_t{1} << n),
-        tail(&TailSteps<3>::kTable[r]) {}
-
-  int r;              // levels in the tail (below the last full group)
-  int n;              // bits in the group word Q = path >> r
-  uint64_t groups;    // (1 << n) - 1
-  uint64_t pos1;      // bit 1 of every group of Q
-  uint64_t root_bit;  // mask bit n: the parity that reaches the root
-  const std::array<std::array<TailStep, 4>, 4>* tail;  // TailSteps<3>::kTable[r]
-};
 
 // The constant-time algorithm of 3.3 on a code split into its group word
 // `q` (path >> r) and its `tail` (the last r bits). On success updates `top`,
@@ -165,10 +106,10 @@ struct LevelShape {
 // the tail; NEIGHBOR_1, _2 and _3/_4 in the groups; a crossing to another
 // root) are all computed and the right one is selected at the end, so
 // random codes cost what worst-case codes cost (bench/ht_bench.cc).
-// REQUIRES: `mask` is NeighborMaskOfGroups(q); `shape` is LevelShape(level);
+// REQUIRES: `mask` is NeighborMaskOfGroups(q); `shape` is LevelShape<3>(level);
 //           1 <= type <= 4.
 SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& tail,
-                                             uint64_t& mask, const LevelShape& shape,
+                                             uint64_t& mask, const LevelShape<3>& shape,
                                              int type) {
   assert(type >= 1 && type <= 4);
   // The tail first (for r = 0 its table row continues with `type`).
@@ -246,7 +187,7 @@ class TetCursor {
   }
 
  private:
-  LevelShape shape_;
+  LevelShape<3> shape_;
   int top_;
   uint64_t q_;     // the group word: path >> r
   uint64_t tail_;  // the last r bits of the path

@@ -180,8 +180,8 @@ TEST(HtNeighbors, Fig38FollowsFromTheSplitRulesUnderErratum1) {
 TEST(HtNeighbors, Fig38StopRulesForTypes3And4) {
   for (int bits = 0; bits < 8; ++bits) {
     const int b1 = bits >> 2 & 1, b2 = bits >> 1 & 1, b3 = bits & 1;
-    const ht::GroupStep s3 = ht::kGroupSteps[bits][2];
-    const ht::GroupStep s4 = ht::kGroupSteps[bits][3];
+    const GroupStep s3 = ht::kGroupSteps[bits][2];
+    const GroupStep s4 = ht::kGroupSteps[bits][3];
     EXPECT_EQ(s3.stop, b2 == 0);
     EXPECT_EQ(s3.value, s3.stop ? bits ^ 4 : (b1 ? 4 : 3));
     EXPECT_EQ(s4.stop, b1 == b3);
