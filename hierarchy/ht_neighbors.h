@@ -106,14 +106,16 @@ constexpr TetCode NeighborScan(TetCode code, int type) {
 // the tail; NEIGHBOR_1, _2 and _3/_4 in the groups; a crossing to another
 // root) are all computed and the right one is selected at the end, so
 // random codes cost what worst-case codes cost (bench/ht_bench.cc).
+// `steps` caches TailSteps<3>::kTable[r][tail], refreshed here after a flip
+// in the tail, so finding the sought type is one load.
 // REQUIRES: `mask` is NeighborMaskOfGroups(q); `shape` is LevelShape<3>(level);
-//           1 <= type <= 4.
+//           `steps` is (*shape.tail)[tail]; 1 <= type <= 4.
 SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& tail,
-                                             uint64_t& mask, const LevelShape<3>& shape,
-                                             int type) {
+                                             std::array<TailStep, 4>& steps, uint64_t& mask,
+                                             const LevelShape<3>& shape, int type) {
   assert(type >= 1 && type <= 4);
   // The tail first (for r = 0 its table row continues with `type`).
-  const TailStep t = (*shape.tail)[tail][type - 1];
+  const TailStep t = steps[type - 1];
   const int k = t.type;  // the type sought at level 3G; 0 after a tail flip
 
   // NEIGHBOR_1 (3.3.1): the sibling of the tetrahedron at level 3G; none for
@@ -153,6 +155,7 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& ta
   if (!((k == 0) | (flip != 0) | (cross & (other_root >= 0)))) return false;
 
   tail ^= t.flip;
+  steps = (*shape.tail)[tail];
   q ^= flip;
   top = cross ? other_root : top;
   // UPDATE_MASK (3.3.5): flipping a bit 1 toggles the parity above it.
@@ -171,6 +174,7 @@ class TetCursor {
         top_(code.top()),
         q_(code.path() >> shape_.r),
         tail_(code.path() & ((uint64_t{1} << shape_.r) - 1)),
+        steps_((*shape_.tail)[tail_]),
         mask_(NeighborMaskOfGroups(q_)) {}
 
   constexpr TetCode code() const {
@@ -182,8 +186,8 @@ class TetCursor {
   // Moves to the neighbor across the face of `type`. Returns false, and
   // stays, when that face is on the cube's boundary. O(1).
   // REQUIRES: 1 <= type <= 4.
-  constexpr bool Step(int type) {
-    return StepInPlace(top_, q_, tail_, mask_, shape_, type);
+  SDB_ALWAYS_INLINE constexpr bool Step(int type) {
+    return StepInPlace(top_, q_, tail_, steps_, mask_, shape_, type);
   }
 
  private:
@@ -191,6 +195,7 @@ class TetCursor {
   int top_;
   uint64_t q_;     // the group word: path >> r
   uint64_t tail_;  // the last r bits of the path
+  std::array<TailStep, 4> steps_;  // TailSteps<3>::kTable[r][tail_]
   uint64_t mask_;  // the neighbor mask of q_
 };
 

@@ -205,7 +205,7 @@ struct FaceTransitions {
 //   flip == 0: continue with face type `type` of the ancestor at level D*G.
 struct TailStep {
   uint8_t flip;
-  int8_t type;
+  uint8_t type;
 };
 
 template <int D>
@@ -219,7 +219,7 @@ struct TailSteps {
     for (int r = 0; r < D; ++r) {
       for (uint64_t bits = 0; bits < (uint64_t{1} << r); ++bits) {
         for (int k = 1; k <= D + 1; ++k) {
-          TailStep s{0, static_cast<int8_t>(k)};
+          TailStep s{0, static_cast<uint8_t>(k)};
           int type = k;
           // Level r (relative to the start of the period) up to level 1.
           for (int l = r; l >= 1; --l) {
@@ -234,7 +234,7 @@ struct TailSteps {
               break;
             }
             type = next;
-            s.type = static_cast<int8_t>(type);
+            s.type = static_cast<uint8_t>(type);
           }
           t[r][bits][k - 1] = s;
         }
