@@ -1,8 +1,10 @@
 #include "hierarchy/cluster.h"
 
+#include <algorithm>
 #include <cassert>
 
 #include "hierarchy/geometry.h"
+#include "hierarchy/hp_neighbors.h"
 #include "hierarchy/ht_neighbors.h"
 #include "hierarchy/split_rules.h"
 
@@ -84,6 +86,26 @@ TetsAroundEdge EdgeNeighbors(TetCode code, int i, int j) {
   if (WalkAroundEdge(code, v, v[i], v[j], off[0], out)) return out;
   // Open fan (the edge is on the boundary): walk the other side too.
   WalkAroundEdge(code, v, v[i], v[j], off[1], out);
+  return out;
+}
+
+PentaCluster Cluster(PentaCode code) {
+  PentaCluster out{code};
+  boost::container::static_vector<hp::PentaCursor, kMaxPentaCluster> cursors{
+      hp::PentaCursor(code)};
+  for (size_t i = 0; i < out.size(); ++i) {
+    const auto edge = SplitEdge(out[i]);  // every member's own split edge
+    for (int omit = 0; omit < 5; ++omit) {
+      if (omit == edge[0] || omit == edge[1]) continue;
+      hp::PentaCursor next = cursors[i];
+      if (!next.Step(FaceTypeOmitting<4>(omit))) continue;  // boundary
+      const PentaCode n = next.code();
+      if (std::find(out.begin(), out.end(), n) != out.end()) continue;
+      assert(out.size() < out.capacity());
+      out.push_back(n);
+      cursors.push_back(next);
+    }
+  }
   return out;
 }
 

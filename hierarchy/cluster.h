@@ -4,7 +4,9 @@
 // edge: they must all be split together to keep a mesh conforming. In the HT
 // it has 4 members around a 1/2 pyramid's edge (plane-aligned), 8 around a
 // 1/4 pyramid's (axis-aligned) and 6 around a 1/8 pyramid's (non-aligned; the
-// six roots too); fewer on the boundary of the cube (SEED-ERRATA item 10).
+// six roots too). In the HP: 24 around an h-pentatope's edge (a hypercube's
+// diagonal; the 24 roots too), 12 around a c-, 16 around an s- and 48 around
+// an e-pentatope's. Fewer on the boundary (SEED-ERRATA item 10).
 //
 // Thread safety: pure functions.
 #pragma once
@@ -18,9 +20,11 @@ namespace simplexdb {
 // Upper bounds on the number of same-level simplices around an edge.
 inline constexpr int kMaxTetCluster = 8;
 inline constexpr int kMaxTetsAroundEdge = 8;
+inline constexpr int kMaxPentaCluster = 48;
 
 using TetCluster = boost::container::static_vector<TetCode, kMaxTetCluster>;
 using TetsAroundEdge = boost::container::static_vector<TetCode, kMaxTetsAroundEdge>;
+using PentaCluster = boost::container::static_vector<PentaCode, kMaxPentaCluster>;
 
 // The cluster of `code`: every tetrahedron at its level that shares its split
 // edge v3v4, `code` first, then in order around the edge. Found by
@@ -41,5 +45,14 @@ TetCluster Cluster(TetCode code);
 // neighbor's vertices.
 // REQUIRES: code.is_valid(), 0 <= i, j <= 3, i != j.
 TetsAroundEdge EdgeNeighbors(TetCode code, int i, int j);
+
+// The cluster of a pentatope (4.5): every pentatope at its level sharing its
+// split edge, `code` first. In 4D the pentatopes around an edge form a
+// triangulated 2-sphere, not a ring, so this is a breadth-first search
+// across the three faces of each member that contain the edge (the faces
+// omitting a vertex off the edge), with constant-time steps.
+// O(cluster size * 3).
+// REQUIRES: code.is_valid().
+PentaCluster Cluster(PentaCode code);
 
 }  // namespace simplexdb

@@ -1,0 +1,332 @@
+// HP face neighbors. Geometry is the judge (every code to level 10, faces
+// matched by coordinates, with the same vertex positions on both sides); the
+// Fig. 53 scan against the per-level scan; the constant-time algorithm
+// against the scan on 10 million random codes; the neighbor mask, its
+// bit-parallel construction and its Fig. 56 updates against definitions.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <random>
+#include <set>
+#include <unordered_map>
+
+#include "hierarchy/hp_neighbors.h"
+#include "hierarchy/level_scan.h"
+#include "tests/hierarchy/hp_reference.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::Face4;
+using testing::FaceOf4;
+using testing::P4;
+using testing::Penta;
+using testing::Points4Hash;
+
+constexpr int kExhaustiveLevel = 10;
+
+PentaCode P(const char* text) { return PentaCode::Parse(text).value(); }
+
+struct Algorithm {
+  const char* name;
+  PentaCode (*fn)(PentaCode, int);
+};
+PentaCode ByCursor(PentaCode c, int type) {
+  hp::PentaCursor cursor(c);
+  return cursor.Step(type) ? cursor.code() : PentaCode::None();
+}
+const Algorithm kAlgorithms[] = {
+    {"level scan", &NeighborByLevelScan<4>},
+    {"Fig. 53 scan", &hp::NeighborScan},
+    {"constant time", &hp::Neighbor},
+    {"cursor", &ByCursor},
+};
+
+TEST(HpNeighbors, EveryCodeToLevel10SharesTheNamedFaceWithTheSameVertexPositions) {
+  for (int level = 0; level <= kExhaustiveLevel; ++level) {
+    const auto pentas = testing::AllPentasAtLevel(level);
+    std::unordered_map<Face4, std::vector<std::pair<PentaCode, int>>, Points4Hash<4>> faces;
+    for (const auto& [code, t] : pentas) {
+      for (int k = 1; k <= 5; ++k) faces[FaceOf4(t, k, true)].emplace_back(code, k);
+    }
+    std::map<PentaCode, Penta> vertices(pentas.begin(), pentas.end());
+    for (const auto& [code, t] : pentas) {
+      for (int k = 1; k <= 5; ++k) {
+        const Face4 f = FaceOf4(t, k, true);
+        const auto& holders = faces[f];
+        ASSERT_LE(holders.size(), 2u) << "a face shared by three pentatopes";
+        for (const Algorithm& alg : kAlgorithms) {
+          SCOPED_TRACE(::testing::Message() << alg.name << ": " << code.ToString() << " type "
+                                            << k);
+          const PentaCode n = alg.fn(code, k);
+          if (holders.size() == 1) {
+            ASSERT_TRUE(testing::OnHypercubeBoundary(f)) << "an unmatched inner face";
+            ASSERT_TRUE(n.is_none()) << "got " << n.ToString();
+            continue;
+          }
+          ASSERT_FALSE(testing::OnHypercubeBoundary(f));
+          const auto& other = holders[0].first == code ? holders[1] : holders[0];
+          ASSERT_EQ(n, other.first);
+          ASSERT_EQ(other.second, k) << "the shared face has another type there";
+          // In the HP the shared face keeps its vertex positions.
+          ASSERT_EQ(FaceOf4(vertices.at(n), k, false), FaceOf4(t, k, false));
+          ASSERT_EQ(alg.fn(n, k), code) << "not an involution";
+        }
+      }
+    }
+  }
+}
+
+TEST(HpNeighbors, RandomDeepCodesShareTheFaceGeometrically) {
+  std::mt19937_64 rng(31);
+  for (int i = 0; i < 100000; ++i) {
+    const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
+    const PentaCode c = PentaCode::FromPath(static_cast<int>(rng() % 24),
+                                            level ? rng() >> (64 - level) : 0, level);
+    const Penta t = Vertices(c);
+    for (int k = 1; k <= 5; ++k) {
+      SCOPED_TRACE(::testing::Message() << c.ToString() << " type " << k);
+      const PentaCode n = hp::Neighbor(c, k);
+      if (n.is_none()) {
+        ASSERT_TRUE(testing::OnHypercubeBoundary(FaceOf4(t, k, false)));
+        continue;
+      }
+      const Penta u = Vertices(n);
+      ASSERT_EQ(FaceOf4(u, k, false), FaceOf4(t, k, false));
+      ASSERT_NE(u[5 - k], t[5 - k]);
+      ASSERT_EQ(hp::Neighbor(n, k), c);
+    }
+  }
+}
+
+TEST(HpNeighbors, SeedExamples) {
+  for (const Algorithm& alg : kAlgorithms) {
+    SCOPED_TRACE(alg.name);
+    // 4.3.1-4.3.2: type 4 of 9010110 is 9010010.
+    EXPECT_EQ(alg.fn(P("9:010110"), 4), P("9:010010"));
+    // Fig. 54: type 2 of 710100110101100100011 is 710100111101100100011.
+    EXPECT_EQ(alg.fn(P("7:10100110101100100011"), 2), P("7:10100111101100100011"));
+    // Fig. 55: type 3 of the same code is 711100110101100100011.
+    EXPECT_EQ(alg.fn(P("7:10100110101100100011"), 3), P("7:11100110101100100011"));
+  }
+}
+
+// Fig. 55, step 5 prints the neighbor mask of 710100110101100100011 (below
+// the root digit): our mask, without the root's own slot, is that string.
+TEST(HpNeighbors, Fig55NeighborMask) {
+  const PentaCode c = P("7:10100110101100100011");
+  const uint64_t mask = hp::NeighborMask(c);
+  const uint64_t printed = 0b10111110011001100110;
+  EXPECT_EQ(mask & ((uint64_t{1} << 20) - 1), printed);
+}
+
+// Composes four per-level steps of the split rules over a group and renders
+// the outcome the way Fig. 53 prints it.
+std::string ComposeGroup(int bits, int type) {
+  constexpr auto& up = FaceTransitions<4>::kFaceToParentFace;
+  int k = type;
+  for (int l = 4; l >= 1; --l) {
+    const int shift = 4 - l;
+    const int bit = (bits >> shift) & 1;
+    const int c = SplitRules<4>::CaseOf(l - 1, static_cast<uint64_t>(bits) >> (shift + 1));
+    const int next = up[c][bit][k - 1];
+    if (next == 0) {
+      std::string s;
+      for (int i = 3; i >= 0; --i) s.push_back(static_cast<char>('0' + ((bits ^ (1 << shift)) >> i & 1)));
+      return s;
+    }
+    k = next;
+  }
+  return "Cont " + std::to_string(k);
+}
+
+TEST(HpNeighbors, Fig53FollowsFromTheSplitRules) {
+  for (int bits = 0; bits < 16; ++bits) {
+    for (int k = 1; k <= 5; ++k) {
+      EXPECT_EQ(ComposeGroup(bits, k), hp::kFig53[bits][k - 1]) << bits << " type " << k;
+    }
+  }
+}
+
+// SEED-ERRATA item 6: the sibling is the type-1 neighbor only for h- and
+// c-pentatopes; for s-pentatopes it is across face 1 or 3, for e-pentatopes
+// across face 1 or 2.
+TEST(HpNeighbors, SiblingFaceTypeDependsOnTheShape) {
+  std::map<int, std::set<int>> sibling_types;  // level % 4 -> face types
+  std::mt19937_64 rng(41);
+  for (int i = 0; i < 20000; ++i) {
+    const int level = 1 + static_cast<int>(rng() % 40);
+    const PentaCode c = PentaCode::FromPath(static_cast<int>(rng() % 24), rng() >> (64 - level), level);
+    for (int k = 1; k <= 5; ++k) {
+      if (hp::Neighbor(c, k) == c.sibling()) sibling_types[level % 4].insert(k);
+    }
+  }
+  EXPECT_EQ(sibling_types[0], (std::set<int>{1}));     // h
+  EXPECT_EQ(sibling_types[1], (std::set<int>{1}));     // c
+  EXPECT_EQ(sibling_types[2], (std::set<int>{1, 3}));  // s
+  EXPECT_EQ(sibling_types[3], (std::set<int>{1, 2}));  // e
+}
+
+// The permutation of the sought type {3,4,5} a group's bits 1-2 apply when
+// the scan continues, read off Fig. 53 (completed to a bijection where type
+// 3 stops: 4.4.4's "assume type 3 / 5").
+std::array<int, 6> GroupPermutation(int b1b2) {
+  std::array<int, 6> perm{};  // perm[t] for t in 3..5
+  std::set<int> used;
+  for (int t = 3; t <= 5; ++t) {
+    // Bits 3-4 chosen so that t continues, if it can.
+    for (int low = 0; low < 4; ++low) {
+      const GroupStep s = hp::kGroupSteps[b1b2 << 2 | low][t - 1];
+      if (!s.stop) {
+        perm[t] = s.value;
+        break;
+      }
+    }
+    if (perm[t] != 0) used.insert(perm[t]);
+  }
+  for (int t = 3; t <= 5; ++t) {
+    if (perm[t] == 0) {
+      for (int v = 3; v <= 5; ++v) {
+        if (!used.count(v)) perm[t] = v;
+      }
+    }
+  }
+  return perm;
+}
+
+// 4.4.4's reading of Fig. 53: 00 identity, 01 swaps 4 and 5, 10 swaps 3 and
+// 5, 11 rotates; and Fig. 56 is T_after composed with T_before's inverse.
+TEST(HpNeighbors, Fig56IsTheChangeOfTheGroupPermutation) {
+  EXPECT_EQ(GroupPermutation(0b00), (std::array<int, 6>{0, 0, 0, 3, 4, 5}));
+  EXPECT_EQ(GroupPermutation(0b01), (std::array<int, 6>{0, 0, 0, 3, 5, 4}));
+  EXPECT_EQ(GroupPermutation(0b10), (std::array<int, 6>{0, 0, 0, 5, 4, 3}));
+  EXPECT_EQ(GroupPermutation(0b11), (std::array<int, 6>{0, 0, 0, 5, 3, 4}));
+  for (int from = 0; from < 4; ++from) {
+    for (int to = 0; to < 4; ++to) {
+      const std::string_view printed = hp::kFig56[from][to];
+      if (from == to) {
+        EXPECT_EQ(printed, "No change");
+        continue;
+      }
+      if ((from ^ to) == 3) {
+        EXPECT_EQ(printed, "Not possible");  // one flip changes one bit
+        continue;
+      }
+      const auto before = GroupPermutation(from), after = GroupPermutation(to);
+      std::set<int> moved;  // values v with after(before^-1(v)) != v
+      for (int t = 3; t <= 5; ++t) {
+        if (after[t] != before[t]) moved.insert(before[t]);
+      }
+      ASSERT_EQ(moved.size(), 2u);
+      const std::string expected =
+          "Swap " + std::to_string(*moved.begin()) + " and " + std::to_string(*moved.rbegin());
+      EXPECT_EQ(printed, expected) << from << " -> " << to;
+    }
+  }
+}
+
+// The neighbor mask by its definition: walk the groups from the bottom,
+// composing the permutations of Fig. 53.
+uint64_t MaskByDefinition(PentaCode c) {
+  const int r = c.level() % 4;
+  const uint64_t q = c.path() >> r;
+  const int groups = (c.level() - r) / 4;
+  std::array<int, 6> p = {0, 0, 0, 3, 4, 5};  // P_0 = identity
+  uint64_t mask = 0;
+  for (int m = 0; m <= groups; ++m) {
+    mask |= static_cast<uint64_t>((p[3] - 2) << 2 | (p[4] - 2)) << (4 * m);
+    if (m == groups) break;
+    const auto t = GroupPermutation(static_cast<int>(q >> (4 * m + 2) & 3));
+    for (int x = 3; x <= 5; ++x) p[x] = t[p[x]];
+  }
+  return mask;
+}
+
+TEST(HpNeighbors, BitParallelMaskEqualsItsDefinition) {
+  std::mt19937_64 rng(51);
+  for (int i = 0; i < 200000; ++i) {
+    const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
+    const PentaCode c = PentaCode::FromPath(0, level ? rng() >> (64 - level) : 0, level);
+    ASSERT_EQ(hp::NeighborMask(c), MaskByDefinition(c)) << c.ToString();
+  }
+}
+
+PentaCode LongChainCode(std::mt19937_64& rng, int level, double p_continue) {
+  uint64_t path = 0;
+  for (int l = 0; l < level; l += 4) {
+    // Groups in which some of types 2..5 continue.
+    static constexpr uint8_t kContinue[] = {0b0000, 0b0011, 0b1001, 0b0110, 0b1100, 0b0010};
+    const uint64_t g = std::uniform_real_distribution<>(0, 1)(rng) < p_continue
+                           ? kContinue[rng() % 6]
+                           : rng() & 15;
+    path = path << 4 | g;
+  }
+  path >>= 4 * ((level + 3) / 4) - level;
+  return PentaCode::FromPath(static_cast<int>(rng() % 24), path, level);
+}
+
+TEST(HpNeighbors, ConstantTimeEqualsScanOnTenMillionRandomCodes) {
+  std::mt19937_64 rng(20261122);
+  for (int i = 0; i < 10'000'000; ++i) {
+    const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
+    const PentaCode c = (i % 4 == 0)
+                            ? LongChainCode(rng, level, 0.9)
+                            : PentaCode::FromPath(static_cast<int>(rng() % 24),
+                                                  level ? rng() >> (64 - level) : 0, level);
+    hp::PentaCursor cursor(c);
+    for (int k = 1; k <= 5; ++k) {
+      hp::PentaCursor step = cursor;
+      const PentaCode fast = step.Step(k) ? step.code() : PentaCode::None();
+      const PentaCode scan = hp::NeighborScan(c, k);
+      if (fast != scan) {
+        FAIL() << c.ToString() << " type " << k << ": constant time " << fast.ToString()
+               << ", scan " << scan.ToString();
+      }
+    }
+  }
+}
+
+TEST(HpNeighbors, Fig53ScanEqualsLevelScanOnRandomDeepCodes) {
+  std::mt19937_64 rng(61);
+  for (int i = 0; i < 1'000'000; ++i) {
+    const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
+    const PentaCode c = LongChainCode(rng, level, 0.5);
+    for (int k = 1; k <= 5; ++k) {
+      ASSERT_EQ(hp::NeighborScan(c, k), NeighborByLevelScan<4>(c, k)) << c.ToString() << " " << k;
+    }
+  }
+}
+
+// The mask a cursor updates by the swaps of Fig. 56 stays equal to the mask
+// derived from scratch, along long random walks.
+TEST(HpNeighbors, CursorMaskStaysExactAlongRandomWalks) {
+  std::mt19937_64 rng(71);
+  for (int walk = 0; walk < 2000; ++walk) {
+    const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
+    hp::PentaCursor cursor(LongChainCode(rng, level, 0.7));
+    for (int step = 0; step < 500; ++step) {
+      const PentaCode before = cursor.code();
+      const int k = 1 + static_cast<int>(rng() % 5);
+      const PentaCode expected = hp::NeighborScan(before, k);
+      const bool moved = cursor.Step(k);
+      ASSERT_EQ(moved, !expected.is_none());
+      ASSERT_EQ(cursor.code(), moved ? expected : before);
+      ASSERT_EQ(cursor.mask(), hp::NeighborMask(cursor.code())) << before.ToString() << " " << k;
+    }
+  }
+}
+
+TEST(HpNeighbors, RootTable) {
+  for (int top = 0; top < 24; ++top) {
+    EXPECT_EQ(kRootFaceToRoot<4>[top][0], -1);
+    EXPECT_EQ(kRootFaceToRoot<4>[top][1], -1);
+    for (int k = 3; k <= 5; ++k) {
+      const int other = kRootFaceToRoot<4>[top][k - 1];
+      ASSERT_GE(other, 0);
+      EXPECT_EQ(kRootFaceToRoot<4>[other][k - 1], top);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace simplexdb
