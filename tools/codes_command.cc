@@ -13,6 +13,7 @@
 
 #include "hierarchy/cluster.h"
 #include "hierarchy/geometry.h"
+#include "hierarchy/hp_neighbors.h"
 #include "hierarchy/ht_neighbors.h"
 #include "hierarchy/simplex_code.h"
 #include "tools/commands.h"
@@ -23,9 +24,12 @@ namespace {
 // Keys in the order the contract lists them.
 using json = nlohmann::ordered_json;
 
-enum class Hierarchy { kHT };
+enum class Hierarchy { kHT, kHP };
 
-const std::map<std::string, Hierarchy> kHierarchyNames = {{"ht", Hierarchy::kHT}};
+const std::map<std::string, Hierarchy> kHierarchyNames = {{"ht", Hierarchy::kHT},
+                                                          {"hp", Hierarchy::kHP}};
+constexpr const char* kHierarchyHelp =
+    "ht: Hierarchy of Tetrahedra (3D); hp: Hierarchy of Pentatopes (4D)";
 
 template <int D>
 json CodeOrNull(SimplexCode<D> c) {
@@ -101,44 +105,78 @@ void RunCodes() {
 
 // --- inspect ---------------------------------------------------------------
 
-std::string ShapeName(TetCode c) {
-  static const char* kShapes[] = {"1/8 pyramid", "1/2 pyramid", "1/4 pyramid"};
-  return kShapes[c.level() % 3];
+template <int D>
+std::string ShapeName(SimplexCode<D> c) {
+  if constexpr (D == 3) {
+    static const char* kShapes[] = {"1/8 pyramid", "1/2 pyramid", "1/4 pyramid"};
+    return kShapes[c.level() % 3];
+  } else {
+    static const char* kShapes[] = {"h-pentatope", "c-pentatope", "s-pentatope", "e-pentatope"};
+    return kShapes[c.level() % 4];
+  }
 }
 
-std::string EdgeAlignment(const Point<3>& a, const Point<3>& b) {
-  int nonzero = 0;
-  for (int i = 0; i < 3; ++i) nonzero += a[i] != b[i];
-  return nonzero == 1 ? "axis-aligned" : nonzero == 2 ? "plane-aligned" : "non-aligned";
+// How many coordinates an edge moves along: 1 is axis-aligned, D is the
+// diagonal of a cube (hypercube).
+template <int D>
+std::string EdgeAlignment(const Point<D>& a, const Point<D>& b) {
+  int moved = 0;
+  for (int i = 0; i < D; ++i) moved += a[i] != b[i];
+  if (moved == 1) return "axis-aligned";
+  if (moved == D) return "a main diagonal";
+  return fmt::format("a diagonal of a {}-dimensional face", moved);
 }
 
-std::string FormatPoint(const Point<3>& p) {
-  return fmt::format("({}, {}, {})", UnitCoordinate<3>(p[0]), UnitCoordinate<3>(p[1]),
-                     UnitCoordinate<3>(p[2]));
+template <int D>
+std::string FormatPoint(const Point<D>& p) {
+  std::string s = "(";
+  for (int i = 0; i < D; ++i) s += fmt::format("{}{}", i ? ", " : "", UnitCoordinate<D>(p[i]));
+  return s + ")";
 }
 
-void InspectTet(TetCode code) {
-  static const char* kFaces[] = {"v1v2v3", "v1v2v4", "v1v3v4", "v2v3v4"};
-  const SimplexVertices<3> v = Vertices(code);
-  fmt::print("{}: level {}, a {} under root {}\n", code.ToString(), code.level(),
+// "v1v2v3" for the face of type k.
+template <int D>
+std::string FaceName(int type) {
+  std::string s;
+  for (int i = 0; i <= D; ++i) {
+    if (i != OmittedVertex<D>(type)) s += fmt::format("v{}", i + 1);
+  }
+  return s;
+}
+
+template <int D>
+void Inspect(SimplexCode<D> code) {
+  const SimplexVertices<D> v = Vertices(code);
+  const auto edge = SplitEdge(code);
+  Point<D> mid{};
+  for (int i = 0; i < D; ++i) mid[i] = (v[edge[0]][i] + v[edge[1]][i]) / 2;
+  fmt::print("{}: level {}, {} under root {}\n", code.ToString(), code.level(),
              ShapeName(code), code.top());
-  for (int i = 0; i < 4; ++i) fmt::print("  v{}  {}\n", i + 1, FormatPoint(v[i]));
-  fmt::print("  splits v3v4 ({} edge) at {}\n", EdgeAlignment(v[2], v[3]),
-             FormatPoint(Point<3>{(v[2][0] + v[3][0]) / 2, (v[2][1] + v[3][1]) / 2,
-                                  (v[2][2] + v[3][2]) / 2}));
+  for (int i = 0; i <= D; ++i) fmt::print("  v{}  {}\n", i + 1, FormatPoint<D>(v[i]));
+  fmt::print("  splits v{}v{} ({}) at {}\n", edge[0] + 1, edge[1] + 1,
+             EdgeAlignment<D>(v[edge[0]], v[edge[1]]), FormatPoint<D>(mid));
   fmt::print("  parent    {}\n", code.level() > 0 ? code.parent().ToString() : "none (a root)");
-  if (code.level() < TetCode::kMaxLevel) {
+  if (code.level() < SimplexCode<D>::kMaxLevel) {
     fmt::print("  children  {}  {}\n", code.child(0).ToString(), code.child(1).ToString());
   }
-  for (int k = 1; k <= 4; ++k) {
-    const TetCode n = Neighbor(code, k);
-    fmt::print("  neighbor type {} (face {})  {}\n", k, kFaces[k - 1],
-               n.is_none() ? "none: the face is on the cube's boundary" : n.ToString());
+  for (int k = 1; k <= D + 1; ++k) {
+    const SimplexCode<D> n = Neighbor(code, k);
+    fmt::print("  neighbor type {} (face {})  {}\n", k, FaceName<D>(k),
+               n.is_none() ? "none: the face is on the domain's boundary" : n.ToString());
   }
-  const TetCluster cluster = Cluster(code);
-  fmt::print("  cluster: {} tetrahedra share the split edge:", cluster.size());
-  for (const TetCode m : cluster) fmt::print(" {}", m.ToString());
+  const auto cluster = Cluster(code);
+  fmt::print("  cluster: {} simplices share the split edge:", cluster.size());
+  for (const SimplexCode<D> m : cluster) fmt::print(" {}", m.ToString());
   fmt::print("\n");
+}
+
+template <int D>
+void InspectAll(const std::vector<std::string>& texts) {
+  for (const std::string& text : texts) {
+    const Result<SimplexCode<D>> code = SimplexCode<D>::Parse(text);
+    if (!code.ok()) throw CommandError(std::string(code.status().message()));
+    Inspect(*code);
+  }
 }
 
 }  // namespace
@@ -152,12 +190,13 @@ void RegisterCodesCommand(CLI::App& app) {
       "\"parent\",\"children\",\"cluster\"}. A line that is not a code gets\n"
       "{\"code\",\"error\"} and the exit status is 1.");
   auto hierarchy = std::make_shared<Hierarchy>(Hierarchy::kHT);
-  cmd->add_option("--hierarchy", *hierarchy, "ht: Hierarchy of Tetrahedra")
+  cmd->add_option("--hierarchy", *hierarchy, kHierarchyHelp)
       ->required()
       ->transform(CLI::CheckedTransformer(kHierarchyNames, CLI::ignore_case));
   cmd->callback([hierarchy] {
     switch (*hierarchy) {
       case Hierarchy::kHT: RunCodes<3>(); break;
+      case Hierarchy::kHP: RunCodes<4>(); break;
     }
   });
 }
@@ -167,18 +206,18 @@ void RegisterInspectCommand(CLI::App& app) {
       "inspect",
       "Explain location codes for people: shape, vertices, split edge,\n"
       "parent and children, face neighbors and cluster.\n"
-      "Example: simplexdb inspect --hierarchy ht 2:10011");
+      "Examples: simplexdb inspect --hierarchy ht 2:10011\n"
+      "          simplexdb inspect --hierarchy hp 7:10100110101100100011");
   auto hierarchy = std::make_shared<Hierarchy>(Hierarchy::kHT);
   auto codes = std::make_shared<std::vector<std::string>>();
-  cmd->add_option("--hierarchy", *hierarchy, "ht: Hierarchy of Tetrahedra")
+  cmd->add_option("--hierarchy", *hierarchy, kHierarchyHelp)
       ->transform(CLI::CheckedTransformer(kHierarchyNames, CLI::ignore_case))
       ->default_str("ht");
   cmd->add_option("codes", *codes, "location codes T:bits")->required();
   cmd->callback([hierarchy, codes] {
-    for (const std::string& text : *codes) {
-      const Result<TetCode> code = TetCode::Parse(text);
-      if (!code.ok()) throw CommandError(std::string(code.status().message()));
-      InspectTet(*code);
+    switch (*hierarchy) {
+      case Hierarchy::kHT: InspectAll<3>(*codes); break;
+      case Hierarchy::kHP: InspectAll<4>(*codes); break;
     }
   });
 }

@@ -10,7 +10,9 @@
 
 #include "hierarchy/cluster.h"
 #include "hierarchy/geometry.h"
+#include "hierarchy/hp_neighbors.h"
 #include "hierarchy/ht_neighbors.h"
+#include "hierarchy/level_scan.h"
 #include "tests/tools/cli_runner.h"
 
 namespace simplexdb {
@@ -27,28 +29,33 @@ std::vector<json> ParseLines(const std::string& out) {
   return lines;
 }
 
-TEST(CodesCli, HtContract) {
-  std::vector<TetCode> codes;
-  for (int top = 0; top < 6; ++top) {
+// The contract for one hierarchy: every code up to level 4 and random deep
+// ones, each line checked against the library and geometry.
+template <int D>
+void CheckContract(const char* hierarchy, uint64_t seed) {
+  using Code = SimplexCode<D>;
+  std::vector<Code> codes;
+  for (int top = 0; top < Code::kRoots; ++top) {
     for (int level = 0; level <= 4; ++level) {
       for (uint64_t p = 0; p < (uint64_t{1} << level); ++p) {
-        codes.push_back(TetCode::FromPath(top, p, level));
+        codes.push_back(Code::FromPath(top, p, level));
       }
     }
   }
-  std::mt19937_64 rng(4);
+  std::mt19937_64 rng(seed);
   for (int i = 0; i < 200; ++i) {
-    const int level = 1 + static_cast<int>(rng() % TetCode::kMaxLevel);  // 1..max
-    codes.push_back(TetCode::FromPath(static_cast<int>(rng() % 6), rng() >> (64 - level), level));
+    const int level = 1 + static_cast<int>(rng() % Code::kMaxLevel);  // 1..max
+    codes.push_back(Code::FromPath(static_cast<int>(rng() % Code::kRoots),
+                                   rng() >> (64 - level), level));
   }
   std::string input;
-  for (const TetCode c : codes) input += c.ToString() + "\n";
-  const auto r = RunCli("codes --hierarchy ht", input);
+  for (const Code c : codes) input += c.ToString() + "\n";
+  const auto r = RunCli(std::string("codes --hierarchy ") + hierarchy, input);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::vector<json> lines = ParseLines(r.out);
   ASSERT_EQ(lines.size(), codes.size());
   for (size_t i = 0; i < codes.size(); ++i) {
-    const TetCode c = codes[i];
+    const Code c = codes[i];
     const json& j = lines[i];
     SCOPED_TRACE(c.ToString());
     // Keys in the contract's order.
@@ -60,18 +67,19 @@ TEST(CodesCli, HtContract) {
     ASSERT_EQ(j["level"], c.level());
     // Unit-cube coordinates, exactly the lattice vertices scaled.
     const auto v = Vertices(c);
-    ASSERT_EQ(j["vertices"].size(), 4u);
-    for (int k = 0; k < 4; ++k) {
-      for (int a = 0; a < 3; ++a) {
+    ASSERT_EQ(j["vertices"].size(), size_t{D + 1});
+    for (int k = 0; k <= D; ++k) {
+      ASSERT_EQ(j["vertices"][k].size(), size_t{D});
+      for (int a = 0; a < D; ++a) {
         const double x = j["vertices"][k][a].get<double>();
         ASSERT_GE(x, 0.0);
         ASSERT_LE(x, 1.0);
-        ASSERT_EQ(x * kDomainSide<3>, v[k][a]);
+        ASSERT_EQ(x * kDomainSide<D>, v[k][a]);
       }
     }
-    ASSERT_EQ(j["neighbors"].size(), 4u);
-    for (int k = 1; k <= 4; ++k) {
-      const TetCode n = ht::NeighborScan(c, k);
+    ASSERT_EQ(j["neighbors"].size(), size_t{D + 1});
+    for (int k = 1; k <= D + 1; ++k) {
+      const Code n = NeighborByLevelScan<D>(c, k);  // the reference algorithm
       if (n.is_none()) {
         ASSERT_TRUE(j["neighbors"][k - 1].is_null());
       } else {
@@ -83,17 +91,20 @@ TEST(CodesCli, HtContract) {
     } else {
       ASSERT_EQ(j["parent"], c.parent().ToString());
     }
-    if (c.level() == TetCode::kMaxLevel) {
+    if (c.level() == Code::kMaxLevel) {
       ASSERT_TRUE(j["children"].is_null()) << "no deeper level in a 64-bit key";
     } else {
       ASSERT_EQ(j["children"], (json{c.child(0).ToString(), c.child(1).ToString()}));
     }
     std::set<std::string> cluster;
-    for (const TetCode m : Cluster(c)) cluster.insert(m.ToString());
+    for (const Code m : Cluster(c)) cluster.insert(m.ToString());
     ASSERT_EQ(j["cluster"].get<std::set<std::string>>(), cluster);
     ASSERT_EQ(j["cluster"][0], c.ToString());
   }
 }
+
+TEST(CodesCli, HtContract) { CheckContract<3>("ht", 4); }
+TEST(CodesCli, HpContract) { CheckContract<4>("hp", 5); }
 
 TEST(CodesCli, BadLinesKeepAlignmentAndFail) {
   const auto r = RunCli("codes --hierarchy ht", "0:1\nnonsense\n\n7:0\n1:01\n");
@@ -122,7 +133,12 @@ TEST(InspectCli, ExplainsACode) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("1/4 pyramid"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("3:10011"), std::string::npos) << r.out;  // type-4 neighbor
-  EXPECT_NE(r.out.find("8 tetrahedra"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("8 simplices"), std::string::npos) << r.out;
+  const auto hp = RunCli("inspect --hierarchy hp 9:010110");
+  ASSERT_EQ(hp.exit_code, 0) << hp.err;
+  EXPECT_NE(hp.out.find("s-pentatope"), std::string::npos) << hp.out;
+  EXPECT_NE(hp.out.find("9:010010"), std::string::npos) << hp.out;  // 4.3's example
+  EXPECT_NE(hp.out.find("16 simplices"), std::string::npos) << hp.out;
   const auto bad = RunCli("inspect 9:1");
   EXPECT_EQ(bad.exit_code, 1);
   EXPECT_NE(bad.err.find("9:1"), std::string::npos);
