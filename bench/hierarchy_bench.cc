@@ -1,9 +1,10 @@
-// HT micro-benchmarks: ns per face-neighbor call, Fig. 38 scan against the
-// constant-time algorithm (stateless, and with a cursor that keeps the
-// neighbor mask), on random codes and on worst-case codes whose scan climbs
-// to the top group or the root; vertex and cluster computation.
+// Hierarchy micro-benchmarks, HT (D = 3) and HP (D = 4): ns per face-neighbor
+// call, the grouped scan (Figs. 38, 53) against the constant-time algorithm
+// (stateless, and with a cursor that keeps the neighbor mask), on random
+// codes and on worst-case codes whose scan climbs into the top group or to
+// the root; vertex and cluster computation.
 //
-//   build/release/bench/ht_bench --benchmark_filter=HtNeighbor
+//   build/release/bench/hierarchy_bench --benchmark_filter='HtNeighbor|HpNeighbor'
 //
 // Each benchmark iteration is one call; codes cycle through a fixed,
 // pre-generated set of 4096 (fixed seeds), so the figures compare algorithms
@@ -18,6 +19,7 @@
 
 #include "hierarchy/cluster.h"
 #include "hierarchy/geometry.h"
+#include "hierarchy/hp_neighbors.h"
 #include "hierarchy/ht_neighbors.h"
 #include "hierarchy/level_scan.h"
 
@@ -26,50 +28,86 @@ namespace {
 
 constexpr size_t kCodes = 4096;  // a power of two: the index wraps with a mask
 
-TetCode RandomCode(std::mt19937_64& rng, int level) {
-  return TetCode::FromPath(static_cast<int>(rng() % 6), level ? rng() >> (64 - level) : 0,
-                           level);
+// The per-hierarchy pieces.
+template <int D>
+struct Api;
+template <>
+struct Api<3> {
+  using Cursor = ht::TetCursor;
+  static constexpr const char* kName = "Ht";
+  static TetCode Scan(TetCode c, int k) { return ht::NeighborScan(c, k); }
+  static TetCode Constant(TetCode c, int k) { return ht::Neighbor(c, k); }
+  static const GroupStepTable<3>& Table() { return ht::kGroupSteps; }
+};
+template <>
+struct Api<4> {
+  using Cursor = hp::PentaCursor;
+  static constexpr const char* kName = "Hp";
+  static PentaCode Scan(PentaCode c, int k) { return hp::NeighborScan(c, k); }
+  static PentaCode Constant(PentaCode c, int k) { return hp::Neighbor(c, k); }
+  static const GroupStepTable<4>& Table() { return hp::kGroupSteps; }
+};
+
+template <int D>
+SimplexCode<D> RandomCode(std::mt19937_64& rng, int level) {
+  return SimplexCode<D>::FromPath(static_cast<int>(rng() % SimplexCode<D>::kRoots),
+                                  level ? rng() >> (64 - level) : 0, level);
 }
 
-// How far up the scan for `type` climbs from `code`: the number of levels
-// between the code and the highest bit where it differs from its neighbor
-// (the whole level when the neighbor is under another root or absent).
-int ClimbLength(TetCode code, int type) {
-  const TetCode n = ht::NeighborScan(code, type);
+// How far up the scan for `type` climbs from `code`: the levels between the
+// code and the highest bit where it differs from its neighbor (the whole
+// level when the neighbor is under another root or absent).
+template <int D>
+int ClimbLength(SimplexCode<D> code, int type) {
+  const SimplexCode<D> n = Api<D>::Scan(code, type);
   if (n.is_none() || n.top() != code.top()) return code.level();
-  const uint64_t diff = n.path() ^ code.path();
-  return 63 - __builtin_clzll(diff);  // bit i is level - i
+  return 63 - __builtin_clzll(n.path() ^ code.path());  // bit i is level - i
 }
 
-// Codes whose scan for `type` climbs into the top group or to the root, and
-// that have a neighbor (a valid answer, not the boundary). Random groups
-// drawn from the patterns in which the scan continues, then filtered.
-std::vector<TetCode> WorstCaseCodes(int level, int type) {
+// Groups in which most face types continue (the scan climbs through them),
+// read off the figure.
+template <int D>
+std::vector<uint64_t> ContinuingGroups() {
+  std::vector<uint64_t> out;
+  for (int bits = 0; bits < (1 << D); ++bits) {
+    int continuing = 0;
+    for (int k = 2; k <= D + 1; ++k) continuing += !Api<D>::Table()[bits][k - 1].stop;
+    if (continuing >= D - 1) out.push_back(static_cast<uint64_t>(bits));
+  }
+  return out;
+}
+
+// Codes whose scan for `type` climbs into the top group or to the root and
+// that have a neighbor (a valid answer, not the boundary).
+template <int D>
+std::vector<SimplexCode<D>> WorstCaseCodes(int level, int type) {
   std::mt19937_64 rng(1000 + level * 10 + type);
-  std::vector<TetCode> out;
-  static constexpr uint8_t kContinue[] = {0b011, 0b001, 0b010, 0b110, 0b100, 0b000};
-  const int need = level <= 3 ? 0 : level - 3;
+  const std::vector<uint64_t> groups = ContinuingGroups<D>();
+  std::vector<SimplexCode<D>> out;
+  const int need = level <= D ? 0 : level - D;
   while (out.size() < kCodes) {
     uint64_t path = 0;
-    for (int l = 0; l < level; l += 3) path = path << 3 | kContinue[rng() % 6];
-    path >>= 3 * ((level + 2) / 3) - level;
-    const TetCode c = TetCode::FromPath(static_cast<int>(rng() % 6), path, level);
-    if (type == 1 || (ClimbLength(c, type) >= need && !ht::NeighborScan(c, type).is_none())) {
+    for (int l = 0; l < level; l += D) path = path << D | groups[rng() % groups.size()];
+    path >>= D * ((level + D - 1) / D) - level;
+    const auto c = SimplexCode<D>::FromPath(
+        static_cast<int>(rng() % SimplexCode<D>::kRoots), path, level);
+    if (type == 1 || (ClimbLength(c, type) >= need && !Api<D>::Scan(c, type).is_none())) {
       out.push_back(c);
     }
   }
   return out;
 }
 
-std::vector<TetCode> RandomCodes(int level, uint64_t seed) {
+template <int D>
+std::vector<SimplexCode<D>> RandomCodes(int level, uint64_t seed) {
   std::mt19937_64 rng(seed);
-  std::vector<TetCode> out(kCodes);
-  for (TetCode& c : out) c = RandomCode(rng, level);
+  std::vector<SimplexCode<D>> out(kCodes);
+  for (auto& c : out) c = RandomCode<D>(rng, level);
   return out;
 }
 
-template <class Fn>
-void RunOverCodes(benchmark::State& state, const std::vector<TetCode>& codes, Fn fn) {
+template <class Code, class Fn>
+void RunOverCodes(benchmark::State& state, const std::vector<Code>& codes, Fn fn) {
   size_t i = 0;
   for (auto _ : state) {
     benchmark::DoNotOptimize(fn(codes[i]));
@@ -79,17 +117,19 @@ void RunOverCodes(benchmark::State& state, const std::vector<TetCode>& codes, Fn
 
 // Generates a benchmark's codes the first time it runs, so filtered-out
 // benchmarks cost nothing (worst-case codes take a search to find).
+template <int D>
 class LazyCodes {
  public:
   LazyCodes(int level, int type, bool worst) : level_(level), type_(type), worst_(worst) {}
-  const std::vector<TetCode>& get() {
+  const std::vector<SimplexCode<D>>& get() {
     std::call_once(once_, [this] {
-      codes_ = worst_ ? WorstCaseCodes(level_, type_) : RandomCodes(level_, 7 * level_ + type_);
-      for (const TetCode c : codes_) cursors_.emplace_back(c);
+      codes_ = worst_ ? WorstCaseCodes<D>(level_, type_)
+                      : RandomCodes<D>(level_, 7 * level_ + type_);
+      for (const auto c : codes_) cursors_.emplace_back(c);
     });
     return codes_;
   }
-  const std::vector<ht::TetCursor>& cursors() {
+  const std::vector<typename Api<D>::Cursor>& cursors() {
     get();
     return cursors_;
   }
@@ -98,36 +138,40 @@ class LazyCodes {
   int level_, type_;
   bool worst_;
   std::once_flag once_;
-  std::vector<TetCode> codes_;
-  std::vector<ht::TetCursor> cursors_;
+  std::vector<SimplexCode<D>> codes_;
+  std::vector<typename Api<D>::Cursor> cursors_;
 };
 
-void RegisterNeighborBenchmarks() {
-  for (int level : {6, 30, TetCode::kMaxLevel}) {
-    for (int type = 1; type <= 4; ++type) {
+template <int D>
+void RegisterNeighborBenchmarks(std::initializer_list<int> levels) {
+  using Code = SimplexCode<D>;
+  for (int level : levels) {
+    for (int type = 1; type <= D + 1; ++type) {
       for (const bool worst : {false, true}) {
-        const auto codes = std::make_shared<LazyCodes>(level, type, worst);
-        const std::string suffix = "/type" + std::to_string(type) + (worst ? "/worst" : "/random") +
-                                   "/depth:" + std::to_string(level);
-        benchmark::RegisterBenchmark(("HtNeighbor/scan" + suffix).c_str(),
+        const auto codes = std::make_shared<LazyCodes<D>>(level, type, worst);
+        const std::string prefix = std::string(Api<D>::kName) + "Neighbor/";
+        const std::string suffix = "/type" + std::to_string(type) +
+                                   (worst ? "/worst" : "/random") + "/depth:" +
+                                   std::to_string(level);
+        benchmark::RegisterBenchmark((prefix + "scan" + suffix).c_str(),
                                      [codes, type](benchmark::State& s) {
-                                       RunOverCodes(s, codes->get(), [type](TetCode c) {
-                                         return ht::NeighborScan(c, type);
+                                       RunOverCodes(s, codes->get(), [type](Code c) {
+                                         return Api<D>::Scan(c, type);
                                        });
                                      });
-        benchmark::RegisterBenchmark(("HtNeighbor/constant" + suffix).c_str(),
+        benchmark::RegisterBenchmark((prefix + "constant" + suffix).c_str(),
                                      [codes, type](benchmark::State& s) {
-                                       RunOverCodes(s, codes->get(), [type](TetCode c) {
-                                         return ht::Neighbor(c, type);
+                                       RunOverCodes(s, codes->get(), [type](Code c) {
+                                         return Api<D>::Constant(c, type);
                                        });
                                      });
         // The cursor's mask is already up to date: the cost of one step in a
         // walk (cluster, refinement), mask update included. Cursors step in
         // place; crossing the same face again steps back, so the set
         // alternates between the codes and their neighbors (as hard).
-        benchmark::RegisterBenchmark(("HtNeighbor/cursor" + suffix).c_str(),
+        benchmark::RegisterBenchmark((prefix + "cursor" + suffix).c_str(),
                                      [codes, type](benchmark::State& s) {
-                                       std::vector<ht::TetCursor> cursors = codes->cursors();
+                                       auto cursors = codes->cursors();
                                        size_t i = 0;
                                        for (auto _ : s) {
                                          benchmark::DoNotOptimize(cursors[i].Step(type));
@@ -136,10 +180,10 @@ void RegisterNeighborBenchmarks() {
                                        benchmark::DoNotOptimize(cursors.data());
                                      });
         if (worst) {
-          benchmark::RegisterBenchmark(("HtNeighbor/level-scan" + suffix).c_str(),
+          benchmark::RegisterBenchmark((prefix + "level-scan" + suffix).c_str(),
                                        [codes, type](benchmark::State& s) {
-                                         RunOverCodes(s, codes->get(), [type](TetCode c) {
-                                           return NeighborByLevelScan<3>(c, type);
+                                         RunOverCodes(s, codes->get(), [type](Code c) {
+                                           return NeighborByLevelScan<D>(c, type);
                                          });
                                        });
         }
@@ -148,34 +192,45 @@ void RegisterNeighborBenchmarks() {
   }
 }
 
-void BM_Vertices(benchmark::State& state) {
-  const auto codes = RandomCodes(static_cast<int>(state.range(0)), 5);
-  RunOverCodes(state, codes, [](TetCode c) { return Vertices(c); });
-}
-BENCHMARK(BM_Vertices)->ArgName("depth")->Arg(6)->Arg(30)->Arg(TetCode::kMaxLevel);
-
-// Clusters of each shape: depth 30 (1/8 pyramids, 6 members), 31 (1/2, 4),
-// 32 (1/4, 8); interior codes mostly, at random.
-void BM_Cluster(benchmark::State& state) {
-  const auto codes = RandomCodes(static_cast<int>(state.range(0)), 6);
-  size_t members = 0;
-  size_t i = 0;
-  for (auto _ : state) {
-    const TetCluster c = Cluster(codes[i]);
-    members += c.size();
-    benchmark::DoNotOptimize(c);
-    i = (i + 1) & (kCodes - 1);
+template <int D>
+void RegisterGeometryBenchmarks(std::initializer_list<int> vertex_levels,
+                                std::initializer_list<int> cluster_levels) {
+  const std::string name = Api<D>::kName;
+  for (int level : vertex_levels) {
+    benchmark::RegisterBenchmark(
+        (name + "Vertices/depth:" + std::to_string(level)).c_str(), [level](benchmark::State& s) {
+          const auto codes = RandomCodes<D>(level, 5);
+          RunOverCodes(s, codes, [](SimplexCode<D> c) { return Vertices(c); });
+        });
   }
-  state.counters["members"] =
-      benchmark::Counter(static_cast<double>(members), benchmark::Counter::kAvgIterations);
+  // Mostly interior codes, at random; the average size shows the shape.
+  for (int level : cluster_levels) {
+    benchmark::RegisterBenchmark(
+        (name + "Cluster/depth:" + std::to_string(level)).c_str(), [level](benchmark::State& s) {
+          const auto codes = RandomCodes<D>(level, 6);
+          size_t members = 0;
+          size_t i = 0;
+          for (auto _ : s) {
+            const auto c = Cluster(codes[i]);
+            members += c.size();
+            benchmark::DoNotOptimize(c);
+            i = (i + 1) & (kCodes - 1);
+          }
+          s.counters["members"] = benchmark::Counter(static_cast<double>(members),
+                                                     benchmark::Counter::kAvgIterations);
+        });
+  }
 }
-BENCHMARK(BM_Cluster)->ArgName("depth")->Arg(30)->Arg(31)->Arg(32)->Arg(53)->Arg(54)->Arg(55);
 
 }  // namespace
 }  // namespace simplexdb
 
 int main(int argc, char** argv) {
-  simplexdb::RegisterNeighborBenchmarks();
+  using namespace simplexdb;
+  RegisterNeighborBenchmarks<3>({6, 30, TetCode::kMaxLevel});
+  RegisterNeighborBenchmarks<4>({8, 28, PentaCode::kMaxLevel});
+  RegisterGeometryBenchmarks<3>({6, 30, TetCode::kMaxLevel}, {30, 31, 32, 53, 54, 55});
+  RegisterGeometryBenchmarks<4>({8, 28, PentaCode::kMaxLevel}, {28, 29, 30, 31, 52, 53});
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
