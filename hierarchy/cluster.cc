@@ -1,6 +1,6 @@
 #include "hierarchy/cluster.h"
 
-#include <algorithm>
+#include <array>
 #include <cassert>
 
 #include "hierarchy/geometry.h"
@@ -89,21 +89,61 @@ TetsAroundEdge EdgeNeighbors(TetCode code, int i, int j) {
   return out;
 }
 
+namespace {
+
+// The members found so far, for O(1) membership tests: open addressing over
+// 128 slots (at most 48 members, so probes stay short). Keys are location
+// code keys; ~0 (None's key) marks an empty slot.
+class MemberSet {
+ public:
+  // Returns true if `c` was not in the set (and inserts it).
+  bool Insert(PentaCode c) {
+    uint64_t slot = (c.key() * 0x9E3779B97F4A7C15ULL) >> (64 - kBits);
+    while (slots_[slot] != kEmpty) {
+      if (slots_[slot] == c.key()) return false;
+      slot = (slot + 1) & (kSlots - 1);
+    }
+    slots_[slot] = c.key();
+    return true;
+  }
+
+ private:
+  static constexpr int kBits = 7;
+  static constexpr size_t kSlots = size_t{1} << kBits;
+  static constexpr uint64_t kEmpty = ~uint64_t{0};
+  static_assert(kSlots >= 2 * kMaxPentaCluster);
+  std::array<uint64_t, kSlots> slots_ = [] {
+    std::array<uint64_t, kSlots> a{};
+    a.fill(kEmpty);
+    return a;
+  }();
+};
+
+}  // namespace
+
 PentaCluster Cluster(PentaCode code) {
   PentaCluster out{code};
+  MemberSet members;
+  members.Insert(code);
   boost::container::static_vector<hp::PentaCursor, kMaxPentaCluster> cursors{
       hp::PentaCursor(code)};
+  // The face type each member was reached through: a shared face has the
+  // same type on both sides, so stepping back across it is known to lead to
+  // a member already found.
+  boost::container::static_vector<int8_t, kMaxPentaCluster> entered{0};
   for (size_t i = 0; i < out.size(); ++i) {
     const auto edge = SplitEdge(out[i]);  // every member's own split edge
     for (int omit = 0; omit < 5; ++omit) {
-      if (omit == edge[0] || omit == edge[1]) continue;
+      const int type = FaceTypeOmitting<4>(omit);
+      if (omit == edge[0] || omit == edge[1] || type == entered[i]) continue;
       hp::PentaCursor next = cursors[i];
-      if (!next.Step(FaceTypeOmitting<4>(omit))) continue;  // boundary
+      if (!next.Step(type)) continue;  // boundary
       const PentaCode n = next.code();
-      if (std::find(out.begin(), out.end(), n) != out.end()) continue;
+      if (!members.Insert(n)) continue;
       assert(out.size() < out.capacity());
       out.push_back(n);
       cursors.push_back(next);
+      entered.push_back(static_cast<int8_t>(type));
     }
   }
   return out;

@@ -119,7 +119,10 @@ inline constexpr auto kPackedRoots = [] {
 // REQUIRES: code.is_valid().
 template <int D>
 constexpr SimplexVertices<D> Vertices(SimplexCode<D> code) {
-  internal::PackedVertices<D> v = internal::kPackedRoots<D>[code.top()];
+  // Two buffers used in turn: each level reads one and writes the other
+  // word by word. (Copying the array back would go through vector moves
+  // that stall on the word stores just made.)
+  internal::PackedVertices<D> buf[2] = {internal::kPackedRoots<D>[code.top()], {}};
   const int level = code.level();
   const uint64_t path = code.path();
   for (int l = 0; l < level; ++l) {
@@ -128,13 +131,13 @@ constexpr SimplexVertices<D> Vertices(SimplexCode<D> code) {
     const int c = SplitRules<D>::CaseOf(l, prefix);
     const auto& edge = SplitRules<D>::kCaseToSplitEdge[c];
     const auto& from = SplitRules<D>::kCaseChildToParentVertex[c][child];
-    internal::PackedVertices<D> n;
+    const internal::PackedVertices<D>& v = buf[l & 1];
+    internal::PackedVertices<D>& n = buf[(l + 1) & 1];
     n[0] = (v[edge[0]] + v[edge[1]]) >> 1;
     for (int j = 0; j < D; ++j) n[j + 1] = v[from[j]];
-    v = n;
   }
   SimplexVertices<D> out{};
-  for (int i = 0; i <= D; ++i) out[i] = internal::Unpack<D>(v[i]);
+  for (int i = 0; i <= D; ++i) out[i] = internal::Unpack<D>(buf[level & 1][i]);
   return out;
 }
 
