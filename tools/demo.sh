@@ -1,10 +1,9 @@
 #!/usr/bin/env bash
 # The main job: builds SimplexDB and demonstrates it.
 #
-# Today it shows the Hierarchy of Tetrahedra: a code from the seed's worked
-# examples with its vertices, face neighbors (found in constant time) and
-# cluster, then a walk around a cluster and the JSON contract of
-# `simplexdb codes`.
+# Today it shows the two hierarchies: codes from the seed's worked examples
+# with their vertices, face neighbors (found in constant time) and clusters,
+# then the JSON contract of `simplexdb codes`.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 source tools/setup.sh
@@ -25,5 +24,10 @@ echo "== A 1/8 pyramid at level 12 (the seed's example of 3.3) and a 1/2 pyramid
 "$simplexdb" inspect --hierarchy ht 1:010101011010 1:0101010110101
 
 echo
+echo "== The seed's pentatope 9010110 (section 4.3), an s-pentatope in the 4D hierarchy"
+"$simplexdb" inspect --hierarchy hp 9:010110
+
+echo
 echo "== simplexdb codes (JSON lines, the contract outside checks read)"
 printf '2:10011\n3:\n' | "$simplexdb" codes --hierarchy ht
+printf '9:010110\n' | "$simplexdb" codes --hierarchy hp
