@@ -128,15 +128,16 @@ template <class T>
 class [[nodiscard]] Result {
  public:
   Result(T value) : v_(std::move(value)) {}  // NOLINT: implicit by design
-  Result(Status status) : v_(std::move(status)) {  // NOLINT
-    assert(!std::get<Status>(v_).ok() && "Result needs a failed Status");
-  }
+  // REQUIRES: !status.ok(). (A release build turns an OK status into an
+  // InvalidArgument failure rather than hold neither a value nor an error.)
+  Result(Status status) : v_(Failed(std::move(status))) {}  // NOLINT: implicit
 
   bool ok() const noexcept { return std::holds_alternative<T>(v_); }
 
-  // OK when a value is held.
-  Status status() const {
-    return ok() ? Status::OK() : std::get<Status>(v_);
+  // OK when a value is held. The reference lives as long as this Result.
+  const Status& status() const noexcept {
+    static const Status kOk;
+    return ok() ? kOk : std::get<Status>(v_);
   }
 
   const T& value() const& {
@@ -157,6 +158,12 @@ class [[nodiscard]] Result {
   T* operator->() { return &value(); }
 
  private:
+  static Status Failed(Status status) {
+    assert(!status.ok() && "Result needs a failed Status");
+    if (status.ok()) return Status::InvalidArgument("Result made from an OK status");
+    return status;
+  }
+
   std::variant<T, Status> v_;
 };
 
@@ -168,3 +175,13 @@ class [[nodiscard]] Result {
     ::simplexdb::Status sdb_status_ = (expr);     \
     if (!sdb_status_.ok()) return sdb_status_;    \
   } while (false)
+
+// `SDB_ASSIGN_OR_RETURN(auto x, MakeX());` declares x from the value of a
+// Result, or returns its failed Status.
+#define SDB_CONCAT_INNER_(a, b) a##b
+#define SDB_CONCAT_(a, b) SDB_CONCAT_INNER_(a, b)
+#define SDB_ASSIGN_OR_RETURN(decl, expr)                                  \
+  auto SDB_CONCAT_(sdb_result_, __LINE__) = (expr);                       \
+  if (!SDB_CONCAT_(sdb_result_, __LINE__).ok())                           \
+    return SDB_CONCAT_(sdb_result_, __LINE__).status();                   \
+  decl = std::move(SDB_CONCAT_(sdb_result_, __LINE__)).value()
