@@ -19,8 +19,7 @@
 
 #include "hierarchy/cluster.h"
 #include "hierarchy/geometry.h"
-#include "hierarchy/hp_neighbors.h"
-#include "hierarchy/ht_neighbors.h"
+#include "hierarchy/neighbors.h"
 #include "hierarchy/level_scan.h"
 
 namespace simplexdb {
@@ -33,18 +32,12 @@ template <int D>
 struct Api;
 template <>
 struct Api<3> {
-  using Cursor = ht::TetCursor;
   static constexpr const char* kName = "Ht";
-  static TetCode Scan(TetCode c, int k) { return ht::NeighborScan(c, k); }
-  static TetCode Constant(TetCode c, int k) { return ht::Neighbor(c, k); }
   static const GroupStepTable<3>& Table() { return ht::kGroupSteps; }
 };
 template <>
 struct Api<4> {
-  using Cursor = hp::PentaCursor;
   static constexpr const char* kName = "Hp";
-  static PentaCode Scan(PentaCode c, int k) { return hp::NeighborScan(c, k); }
-  static PentaCode Constant(PentaCode c, int k) { return hp::Neighbor(c, k); }
   static const GroupStepTable<4>& Table() { return hp::kGroupSteps; }
 };
 
@@ -59,7 +52,7 @@ SimplexCode<D> RandomCode(std::mt19937_64& rng, int level) {
 // level when the neighbor is under another root or absent).
 template <int D>
 int ClimbLength(SimplexCode<D> code, int type) {
-  const SimplexCode<D> n = Api<D>::Scan(code, type);
+  const SimplexCode<D> n = NeighborScan<D>(code, type);
   if (n.is_none() || n.top() != code.top()) return code.level();
   return 63 - __builtin_clzll(n.path() ^ code.path());  // bit i is level - i
 }
@@ -91,7 +84,7 @@ std::vector<SimplexCode<D>> WorstCaseCodes(int level, int type) {
     path >>= D * ((level + D - 1) / D) - level;
     const auto c = SimplexCode<D>::FromPath(
         static_cast<int>(rng() % SimplexCode<D>::kRoots), path, level);
-    if (type == 1 || (ClimbLength(c, type) >= need && !Api<D>::Scan(c, type).is_none())) {
+    if (type == 1 || (ClimbLength(c, type) >= need && !NeighborScan<D>(c, type).is_none())) {
       out.push_back(c);
     }
   }
@@ -129,7 +122,7 @@ class LazyCodes {
     });
     return codes_;
   }
-  const std::vector<typename Api<D>::Cursor>& cursors() {
+  const std::vector<NeighborCursor<D>>& cursors() {
     get();
     return cursors_;
   }
@@ -139,7 +132,7 @@ class LazyCodes {
   bool worst_;
   std::once_flag once_;
   std::vector<SimplexCode<D>> codes_;
-  std::vector<typename Api<D>::Cursor> cursors_;
+  std::vector<NeighborCursor<D>> cursors_;
 };
 
 template <int D>
@@ -156,13 +149,13 @@ void RegisterNeighborBenchmarks(std::initializer_list<int> levels) {
         benchmark::RegisterBenchmark((prefix + "scan" + suffix).c_str(),
                                      [codes, type](benchmark::State& s) {
                                        RunOverCodes(s, codes->get(), [type](Code c) {
-                                         return Api<D>::Scan(c, type);
+                                         return NeighborScan<D>(c, type);
                                        });
                                      });
         benchmark::RegisterBenchmark((prefix + "constant" + suffix).c_str(),
                                      [codes, type](benchmark::State& s) {
                                        RunOverCodes(s, codes->get(), [type](Code c) {
-                                         return Api<D>::Constant(c, type);
+                                         return Neighbor<D>(c, type);
                                        });
                                      });
         // The cursor's mask is already up to date: the cost of one step in a

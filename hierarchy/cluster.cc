@@ -4,33 +4,34 @@
 #include <cassert>
 
 #include "hierarchy/geometry.h"
-#include "hierarchy/hp_neighbors.h"
-#include "hierarchy/ht_neighbors.h"
+#include "hierarchy/neighbors.h"
 #include "hierarchy/split_rules.h"
 
 namespace simplexdb {
 
-TetCluster Cluster(TetCode code) {
-  TetCluster out{code};
-  // One way round: 3, 4, 3, 4, ... until the ring closes or the walk meets
-  // the boundary.
-  ht::TetCursor cursor(code);
-  int type = 3;
-  while (cursor.Step(type)) {
+namespace {
+
+// Walks from `code` across faces of types `first`, then the other of 3 and
+// 4, alternately (Figs. 41, 43, 45), appending each tetrahedron met. Returns
+// true when the walk closes on `code` (an interior edge) and false when it
+// meets the boundary.
+bool WalkAroundSplitEdge(TetCode code, int first, TetCluster& out) {
+  TetCursor cursor(code);
+  for (int type = first; cursor.Step(type); type = 7 - type) {
     const TetCode next = cursor.code();
-    if (next == code) return out;  // closed ring: an interior edge
+    if (next == code) return true;
     assert(out.size() < out.capacity());
     out.push_back(next);
-    type = 7 - type;
   }
-  // Open fan on the boundary: collect the other side, starting with type 4.
-  cursor = ht::TetCursor(code);
-  type = 4;
-  while (cursor.Step(type)) {
-    assert(out.size() < out.capacity());
-    out.push_back(cursor.code());
-    type = 7 - type;
-  }
+  return false;
+}
+
+}  // namespace
+
+TetCluster Cluster(TetCode code) {
+  TetCluster out{code};
+  // One way round; on the boundary the fan is open: collect the other side.
+  if (!WalkAroundSplitEdge(code, 3, out)) WalkAroundSplitEdge(code, 4, out);
   return out;
 }
 
@@ -53,7 +54,7 @@ bool WalkAroundEdge(TetCode start, const SimplexVertices<3>& sv, const Point<3>&
   TetCode cur = start;
   SimplexVertices<3> cv = sv;
   while (true) {
-    const TetCode next = ht::Neighbor(cur, FaceTypeOmitting<3>(omit));
+    const TetCode next = Neighbor(cur, FaceTypeOmitting<3>(omit));
     if (next.is_none()) return false;
     if (next == start) return true;
     assert(out.size() < out.capacity());
@@ -125,8 +126,8 @@ PentaCluster Cluster(PentaCode code) {
   PentaCluster out{code};
   MemberSet members;
   members.Insert(code);
-  boost::container::static_vector<hp::PentaCursor, kMaxPentaCluster> cursors{
-      hp::PentaCursor(code)};
+  boost::container::static_vector<PentaCursor, kMaxPentaCluster> cursors{
+      PentaCursor(code)};
   // The face type each member was reached through: a shared face has the
   // same type on both sides, so stepping back across it is known to lead to
   // a member already found.
@@ -136,7 +137,7 @@ PentaCluster Cluster(PentaCode code) {
     for (int omit = 0; omit < 5; ++omit) {
       const int type = FaceTypeOmitting<4>(omit);
       if (omit == edge[0] || omit == edge[1] || type == entered[i]) continue;
-      hp::PentaCursor next = cursors[i];
+      PentaCursor next = cursors[i];
       if (!next.Step(type)) continue;  // boundary
       const PentaCode n = next.code();
       if (!members.Insert(n)) continue;

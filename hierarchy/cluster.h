@@ -27,16 +27,18 @@ using TetsAroundEdge = boost::container::static_vector<TetCode, kMaxTetsAroundEd
 using PentaCluster = boost::container::static_vector<PentaCode, kMaxPentaCluster>;
 
 // The cluster of `code`: every tetrahedron at its level that shares its split
-// edge v3v4, `code` first, then in order around the edge. Found by
-// alternating the face neighbors of types 3 and 4 (the two faces that
-// contain v3v4), as in Figs. 41, 43 and 45; on the boundary the walk turns
-// back and collects the other side. O(cluster size), constant-time steps.
+// edge v3v4. Found by alternating the face neighbors of types 3 and 4 (the
+// two faces that contain v3v4), as in Figs. 41, 43 and 45. Order: `code`
+// first, then around the edge; on the boundary the fan is open, and the
+// walk goes out one side from `code` and then out the other.
+// O(cluster size), constant-time steps.
 // REQUIRES: code.is_valid().
 TetCluster Cluster(TetCode code);
 
 // Every tetrahedron at the level of `code` that contains the edge between
-// its vertex positions `i` and `j` (0-based: 0 is v1), `code` first, then in
-// order around the edge (section 3.4).
+// its vertex positions `i` and `j` (0-based: 0 is v1) (section 3.4), in the
+// order Cluster() uses: `code` first, then around the edge (out one side
+// and then the other when the edge is on the boundary).
 //
 // The walk follows vertex identity, not a fixed sequence of face types:
 // SEED-ERRATA items 4 and 5 (the shared face of two siblings of a 1/8 pyramid
@@ -50,8 +52,8 @@ TetsAroundEdge EdgeNeighbors(TetCode code, int i, int j);
 // split edge, `code` first. In 4D the pentatopes around an edge form a
 // triangulated 2-sphere, not a ring, so this is a breadth-first search
 // across the three faces of each member that contain the edge (the faces
-// omitting a vertex off the edge), with constant-time steps.
-// O(cluster size * 3).
+// omitting a vertex off the edge), with constant-time steps, `code` first.
+// O(cluster size): at most two new steps per member, a hash set of members.
 // REQUIRES: code.is_valid().
 PentaCluster Cluster(PentaCode code);
 

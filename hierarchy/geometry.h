@@ -16,7 +16,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cstdint>
+#include <type_traits>
 
 #include "hierarchy/simplex_code.h"
 #include "hierarchy/split_rules.h"
@@ -60,30 +62,49 @@ constexpr SimplexVertices<D> RootVertices(int top) {
   return v;
 }
 
-// The vertices of child `child` of a simplex with vertices `parent` split by
-// rule `split_case` (SplitRules<D>::CaseOf). O(1).
-template <int D>
-constexpr SimplexVertices<D> ChildVertices(const SimplexVertices<D>& parent,
-                                           int split_case, int child) {
+namespace internal {
+
+// One bisection, on any representation of the vertices: `out` gets the
+// midpoint of the split edge (by `mid`) and the parent's vertices the rule
+// keeps, in the rule's order.
+template <int D, class V, class Mid>
+constexpr void Split(const std::array<V, D + 1>& parent, int split_case, int child,
+                     std::array<V, D + 1>& out, Mid mid) {
   const auto& edge = SplitRules<D>::kCaseToSplitEdge[split_case];
   const auto& from = SplitRules<D>::kCaseChildToParentVertex[split_case][child];
-  SimplexVertices<D> v{};
-  for (int c = 0; c < D; ++c) {
-    v[0][c] = (parent[edge[0]][c] + parent[edge[1]][c]) / 2;
-  }
-  for (int j = 0; j < D; ++j) v[j + 1] = parent[from[j]];
-  return v;
+  out[0] = mid(parent[edge[0]], parent[edge[1]]);
+  for (int j = 0; j < D; ++j) out[j + 1] = parent[from[j]];
+}
+
+}  // namespace internal
+
+// The vertices of child `child` of `parent`, a simplex at level `level` with
+// right-aligned path `path` and vertices `parent_vertices`. O(1): descents
+// carry the parent's vertices and call this per child.
+template <int D>
+constexpr SimplexVertices<D> ChildVertices(
+    SimplexCode<D> parent, const std::type_identity_t<SimplexVertices<D>>& parent_vertices,
+    int child) {
+  SimplexVertices<D> out{};
+  internal::Split<D>(parent_vertices, SplitRules<D>::CaseOf(parent.level(), parent.path()),
+                     child, out, [](const Point<D>& a, const Point<D>& b) {
+                       Point<D> m{};
+                       for (int i = 0; i < D; ++i) m[i] = (a[i] + b[i]) / 2;
+                       return m;
+                     });
+  return out;
 }
 
 namespace internal {
 
 // Points packed into one word, D fields of kPackBits<D> bits (x lowest), so a
 // split is a handful of register operations. The midpoint of two packed
-// points is (a + b) >> 1: every field sum fits its field and is even (the
-// midpoints of split edges are lattice points), so no bit crosses a field.
+// points is (a + b) >> 1: a field sum is at most 2 * 2^kCoordBits, which
+// needs kCoordBits + 2 bits, and it is even (the midpoints of split edges
+// are lattice points), so no bit crosses a field.
 template <int D>
 inline constexpr int kPackBits = 64 / D;  // 21 (HT), 16 (HP)
-static_assert(kCoordBits<3> + 1 <= kPackBits<3> && kCoordBits<4> + 1 <= kPackBits<4>);
+static_assert(kCoordBits<3> + 2 <= kPackBits<3> && kCoordBits<4> + 2 <= kPackBits<4>);
 
 template <int D>
 constexpr uint64_t Pack(const Point<D>& p) {
@@ -119,6 +140,7 @@ inline constexpr auto kPackedRoots = [] {
 // REQUIRES: code.is_valid().
 template <int D>
 constexpr SimplexVertices<D> Vertices(SimplexCode<D> code) {
+  assert(code.is_valid());
   // Two buffers used in turn: each level reads one and writes the other
   // word by word. (Copying the array back would go through vector moves
   // that stall on the word stores just made.)
@@ -128,13 +150,8 @@ constexpr SimplexVertices<D> Vertices(SimplexCode<D> code) {
   for (int l = 0; l < level; ++l) {
     const uint64_t prefix = path >> (level - l);  // the path of the level-l ancestor
     const int child = static_cast<int>((path >> (level - l - 1)) & 1);
-    const int c = SplitRules<D>::CaseOf(l, prefix);
-    const auto& edge = SplitRules<D>::kCaseToSplitEdge[c];
-    const auto& from = SplitRules<D>::kCaseChildToParentVertex[c][child];
-    const internal::PackedVertices<D>& v = buf[l & 1];
-    internal::PackedVertices<D>& n = buf[(l + 1) & 1];
-    n[0] = (v[edge[0]] + v[edge[1]]) >> 1;
-    for (int j = 0; j < D; ++j) n[j + 1] = v[from[j]];
+    internal::Split<D>(buf[l & 1], SplitRules<D>::CaseOf(l, prefix), child, buf[(l + 1) & 1],
+                       [](uint64_t a, uint64_t b) { return (a + b) >> 1; });
   }
   SimplexVertices<D> out{};
   for (int i = 0; i <= D; ++i) out[i] = internal::Unpack<D>(buf[level & 1][i]);
@@ -165,7 +182,9 @@ DeriveRootFaceToRoot() {
       for (int s = 0; s < kRoots; ++s) {
         if (s == r) continue;
         const SimplexVertices<D> b = RootVertices<D>(s);
-        // Same face type: the other root has the same vertex set on it.
+        // Same face type, vertex by vertex: stricter than the same vertex
+        // set, and what crossing between roots with the rest of the path
+        // unchanged needs (SEED-ERRATA item 3).
         bool same = true;
         for (int i = 0; i <= D && same; ++i) {
           if (i == omit) continue;
@@ -180,5 +199,19 @@ DeriveRootFaceToRoot() {
 
 template <int D>
 inline constexpr auto kRootFaceToRoot = DeriveRootFaceToRoot<D>();
+
+// The constant-time algorithms rely on this: root faces of types 1 and 2 lie
+// on the domain's boundary, every other root face is shared.
+template <int D>
+constexpr bool RootFacesOneAndTwoAreTheBoundary() {
+  for (const auto& faces : kRootFaceToRoot<D>) {
+    if (faces[0] != -1 || faces[1] != -1) return false;
+    for (int k = 3; k <= D + 1; ++k) {
+      if (faces[k - 1] < 0) return false;
+    }
+  }
+  return true;
+}
+static_assert(RootFacesOneAndTwoAreTheBoundary<3>() && RootFacesOneAndTwoAreTheBoundary<4>());
 
 }  // namespace simplexdb

@@ -24,16 +24,13 @@ namespace simplexdb {
 // REQUIRES: code.is_valid(), 1 <= type <= D + 1.
 template <int D>
 constexpr SimplexCode<D> NeighborByLevelScan(SimplexCode<D> code, int type) {
-  assert(type >= 1 && type <= D + 1);
-  constexpr auto& up = FaceTransitions<D>::kFaceToParentFace;
+  assert(code.is_valid() && type >= 1 && type <= D + 1);
   const int level = code.level();
   const uint64_t path = code.path();
   int k = type;
   for (int l = level; l >= 1; --l) {
     const int shift = level - l;
-    const int bit = static_cast<int>((path >> shift) & 1);
-    const int c = SplitRules<D>::CaseOf(l - 1, path >> (shift + 1));
-    const int next = up[c][bit][k - 1];
+    const int next = ClimbOneLevel<D>(l, path >> shift, k);
     if (next == 0) return code.with_path(path ^ (uint64_t{1} << shift));
     k = next;
   }

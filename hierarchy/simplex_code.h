@@ -32,7 +32,12 @@
 // range) returned for "no neighbor" at the domain boundary.
 //
 // Geometry, neighbors and clusters are free functions over this type, in
-// hierarchy/geometry.h, hierarchy/neighbors.h and hierarchy/cluster.h.
+// hierarchy/geometry.h, hierarchy/neighbors.h (ht_ and hp_neighbors.h) and
+// hierarchy/cluster.h.
+//
+// Every accessor below except key(), is_none() and is_valid() REQUIRES a
+// valid code; None() is not one (it is what a neighbor query returns at the
+// boundary: test is_none() before using the answer).
 //
 // Thread safety: a value type; all methods are const and reentrant.
 #pragma once
@@ -115,12 +120,13 @@ class SimplexCode {
   }
   // Right-aligned path: bit i is the child index at level level() - i.
   constexpr uint64_t path() const noexcept {
+    assert(is_valid());
     return ((key_ >> kLevelBits) & kPathMask) >> (kMaxLevel - level());
   }
   // The child index chosen at level `l` (the seed's path[l]).
   // REQUIRES: 1 <= l <= level().
   constexpr int bit_at(int l) const noexcept {
-    assert(l >= 1 && l <= level());
+    assert(is_valid() && l >= 1 && l <= level());
     return static_cast<int>((key_ >> (kLevelBits + kMaxLevel - l)) & 1);
   }
   // 0 or 1: which child of its parent this is. REQUIRES: level() > 0.
@@ -132,14 +138,14 @@ class SimplexCode {
   // The ancestor at level `l` (the code itself when l == level()).
   // REQUIRES: 0 <= l <= level().
   constexpr SimplexCode ancestor(int l) const noexcept {
-    assert(l >= 0 && l <= level());
+    assert(is_valid() && l >= 0 && l <= level());
     const uint64_t keep = ~((uint64_t{1} << (kLevelBits + kMaxLevel - l)) - 1);
     return SimplexCode((key_ & keep) | static_cast<uint64_t>(l));
   }
 
   // REQUIRES: level() < kMaxLevel, i in {0, 1}.
   constexpr SimplexCode child(int i) const noexcept {
-    assert(level() < kMaxLevel && (i == 0 || i == 1));
+    assert(is_valid() && level() < kMaxLevel && (i == 0 || i == 1));
     const int l = level() + 1;
     return SimplexCode(((key_ & ~kLevelMask) |
                         static_cast<uint64_t>(i) << (kLevelBits + kMaxLevel - l)) |
@@ -148,13 +154,13 @@ class SimplexCode {
 
   // The other child of the parent. REQUIRES: level() > 0.
   constexpr SimplexCode sibling() const noexcept {
-    assert(level() > 0);
+    assert(is_valid() && level() > 0);
     return SimplexCode(key_ ^ (uint64_t{1} << (kLevelBits + kMaxLevel - level())));
   }
 
   // Same level and path under another root. REQUIRES: 0 <= top < kRoots.
   constexpr SimplexCode with_top(int top) const noexcept {
-    assert(top >= 0 && top < kRoots);
+    assert(is_valid() && top >= 0 && top < kRoots);
     constexpr uint64_t kBelowTop = (uint64_t{1} << (64 - kTopBits)) - 1;
     return SimplexCode((key_ & kBelowTop) |
                        static_cast<uint64_t>(top) << (64 - kTopBits));
@@ -178,6 +184,7 @@ class SimplexCode {
   // The smallest and largest keys of this subtree (preorder key range).
   constexpr uint64_t range_min() const noexcept { return key_; }
   constexpr uint64_t range_max() const noexcept {
+    assert(is_valid());
     const uint64_t below =
         (uint64_t{1} << (kLevelBits + kMaxLevel - level())) - 1;
     return key_ | below;
@@ -187,6 +194,7 @@ class SimplexCode {
   // the root is 0 and node i has children 2i+1 and 2i+2, so the index is
   // 2^level - 1 + path. Every level is kept together, in path order.
   constexpr uint64_t heap_index() const noexcept {
+    assert(is_valid());
     return ((uint64_t{1} << level()) - 1) + path();
   }
 
@@ -239,16 +247,16 @@ Result<SimplexCode<D>> SimplexCode<D>::Parse(std::string_view text) {
   }
   const std::string_view top_text = text.substr(0, colon);
   const std::string_view bits = text.substr(colon + 1);
-  if (top_text.empty() || top_text.size() > 2) {
-    return fail("expected a root index 0.." + std::to_string(kRoots - 1) +
-                " before ':'");
+  const std::string expected_top =
+      "expected a root index 0.." + std::to_string(kRoots - 1) + " before ':'";
+  // Digits only, no leading zero: the text form of a code is unique.
+  if (top_text.empty() || top_text.size() > 2 ||
+      (top_text.size() > 1 && top_text[0] == '0')) {
+    return fail(expected_top);
   }
   int top = 0;
   for (char c : top_text) {
-    if (c < '0' || c > '9') {
-      return fail("expected a root index 0.." + std::to_string(kRoots - 1) +
-                  " before ':'");
-    }
+    if (c < '0' || c > '9') return fail(expected_top);
     top = top * 10 + (c - '0');
   }
   if (top >= kRoots) {

@@ -193,6 +193,16 @@ struct FaceTransitions {
   static constexpr Table kFaceToParentFace = Derive();
 };
 
+// One step of the nearest-common-ancestor climb: a simplex at `level` >= 1
+// whose right-aligned path is `path` seeks its face of type `type`. Returns 0
+// when that face is shared with its sibling (flip the last bit), otherwise
+// the type of the parent's face that contains it (continue one level up).
+template <int D>
+constexpr int ClimbOneLevel(int level, uint64_t path, int type) {
+  const int c = SplitRules<D>::CaseOf(level - 1, path >> 1);
+  return FaceTransitions<D>::kFaceToParentFace[c][path & 1][type - 1];
+}
+
 // The partial group at the bottom of a code. A code at level L = D*G + r
 // (0 <= r < D) ends with r levels below the last full period; the seed's
 // grouped algorithms (Figs. 38 and 53) start at level D*G, so the last r
@@ -215,20 +225,17 @@ struct TailSteps {
 
   static constexpr Table Derive() {
     Table t{};
-    constexpr auto& up = FaceTransitions<D>::kFaceToParentFace;
     for (int r = 0; r < D; ++r) {
       for (uint64_t bits = 0; bits < (uint64_t{1} << r); ++bits) {
         for (int k = 1; k <= D + 1; ++k) {
           TailStep s{0, static_cast<uint8_t>(k)};
           int type = k;
-          // Level r (relative to the start of the period) up to level 1.
+          // Level r (relative to the start of the period) up to level 1;
+          // the split rules read only the level modulo the period and the
+          // path's last two bits.
           for (int l = r; l >= 1; --l) {
             const int shift = r - l;
-            const int bit = static_cast<int>((bits >> shift) & 1);
-            // The parent sits at relative level l-1; CaseOf needs only the
-            // level modulo the period and the path's last two bits.
-            const int c = SplitRules<D>::CaseOf(l - 1, bits >> (shift + 1));
-            const int next = up[c][bit][type - 1];
+            const int next = ClimbOneLevel<D>(l, bits >> shift, type);
             if (next == 0) {
               s = TailStep{static_cast<uint8_t>(1u << shift), 0};
               break;

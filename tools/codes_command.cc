@@ -13,8 +13,7 @@
 
 #include "hierarchy/cluster.h"
 #include "hierarchy/geometry.h"
-#include "hierarchy/hp_neighbors.h"
-#include "hierarchy/ht_neighbors.h"
+#include "hierarchy/neighbors.h"
 #include "hierarchy/simplex_code.h"
 #include "tools/commands.h"
 
@@ -181,24 +180,47 @@ void InspectAll(const std::vector<std::string>& texts) {
 
 }  // namespace
 
+namespace {
+
+// Adds --hierarchy to `cmd`; `required` or defaulting to ht. The returned
+// name is one of kHierarchyNames' keys (CLI11 matches case-insensitively and
+// stores the key).
+std::shared_ptr<std::string> AddHierarchyOption(CLI::App* cmd, bool required) {
+  auto name = std::make_shared<std::string>("ht");
+  std::vector<std::string> names;
+  for (const auto& [n, h] : kHierarchyNames) names.push_back(n);
+  auto* opt = cmd->add_option("--hierarchy", *name, kHierarchyHelp)
+                  ->transform(CLI::IsMember(names, CLI::ignore_case));
+  if (required) {
+    opt->required();
+  } else {
+    opt->capture_default_str();
+  }
+  return name;
+}
+
+// Calls fn.template operator()<D>() with the dimension of `h`.
+template <class Fn>
+void WithDimension(const std::string& name, Fn&& fn) {
+  switch (kHierarchyNames.at(name)) {
+    case Hierarchy::kHT: fn.template operator()<3>(); break;
+    case Hierarchy::kHP: fn.template operator()<4>(); break;
+  }
+}
+
+}  // namespace
+
 void RegisterCodesCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "codes",
       "Describe location codes read from stdin, one per line, as JSON lines:\n"
       "{\"code\",\"level\",\"vertices\" (unit-cube coordinates, v1 first),\n"
       "\"neighbors\" (face types 1..D+1, null on the domain boundary),\n"
-      "\"parent\",\"children\",\"cluster\"}. A line that is not a code gets\n"
-      "{\"code\",\"error\"} and the exit status is 1.");
-  auto hierarchy = std::make_shared<Hierarchy>(Hierarchy::kHT);
-  cmd->add_option("--hierarchy", *hierarchy, kHierarchyHelp)
-      ->required()
-      ->transform(CLI::CheckedTransformer(kHierarchyNames, CLI::ignore_case));
-  cmd->callback([hierarchy] {
-    switch (*hierarchy) {
-      case Hierarchy::kHT: RunCodes<3>(); break;
-      case Hierarchy::kHP: RunCodes<4>(); break;
-    }
-  });
+      "\"parent\",\"children\" (null at the deepest level a key holds: HT 55,\n"
+      "HP 53),\"cluster\"}. A line that is not a code gets {\"code\",\"error\"}\n"
+      "and the exit status is 1.");
+  auto hierarchy = AddHierarchyOption(cmd, /*required=*/true);
+  cmd->callback([hierarchy] { WithDimension(*hierarchy, []<int D>() { RunCodes<D>(); }); });
 }
 
 void RegisterInspectCommand(CLI::App& app) {
@@ -208,17 +230,11 @@ void RegisterInspectCommand(CLI::App& app) {
       "parent and children, face neighbors and cluster.\n"
       "Examples: simplexdb inspect --hierarchy ht 2:10011\n"
       "          simplexdb inspect --hierarchy hp 7:10100110101100100011");
-  auto hierarchy = std::make_shared<Hierarchy>(Hierarchy::kHT);
+  auto hierarchy = AddHierarchyOption(cmd, /*required=*/false);
   auto codes = std::make_shared<std::vector<std::string>>();
-  cmd->add_option("--hierarchy", *hierarchy, kHierarchyHelp)
-      ->transform(CLI::CheckedTransformer(kHierarchyNames, CLI::ignore_case))
-      ->default_str("ht");
   cmd->add_option("codes", *codes, "location codes T:bits")->required();
   cmd->callback([hierarchy, codes] {
-    switch (*hierarchy) {
-      case Hierarchy::kHT: InspectAll<3>(*codes); break;
-      case Hierarchy::kHP: InspectAll<4>(*codes); break;
-    }
+    WithDimension(*hierarchy, [&]<int D>() { InspectAll<D>(*codes); });
   });
 }
 

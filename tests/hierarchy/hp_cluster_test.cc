@@ -8,7 +8,7 @@
 #include <unordered_map>
 
 #include "hierarchy/cluster.h"
-#include "hierarchy/hp_neighbors.h"
+#include "hierarchy/neighbors.h"
 #include "tests/hierarchy/hp_reference.h"
 
 namespace simplexdb {

@@ -65,6 +65,14 @@ TEST(HpGeometry, ChildrenHalveTheParent) {
   });
 }
 
+// ChildVertices (one split, for descents) agrees with Vertices.
+TEST(HpGeometry, ChildVerticesFromTheParent) {
+  ForEachPentaLiteral(9, [&](PentaCode c, const Penta& t) {
+    if (c.level() == 9) return;
+    for (int i = 0; i < 2; ++i) ASSERT_EQ(ChildVertices(c, t, i), Vertices(c.child(i)));
+  });
+}
+
 TEST(HpGeometry, ShapesCycleEveryFourLevels) {
   for (int level = 0; level <= 8; ++level) {
     const Penta a = Vertices(PentaCode::FromPath(5, 0, level));

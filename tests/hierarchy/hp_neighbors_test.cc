@@ -10,7 +10,7 @@
 #include <set>
 #include <unordered_map>
 
-#include "hierarchy/hp_neighbors.h"
+#include "hierarchy/neighbors.h"
 #include "hierarchy/level_scan.h"
 #include "tests/hierarchy/hp_reference.h"
 
@@ -32,13 +32,13 @@ struct Algorithm {
   PentaCode (*fn)(PentaCode, int);
 };
 PentaCode ByCursor(PentaCode c, int type) {
-  hp::PentaCursor cursor(c);
+  PentaCursor cursor(c);
   return cursor.Step(type) ? cursor.code() : PentaCode::None();
 }
 const Algorithm kAlgorithms[] = {
     {"level scan", &NeighborByLevelScan<4>},
-    {"Fig. 53 scan", &hp::NeighborScan},
-    {"constant time", &hp::Neighbor},
+    {"Fig. 53 scan", &NeighborScan<4>},
+    {"constant time", &Neighbor<4>},
     {"cursor", &ByCursor},
 };
 
@@ -86,7 +86,7 @@ TEST(HpNeighbors, RandomDeepCodesShareTheFaceGeometrically) {
     const Penta t = Vertices(c);
     for (int k = 1; k <= 5; ++k) {
       SCOPED_TRACE(::testing::Message() << c.ToString() << " type " << k);
-      const PentaCode n = hp::Neighbor(c, k);
+      const PentaCode n = Neighbor(c, k);
       if (n.is_none()) {
         ASSERT_TRUE(testing::OnHypercubeBoundary(FaceOf4(t, k, false)));
         continue;
@@ -94,7 +94,7 @@ TEST(HpNeighbors, RandomDeepCodesShareTheFaceGeometrically) {
       const Penta u = Vertices(n);
       ASSERT_EQ(FaceOf4(u, k, false), FaceOf4(t, k, false));
       ASSERT_NE(u[5 - k], t[5 - k]);
-      ASSERT_EQ(hp::Neighbor(n, k), c);
+      ASSERT_EQ(Neighbor(n, k), c);
     }
   }
 }
@@ -115,7 +115,7 @@ TEST(HpNeighbors, SeedExamples) {
 // the root digit): our mask, without the root's own slot, is that string.
 TEST(HpNeighbors, Fig55NeighborMask) {
   const PentaCode c = P("7:10100110101100100011");
-  const uint64_t mask = hp::NeighborMask(c);
+  const uint64_t mask = NeighborMask(c);
   const uint64_t printed = 0b10111110011001100110;
   EXPECT_EQ(mask & ((uint64_t{1} << 20) - 1), printed);
 }
@@ -123,13 +123,10 @@ TEST(HpNeighbors, Fig55NeighborMask) {
 // Composes four per-level steps of the split rules over a group and renders
 // the outcome the way Fig. 53 prints it.
 std::string ComposeGroup(int bits, int type) {
-  constexpr auto& up = FaceTransitions<4>::kFaceToParentFace;
   int k = type;
   for (int l = 4; l >= 1; --l) {
     const int shift = 4 - l;
-    const int bit = (bits >> shift) & 1;
-    const int c = SplitRules<4>::CaseOf(l - 1, static_cast<uint64_t>(bits) >> (shift + 1));
-    const int next = up[c][bit][k - 1];
+    const int next = ClimbOneLevel<4>(l, static_cast<uint64_t>(bits) >> shift, k);
     if (next == 0) {
       std::string s;
       for (int i = 3; i >= 0; --i) s.push_back(static_cast<char>('0' + ((bits ^ (1 << shift)) >> i & 1)));
@@ -158,7 +155,7 @@ TEST(HpNeighbors, SiblingFaceTypeDependsOnTheShape) {
     const int level = 1 + static_cast<int>(rng() % 40);
     const PentaCode c = PentaCode::FromPath(static_cast<int>(rng() % 24), rng() >> (64 - level), level);
     for (int k = 1; k <= 5; ++k) {
-      if (hp::Neighbor(c, k) == c.sibling()) sibling_types[level % 4].insert(k);
+      if (Neighbor(c, k) == c.sibling()) sibling_types[level % 4].insert(k);
     }
   }
   EXPECT_EQ(sibling_types[0], (std::set<int>{1}));     // h
@@ -247,7 +244,7 @@ TEST(HpNeighbors, BitParallelMaskEqualsItsDefinition) {
   for (int i = 0; i < 200000; ++i) {
     const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
     const PentaCode c = PentaCode::FromPath(0, level ? rng() >> (64 - level) : 0, level);
-    ASSERT_EQ(hp::NeighborMask(c), MaskByDefinition(c)) << c.ToString();
+    ASSERT_EQ(NeighborMask(c), MaskByDefinition(c)) << c.ToString();
   }
 }
 
@@ -273,11 +270,11 @@ TEST(HpNeighbors, ConstantTimeEqualsScanOnTenMillionRandomCodes) {
                             ? LongChainCode(rng, level, 0.9)
                             : PentaCode::FromPath(static_cast<int>(rng() % 24),
                                                   level ? rng() >> (64 - level) : 0, level);
-    hp::PentaCursor cursor(c);
+    PentaCursor cursor(c);
     for (int k = 1; k <= 5; ++k) {
-      hp::PentaCursor step = cursor;
+      PentaCursor step = cursor;
       const PentaCode fast = step.Step(k) ? step.code() : PentaCode::None();
-      const PentaCode scan = hp::NeighborScan(c, k);
+      const PentaCode scan = NeighborScan(c, k);
       if (fast != scan) {
         FAIL() << c.ToString() << " type " << k << ": constant time " << fast.ToString()
                << ", scan " << scan.ToString();
@@ -292,7 +289,7 @@ TEST(HpNeighbors, Fig53ScanEqualsLevelScanOnRandomDeepCodes) {
     const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
     const PentaCode c = LongChainCode(rng, level, 0.5);
     for (int k = 1; k <= 5; ++k) {
-      ASSERT_EQ(hp::NeighborScan(c, k), NeighborByLevelScan<4>(c, k)) << c.ToString() << " " << k;
+      ASSERT_EQ(NeighborScan(c, k), NeighborByLevelScan<4>(c, k)) << c.ToString() << " " << k;
     }
   }
 }
@@ -303,15 +300,15 @@ TEST(HpNeighbors, CursorMaskStaysExactAlongRandomWalks) {
   std::mt19937_64 rng(71);
   for (int walk = 0; walk < 2000; ++walk) {
     const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
-    hp::PentaCursor cursor(LongChainCode(rng, level, 0.7));
+    PentaCursor cursor(LongChainCode(rng, level, 0.7));
     for (int step = 0; step < 500; ++step) {
       const PentaCode before = cursor.code();
       const int k = 1 + static_cast<int>(rng() % 5);
-      const PentaCode expected = hp::NeighborScan(before, k);
+      const PentaCode expected = NeighborScan(before, k);
       const bool moved = cursor.Step(k);
       ASSERT_EQ(moved, !expected.is_none());
       ASSERT_EQ(cursor.code(), moved ? expected : before);
-      ASSERT_EQ(cursor.mask(), hp::NeighborMask(cursor.code())) << before.ToString() << " " << k;
+      ASSERT_EQ(cursor.mask(), NeighborMask(cursor.code())) << before.ToString() << " " << k;
     }
   }
 }

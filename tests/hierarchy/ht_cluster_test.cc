@@ -8,7 +8,7 @@
 #include <unordered_map>
 
 #include "hierarchy/cluster.h"
-#include "hierarchy/ht_neighbors.h"
+#include "hierarchy/neighbors.h"
 #include "tests/hierarchy/ht_reference.h"
 
 namespace simplexdb {
@@ -59,7 +59,7 @@ TEST(HtCluster, ClustersEqualTheTetrahedraAroundTheSplitEdge) {
       // Closed under crossing the two faces that contain the split edge.
       for (const TetCode m : cluster) {
         for (int k : {3, 4}) {
-          const TetCode n = ht::Neighbor(m, k);
+          const TetCode n = Neighbor(m, k);
           ASSERT_TRUE(n.is_none() || got.count(n)) << m.ToString() << " type " << k;
         }
       }
@@ -126,7 +126,7 @@ bool SequenceWalksAround(TetCode code, const std::vector<int>& seq,
   std::set<TetCode> seen{code};
   TetCode cur = code;
   for (int type : seq) {
-    cur = ht::Neighbor(cur, type);
+    cur = Neighbor(cur, type);
     if (cur.is_none()) return false;
     seen.insert(cur);
   }

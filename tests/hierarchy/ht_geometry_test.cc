@@ -56,6 +56,14 @@ TEST(HtGeometry, ChildrenHalveTheParent) {
   });
 }
 
+// ChildVertices (one split, for descents) agrees with Vertices.
+TEST(HtGeometry, ChildVerticesFromTheParent) {
+  ForEachTetLiteral(11, [&](TetCode c, const Tet& t) {
+    if (c.level() == 11) return;
+    for (int i = 0; i < 2; ++i) ASSERT_EQ(ChildVertices(c, t, i), Vertices(c.child(i)));
+  });
+}
+
 // Shapes repeat every three levels at half the size (3.1.1): the level-3
 // descendants of a root are congruent to it, scaled by 1/2.
 TEST(HtGeometry, ShapesCycleEveryThreeLevels) {

@@ -7,7 +7,7 @@
 #include <random>
 #include <unordered_map>
 
-#include "hierarchy/ht_neighbors.h"
+#include "hierarchy/neighbors.h"
 #include "hierarchy/level_scan.h"
 #include "tests/hierarchy/ht_reference.h"
 
@@ -30,13 +30,13 @@ struct Algorithm {
   TetCode (*fn)(TetCode, int);
 };
 TetCode ByCursor(TetCode c, int type) {
-  ht::TetCursor cursor(c);
+  TetCursor cursor(c);
   return cursor.Step(type) ? cursor.code() : TetCode::None();
 }
 const Algorithm kAlgorithms[] = {
     {"level scan", &NeighborByLevelScan<3>},
-    {"Fig. 38 scan", &ht::NeighborScan},
-    {"constant time", &ht::Neighbor},
+    {"Fig. 38 scan", &NeighborScan<3>},
+    {"constant time", &Neighbor<3>},
     {"cursor", &ByCursor},
 };
 
@@ -86,7 +86,7 @@ TEST(HtNeighbors, RandomDeepCodesShareTheFaceGeometrically) {
     const Tet t = Vertices(c);
     for (int k = 1; k <= 4; ++k) {
       SCOPED_TRACE(::testing::Message() << c.ToString() << " type " << k);
-      const TetCode n = ht::Neighbor(c, k);
+      const TetCode n = Neighbor(c, k);
       if (n.is_none()) {
         ASSERT_TRUE(testing::OnCubeBoundary(FaceOf(t, k)));
         continue;
@@ -94,7 +94,7 @@ TEST(HtNeighbors, RandomDeepCodesShareTheFaceGeometrically) {
       const Tet u = Vertices(n);
       ASSERT_EQ(FaceOf(u, k), FaceOf(t, k));
       ASSERT_NE(u[4 - k], t[4 - k]) << "the apex must differ";
-      ASSERT_EQ(ht::Neighbor(n, k), c);
+      ASSERT_EQ(Neighbor(n, k), c);
     }
   }
 }
@@ -196,7 +196,7 @@ TEST(HtNeighbors, NeighborMaskIsTheParityOfBit1Below) {
     const int level = static_cast<int>(rng() % (TetCode::kMaxLevel + 1));
     const TetCode c = TetCode::FromPath(0, level ? rng() >> (64 - level) : 0, level);
     const uint64_t q = c.path() >> (level % 3);
-    const uint64_t mask = ht::NeighborMask(c);
+    const uint64_t mask = NeighborMask(c);
     int parity = 0;
     for (int p = 0; p < 64; ++p) {
       ASSERT_EQ(static_cast<int>(mask >> p & 1), parity) << c.ToString() << " bit " << p;
@@ -233,8 +233,8 @@ TEST(HtNeighbors, ConstantTimeEqualsScanOnTenMillionRandomCodes) {
                           : TetCode::FromPath(static_cast<int>(rng() % 6),
                                               level ? rng() >> (64 - level) : 0, level);
     for (int k = 1; k <= 4; ++k) {
-      const TetCode fast = ht::Neighbor(c, k);
-      const TetCode scan = ht::NeighborScan(c, k);
+      const TetCode fast = Neighbor(c, k);
+      const TetCode scan = NeighborScan(c, k);
       if (fast != scan) {
         FAIL() << c.ToString() << " type " << k << ": constant time "
                << fast.ToString() << ", scan " << scan.ToString();
@@ -250,7 +250,7 @@ TEST(HtNeighbors, Fig38ScanEqualsLevelScanOnRandomDeepCodes) {
     const int level = static_cast<int>(rng() % (TetCode::kMaxLevel + 1));
     const TetCode c = LongChainCode(rng, level, 0.5);
     for (int k = 1; k <= 4; ++k) {
-      ASSERT_EQ(ht::NeighborScan(c, k), NeighborByLevelScan<3>(c, k))
+      ASSERT_EQ(NeighborScan(c, k), NeighborByLevelScan<3>(c, k))
           << c.ToString() << " type " << k;
     }
   }
@@ -262,15 +262,15 @@ TEST(HtNeighbors, CursorMaskStaysExactAlongRandomWalks) {
   std::mt19937_64 rng(8);
   for (int walk = 0; walk < 2000; ++walk) {
     const int level = static_cast<int>(rng() % (TetCode::kMaxLevel + 1));
-    ht::TetCursor cursor(LongChainCode(rng, level, 0.7));
+    TetCursor cursor(LongChainCode(rng, level, 0.7));
     for (int step = 0; step < 500; ++step) {
       const TetCode before = cursor.code();
       const int k = 1 + static_cast<int>(rng() % 4);
-      const TetCode expected = ht::NeighborScan(before, k);
+      const TetCode expected = NeighborScan(before, k);
       const bool moved = cursor.Step(k);
       ASSERT_EQ(moved, !expected.is_none());
       ASSERT_EQ(cursor.code(), moved ? expected : before);
-      ASSERT_EQ(cursor.mask(), ht::NeighborMask(cursor.code()))
+      ASSERT_EQ(cursor.mask(), NeighborMask(cursor.code()))
           << before.ToString() << " type " << k;
     }
   }

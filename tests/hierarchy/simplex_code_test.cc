@@ -1,5 +1,7 @@
 #include "hierarchy/simplex_code.h"
 
+#include "hierarchy/geometry.h"
+
 #include <gtest/gtest.h>
 
 #include <functional>
@@ -47,7 +49,7 @@ TEST(SimplexCodeLayout, TextFormMatchesTheSeedsExample) {
 
 TYPED_TEST(SimplexCodeTest, ParseRejectsBadTextWithAReason) {
   using Code = TypeParam;
-  for (const char* bad : {"", "2", "x:01", ":01", "2:012", "2:1a", "-1:0",
+  for (const char* bad : {"", "2", "x:01", ":01", "2:012", "2:1a", "-1:0", "02:1", "00:",
                           "123:0", "99:"}) {
     SCOPED_TRACE(bad);
     const Result<Code> r = Code::Parse(bad);
@@ -91,6 +93,18 @@ TYPED_TEST(SimplexCodeTest, ValidityOfKeys) {
   const uint64_t bad_top = uint64_t(Code::kRoots) << (64 - Code::kTopBits);
   EXPECT_FALSE(Code::FromKey(bad_top).is_valid());
 }
+
+#ifndef NDEBUG
+// None() is what a neighbor query returns at the boundary; using it as a
+// code is a programming error that debug builds catch.
+TYPED_TEST(SimplexCodeTest, NoneIsNotACode) {
+  using Code = TypeParam;
+  EXPECT_DEATH((void)Code::None().parent(), "is_valid");
+  EXPECT_DEATH((void)Code::None().path(), "is_valid");
+  EXPECT_DEATH((void)Code::None().heap_index(), "is_valid");
+  EXPECT_DEATH((void)Vertices(Code::None()), "is_valid");
+}
+#endif
 
 TYPED_TEST(SimplexCodeTest, ParentChildSiblingAncestor) {
   using Code = TypeParam;

@@ -10,8 +10,7 @@
 
 #include "hierarchy/cluster.h"
 #include "hierarchy/geometry.h"
-#include "hierarchy/hp_neighbors.h"
-#include "hierarchy/ht_neighbors.h"
+#include "hierarchy/neighbors.h"
 #include "hierarchy/level_scan.h"
 #include "tests/tools/cli_runner.h"
 
@@ -122,6 +121,7 @@ TEST(CodesCli, BadLinesKeepAlignmentAndFail) {
 TEST(CodesCli, UsageErrors) {
   EXPECT_EQ(RunCli("codes").exit_code, 2);
   EXPECT_EQ(RunCli("codes --hierarchy nope").exit_code, 2);
+  EXPECT_EQ(RunCli("codes --hierarchy HT", "0:\n").exit_code, 0);  // case-insensitive
   EXPECT_EQ(RunCli("frobnicate").exit_code, 2);
   const auto help = RunCli("--help");
   EXPECT_EQ(help.exit_code, 0);

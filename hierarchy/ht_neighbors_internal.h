@@ -1,18 +1,7 @@
-// Face neighbors in the Hierarchy of Tetrahedra (seed sections 3.2 and 3.3).
-//
-// Two algorithms, same answers (tests/hierarchy/ht_neighbors_test.cc):
-//
-//   NeighborScan(code, k)   the nearest-common-ancestor scan driven by the
-//                           table of Fig. 38, one 3-bit group at a time.
-//                           O(level / 3).
-//   Neighbor(code, k)       the constant-time algorithm of section 3.3: a
-//   TetCursor::Step(k)      carry through the whole location code finds the
-//                           group where the scan would stop. TetCursor keeps
-//                           the neighbor mask and updates it in O(1) per
-//                           step (UPDATE_MASK, 3.3.5); Neighbor() derives the
-//                           mask from the code first (five shift-xors).
-//
-// Both return TetCode::None() when the face lies on the cube's boundary.
+// Internals of the HT's face-neighbor algorithms (seed sections 3.2, 3.3):
+// Fig. 38, the neighbor mask and the constant-time step. The public entry
+// points are in hierarchy/neighbors.h (NeighborCursor<3>, Neighbor,
+// NeighborScan, NeighborMask).
 //
 // Words and groups. A code at level L = 3G + r has r "tail" levels below the
 // last full group (the 1/2 or 1/4 pyramid levels of an unfinished group).
@@ -28,8 +17,9 @@
 // bottom is type k at group m when mask bit 3m+2 is 0, and 7-k otherwise.
 // Bit 3G says which one reaches the root.
 //
-// Cost notes (bench/ht_bench.cc has the figures): Step() is about twenty
-// ALU operations and one table load, independent of the level.
+// Cost notes (bench/hierarchy_bench.cc and bench/README.md have the
+// figures): a step is about seventy ALU operations and three loads,
+// independent of the level, and has no data-dependent branch.
 #pragma once
 
 #include <array>
@@ -86,17 +76,6 @@ constexpr uint64_t NeighborMaskOfGroups(uint64_t q) {
   return x << 1 | x << 2 | x << 3;
 }
 
-// The neighbor mask of a code, over its group word Q = path >> (level % 3).
-constexpr uint64_t NeighborMask(TetCode code) {
-  return NeighborMaskOfGroups(code.path() >> (code.level() % 3));
-}
-
-// The grouped nearest-common-ancestor scan (3.2, Fig. 38). O(level / 3).
-// REQUIRES: code.is_valid(), 1 <= type <= 4.
-constexpr TetCode NeighborScan(TetCode code, int type) {
-  return GroupScan<3>(code, type, kGroupSteps);
-}
-
 // The constant-time algorithm of 3.3 on a code split into its group word
 // `q` (path >> r) and its `tail` (the last r bits). On success updates `top`,
 // `q`, `tail` and `mask` in place and returns true; on the boundary returns
@@ -105,7 +84,7 @@ constexpr TetCode NeighborScan(TetCode code, int type) {
 // Written without data-dependent branches: the candidate answers (a flip in
 // the tail; NEIGHBOR_1, _2 and _3/_4 in the groups; a crossing to another
 // root) are all computed and the right one is selected at the end, so
-// random codes cost what worst-case codes cost (bench/ht_bench.cc).
+// random codes cost what worst-case codes cost (bench/hierarchy_bench.cc).
 // `steps` caches TailSteps<3>::kTable[r][tail], refreshed here after a flip
 // in the tail, so finding the sought type is one load.
 // REQUIRES: `mask` is NeighborMaskOfGroups(q); `shape` is LevelShape<3>(level);
@@ -163,54 +142,5 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& ta
   return true;
 }
 
-// A code together with its neighbor mask, for walks that take many neighbor
-// steps (clusters, edge walks, refinement).
-class TetCursor {
- public:
-  // O(1): derives the mask from the code.
-  // REQUIRES: code.is_valid().
-  explicit constexpr TetCursor(TetCode code)
-      : shape_(code.level()),
-        top_(code.top()),
-        q_(code.path() >> shape_.r),
-        tail_(code.path() & ((uint64_t{1} << shape_.r) - 1)),
-        steps_((*shape_.tail)[tail_]),
-        mask_(NeighborMaskOfGroups(q_)) {}
-
-  constexpr TetCode code() const {
-    return TetCode::FromPath(top_, q_ << shape_.r | tail_, level());
-  }
-  constexpr int level() const { return shape_.n + shape_.r; }
-  constexpr uint64_t mask() const { return mask_; }
-
-  // Moves to the neighbor across the face of `type`. Returns false, and
-  // stays, when that face is on the cube's boundary. O(1).
-  // REQUIRES: 1 <= type <= 4.
-  SDB_ALWAYS_INLINE constexpr bool Step(int type) {
-    return StepInPlace(top_, q_, tail_, steps_, mask_, shape_, type);
-  }
-
- private:
-  LevelShape<3> shape_;
-  int top_;
-  uint64_t q_;     // the group word: path >> r
-  uint64_t tail_;  // the last r bits of the path
-  std::array<TailStep, 4> steps_;  // TailSteps<3>::kTable[r][tail_]
-  uint64_t mask_;  // the neighbor mask of q_
-};
-
-// The constant-time neighbor of `code` across the face of `type`, or
-// TetCode::None() on the boundary.
-// REQUIRES: code.is_valid(), 1 <= type <= 4.
-constexpr TetCode Neighbor(TetCode code, int type) {
-  TetCursor cursor(code);
-  return cursor.Step(type) ? cursor.code() : TetCode::None();
-}
-
 }  // namespace ht
-
-// The HT's face neighbor for generic code (query/, cluster walks): the
-// constant-time algorithm.
-constexpr TetCode Neighbor(TetCode code, int type) { return ht::Neighbor(code, type); }
-
 }  // namespace simplexdb

@@ -1,17 +1,7 @@
-// Face neighbors in the Hierarchy of Pentatopes (seed sections 4.3 and 4.4).
-//
-// Two algorithms, same answers (tests/hierarchy/hp_neighbors_test.cc):
-//
-//   NeighborScan(code, k)    the nearest-common-ancestor scan driven by the
-//                            table of Fig. 53, one 4-bit group at a time.
-//   Neighbor(code, k)        the constant-time algorithm of 4.4: one carry
-//   PentaCursor::Step(k)     through the location code finds the group where
-//                            the scan would stop. PentaCursor keeps the
-//                            neighbor mask and updates it in O(1) by the
-//                            swaps of Fig. 56; Neighbor() derives it first.
-//
-// Both return PentaCode::None() when the face lies on the hypercube's
-// boundary.
+// Internals of the HP's face-neighbor algorithms (seed sections 4.3, 4.4):
+// Figs. 53 and 56, the neighbor mask and the constant-time step. The public
+// entry points are in hierarchy/neighbors.h (NeighborCursor<4>, Neighbor,
+// NeighborScan, NeighborMask).
 //
 // Groups. A code at level L = 4G + r has r tail levels (c-, s- and
 // e-pentatope levels of an unfinished period), stepped through with
@@ -107,7 +97,9 @@ constexpr uint64_t Mod3Lanes(uint64_t v) {
 
 // The neighbor mask of the group word `q` with `n` bits (lanes 0..n/4, the
 // last the root's slot). See the header comment for the algebra.
+// REQUIRES: n % 4 == 0, n <= 52, q < 2^n.
 constexpr uint64_t NeighborMaskOfGroups(uint64_t q, int n) {
+  assert(n % 4 == 0 && n <= 52 && (q >> n) == 0);
   const uint64_t b1 = (q >> 3) & kLaneLow;
   const uint64_t b2 = (q >> 2) & kLaneLow;
   // odd_j: the signs of groups 0..j multiply to -1 (E_{j+1} = -1).
@@ -131,17 +123,6 @@ constexpr uint64_t NeighborMaskOfGroups(uint64_t q, int n) {
   const uint64_t p4 = Mod3Lanes(p3 + kLaneLow + e_odd);    // + 1, or + 2 = -1
   const uint64_t lanes = (uint64_t{1} << (n + 4)) - 1;
   return ((p3 + kLaneLow) << 2 | (p4 + kLaneLow)) & lanes;  // codes are type - 2
-}
-
-constexpr uint64_t NeighborMask(PentaCode code) {
-  const int r = code.level() % 4;
-  return NeighborMaskOfGroups(code.path() >> r, code.level() - r);
-}
-
-// The grouped nearest-common-ancestor scan (4.3, Fig. 53). O(level / 4).
-// REQUIRES: code.is_valid(), 1 <= type <= 5.
-constexpr PentaCode NeighborScan(PentaCode code, int type) {
-  return GroupScan<4>(code, type, kGroupSteps);
 }
 
 // The cursor keeps the neighbor mask expanded: for each initial type k in
@@ -246,52 +227,5 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& ta
   return true;
 }
 
-// A code with its neighbor mask, for walks of many neighbor steps.
-class PentaCursor {
- public:
-  // Derives the mask from the code (no loop over the levels).
-  // REQUIRES: code.is_valid().
-  explicit constexpr PentaCursor(PentaCode code)
-      : shape_(code.level()),
-        top_(code.top()),
-        q_(code.path() >> shape_.r),
-        tail_(code.path() & ((uint64_t{1} << shape_.r) - 1)),
-        steps_((*shape_.tail)[tail_]),
-        sel_(SelectorsOfMask(NeighborMaskOfGroups(q_, shape_.n))) {}
-
-  constexpr PentaCode code() const {
-    return PentaCode::FromPath(top_, q_ << shape_.r | tail_, level());
-  }
-  constexpr int level() const { return shape_.n + shape_.r; }
-  // The neighbor mask in the seed's form (2-bit codes), as maintained.
-  constexpr uint64_t mask() const { return MaskOfSelectors(sel_); }
-
-  // Moves to the neighbor across the face of `type`; false, and stays, when
-  // that face is on the boundary. O(1).
-  // REQUIRES: 1 <= type <= 5.
-  SDB_ALWAYS_INLINE constexpr bool Step(int type) {
-    return StepInPlace(top_, q_, tail_, steps_, sel_, shape_, type);
-  }
-
- private:
-  LevelShape<4> shape_;
-  int top_;
-  uint64_t q_;
-  uint64_t tail_;
-  std::array<TailStep, 5> steps_;  // TailSteps<4>::kTable[r][tail_]
-  Selectors sel_;
-};
-
-// The constant-time neighbor of `code` across the face of `type`, or
-// PentaCode::None() on the boundary.
-// REQUIRES: code.is_valid(), 1 <= type <= 5.
-constexpr PentaCode Neighbor(PentaCode code, int type) {
-  PentaCursor cursor(code);
-  return cursor.Step(type) ? cursor.code() : PentaCode::None();
-}
-
 }  // namespace hp
-
-constexpr PentaCode Neighbor(PentaCode code, int type) { return hp::Neighbor(code, type); }
-
 }  // namespace simplexdb
