@@ -1,0 +1,392 @@
+// The error of a simplex over a grid: the seed's definition, the maximum
+// over grid points inside or on the simplex of |field - linear interpolation
+// at the simplex's vertices|, computed without ever approximating which
+// points are inside.
+//
+// Geometry is exact: the simplex's facets are integer half-spaces (inward
+// normals from the adjugate of the edge matrix), and each grid row (fixed
+// y, z, t) meets the simplex in an x-interval found by integer division.
+// Only points inside are visited; no bounding-box rejection. All of it fits
+// in 64 bits for every grid a location code can address (coordinates up to
+// 2^18 in 3D, 2^13 in 4D): determinants and dot products stay below 2^58.
+//
+// The interpolant in integer form: with A the matrix of edge vectors
+// v_j - v_0 and det = det(A), the gradient is adj(A) b / det for
+// b_j = f(v_j) - f(v_0). So
+//
+//   det * (f(p) - interp(p)) = (f(p) - f(v_0)) * det - G . (p - v_0),
+//   G = adj(A) b.
+//
+// For integer voxel types every term is an integer: the largest numerator
+// is exact (64-bit when a bound proves it fits, 128-bit otherwise), and the
+// error is one correctly rounded division, exactly zero when the field is
+// linear on the simplex. Float voxel types use the same form in double
+// precision (subtracting f(v_0) first keeps the rounding relative to the
+// field's range).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <type_traits>
+
+namespace simplexdb {
+
+__extension__ typedef __int128 Int128;
+
+template <int D>
+using IPoint = std::array<int64_t, D>;
+
+// The largest grid coordinate the 64-bit arithmetic below is proven for.
+template <int D>
+inline constexpr int64_t kMaxScanCoordinate = D == 3 ? (int64_t{1} << 18) : (int64_t{1} << 13);
+
+namespace internal {
+
+// Determinant of an N x N integer matrix, N <= 4. REQUIRES: entries bounded
+// so the result fits (see the header comment).
+template <int N>
+int64_t Det(const std::array<std::array<int64_t, N>, N>& m) {
+  if constexpr (N == 1) {
+    return m[0][0];
+  } else if constexpr (N == 2) {
+    return m[0][0] * m[1][1] - m[0][1] * m[1][0];
+  } else {
+    int64_t det = 0;
+    for (int c = 0; c < N; ++c) {
+      std::array<std::array<int64_t, N - 1>, N - 1> minor{};
+      for (int r = 1; r < N; ++r) {
+        int cc = 0;
+        for (int k = 0; k < N; ++k) {
+          if (k != c) minor[r - 1][cc++] = m[r][k];
+        }
+      }
+      const int64_t term = m[0][c] * Det<N - 1>(minor);
+      det += (c % 2 == 0) ? term : -term;
+    }
+    return det;
+  }
+}
+
+// floor(a / b) and ceil(a / b) for b != 0.
+inline int64_t FloorDiv(int64_t a, int64_t b) {
+  int64_t q = a / b;
+  if ((a % b != 0) && ((a < 0) != (b < 0))) --q;
+  return q;
+}
+inline int64_t CeilDiv(int64_t a, int64_t b) {
+  int64_t q = a / b;
+  if ((a % b != 0) && ((a < 0) == (b < 0))) ++q;
+  return q;
+}
+
+}  // namespace internal
+
+// Field values on a box of grid points, x fastest: rows are contiguous.
+template <int D>
+struct GridView {
+  const double* data = nullptr;
+  IPoint<D> lo{};
+  std::array<int64_t, D> stride{};  // stride[0] == 1
+
+  // The value at p; x runs contiguously from there.
+  const double* Row(const IPoint<D>& p) const {
+    int64_t i = 0;
+    for (int c = 0; c < D; ++c) i += (p[c] - lo[c]) * stride[c];
+    return data + i;
+  }
+  double At(const IPoint<D>& p) const { return *Row(p); }
+};
+
+// A simplex with integer vertices, prepared for scanning.
+template <int D>
+class ScannableSimplex {
+ public:
+  // REQUIRES: affinely independent vertices with coordinates in
+  // [0, kMaxScanCoordinate<D>].
+  explicit ScannableSimplex(const std::array<IPoint<D>, D + 1>& v) : v_(v) {
+    std::array<std::array<int64_t, D>, D> a{};
+    for (int j = 0; j < D; ++j) {
+      for (int c = 0; c < D; ++c) {
+        assert(v[j + 1][c] >= 0 && v[j + 1][c] <= kMaxScanCoordinate<D>);
+        a[j][c] = v[j + 1][c] - v[0][c];
+      }
+    }
+    det_ = internal::Det<D>(a);
+    assert(det_ != 0);
+    if constexpr (D == 3) {
+      // Columns of adj(A) are e2 x e3, e3 x e1, e1 x e2 (rows e1, e2, e3).
+      for (int j = 0; j < 3; ++j) {
+        const IPoint<3>& u = a[(j + 1) % 3];
+        const IPoint<3>& w = a[(j + 2) % 3];
+        adj_[0][j] = u[1] * w[2] - u[2] * w[1];
+        adj_[1][j] = u[2] * w[0] - u[0] * w[2];
+        adj_[2][j] = u[0] * w[1] - u[1] * w[0];
+      }
+    } else {
+      ComputeAdjugate(a);
+    }
+    ComputeFacets(v);
+  }
+
+ private:
+  // adj(A)[c][j] = (-1)^(c+j) * minor(A without row j, column c).
+  void ComputeAdjugate(const std::array<std::array<int64_t, D>, D>& a) {
+    for (int c = 0; c < D; ++c) {
+      for (int j = 0; j < D; ++j) {
+        std::array<std::array<int64_t, D - 1>, D - 1> m{};
+        int rr = 0;
+        for (int r = 0; r < D; ++r) {
+          if (r == j) continue;
+          int cc = 0;
+          for (int k = 0; k < D; ++k) {
+            if (k != c) m[rr][cc++] = a[r][k];
+          }
+          ++rr;
+        }
+        const int64_t minor = internal::Det<D - 1>(m);
+        adj_[c][j] = ((c + j) % 2 == 0) ? minor : -minor;
+      }
+    }
+  }
+
+  void ComputeFacets(const std::array<IPoint<D>, D + 1>& v) {
+    // Facets: facet i omits vertex i. A * adj(A) = det * I says that column
+    // c of adj(A) is orthogonal to every edge e_j = v_{j+1} - v_0 but e_c:
+    // it is the normal of the facet omitting v_{c+1}. Facet 0 (omitting
+    // v_0) has e_j . n equal for every j: n = -(sum of the columns).
+    for (int i = 0; i <= D; ++i) {
+      IPoint<D> n{};
+      for (int c = 0; c < D; ++c) {
+        if (i > 0) {
+          n[c] = adj_[c][i - 1];
+        } else {
+          for (int j = 0; j < D; ++j) n[c] -= adj_[c][j];
+        }
+      }
+      // Orient inward: the omitted vertex must be on the positive side.
+      const IPoint<D>& on = v[i == 0 ? 1 : 0];  // a vertex of the facet
+      int64_t side = 0;
+      for (int c = 0; c < D; ++c) side += n[c] * (v[i][c] - on[c]);
+      assert(side != 0);
+      if (side < 0) {
+        for (int c = 0; c < D; ++c) n[c] = -n[c];
+      }
+      int64_t offset = 0;
+      for (int c = 0; c < D; ++c) offset += n[c] * on[c];
+      normal_[i] = n;
+      offset_[i] = offset;
+    }
+    for (int c = 0; c < D; ++c) {
+      lo_[c] = hi_[c] = v[0][c];
+      for (int i = 1; i <= D; ++i) {
+        lo_[c] = std::min(lo_[c], v[i][c]);
+        hi_[c] = std::max(hi_[c], v[i][c]);
+      }
+    }
+  }
+
+ public:
+  const std::array<IPoint<D>, D + 1>& vertices() const { return v_; }
+  int64_t det() const { return det_; }
+  const IPoint<D>& box_lo() const { return lo_; }
+  const IPoint<D>& box_hi() const { return hi_; }
+
+  // True when p is inside or on the simplex (exact).
+  bool Contains(const IPoint<D>& p) const {
+    for (int i = 0; i <= D; ++i) {
+      int64_t s = 0;
+      for (int c = 0; c < D; ++c) s += normal_[i][c] * p[c];
+      if (s < offset_[i]) return false;
+    }
+    return true;
+  }
+
+  // Calls row(p, x_end) for every row of grid points inside or on the
+  // simplex and inside the box [lo, hi] (inclusive): p is the row's first
+  // point, x runs from p[0] to x_end inclusive.
+  template <class RowFn>
+  void ForEachRow(const IPoint<D>& box_lo, const IPoint<D>& box_hi, RowFn&& row) const {
+    IPoint<D> lo, hi;
+    for (int c = 0; c < D; ++c) {
+      lo[c] = std::max(lo_[c], box_lo[c]);
+      hi[c] = std::min(hi_[c], box_hi[c]);
+      if (lo[c] > hi[c]) return;
+    }
+    IPoint<D> p = lo;
+    // Odometer over the coordinates 1..D-1 (y fastest), x solved per row.
+    while (true) {
+      int64_t xmin = lo[0], xmax = hi[0];
+      bool empty = false;
+      for (int i = 0; i <= D && !empty; ++i) {
+        int64_t rest = 0;
+        for (int c = 1; c < D; ++c) rest += normal_[i][c] * p[c];
+        const int64_t rhs = offset_[i] - rest;  // need normal_x * x >= rhs
+        const int64_t nx = normal_[i][0];
+        if (nx == 1) {
+          xmin = std::max(xmin, rhs);
+        } else if (nx == -1) {
+          xmax = std::min(xmax, -rhs);
+        } else if (nx > 0) {
+          xmin = std::max(xmin, internal::CeilDiv(rhs, nx));
+        } else if (nx < 0) {
+          xmax = std::min(xmax, internal::FloorDiv(rhs, nx));
+        } else if (rhs > 0) {
+          empty = true;
+        }
+      }
+      if (!empty && xmin <= xmax) {
+        p[0] = xmin;
+        row(p, xmax);
+      }
+      int c = 1;
+      for (; c < D; ++c) {
+        if (p[c] < hi[c]) {
+          ++p[c];
+          break;
+        }
+        p[c] = lo[c];
+      }
+      if (c == D) return;
+    }
+  }
+
+  // G = adj(A) b for b_j = f(v_{j+1}) - f(v_0): the scaled gradient.
+  template <class T>
+  std::array<T, D> ScaledGradient(const std::array<T, D + 1>& f) const {
+    std::array<T, D> g{};
+    for (int c = 0; c < D; ++c) {
+      T s = 0;
+      for (int j = 0; j < D; ++j) s += static_cast<T>(adj_[c][j]) * (f[j + 1] - f[0]);
+      g[c] = s;
+    }
+    return g;
+  }
+
+ private:
+  std::array<IPoint<D>, D + 1> v_;
+  int64_t det_ = 0;
+  std::array<std::array<int64_t, D>, D> adj_{};
+  std::array<IPoint<D>, D + 1> normal_{};
+  std::array<int64_t, D + 1> offset_{};
+  IPoint<D> lo_{}, hi_{};
+};
+
+// The linear interpolant of a simplex's vertex values, scaled by det so it
+// stays integral for integer fields (see the header comment). T is int64_t
+// (integer voxel types: exact) or double (float voxel types).
+template <int D, class T>
+class Interpolant {
+ public:
+  Interpolant() = default;
+  // `f` holds the field at the vertices (clamped values for vertices
+  // outside the real grid). `max_value_step` bounds |f(p) - f(v_0)| over the
+  // points to scan (integer types: the type's range); `max_extent` bounds
+  // |p - v_0| per coordinate. Together they decide whether 64-bit numerators
+  // cannot overflow.
+  Interpolant(const ScannableSimplex<D>& s, const std::array<T, D + 1>& f, double max_value_step,
+              double max_extent)
+      : g_(s.template ScaledGradient<T>(f)), det_(s.det()), v0_(s.vertices()[0]), f0_(f[0]) {
+    double bound = max_value_step * std::abs(static_cast<double>(det_));
+    for (int c = 0; c < D; ++c) bound += std::abs(static_cast<double>(g_[c])) * max_extent;
+    fits64_ = bound < 0x1p61;
+  }
+
+  bool fits64() const { return fits64_; }
+  int64_t det() const { return det_; }
+
+  // Largest |det * (f(p) - interp(p))| over x in [x0, x1] of the row
+  // starting at p, whose values are row[0], row[1], ...; W is int64_t (when
+  // fits64()) or Int128 for exact fields, double for float fields.
+  template <class W>
+  W RowMax(const IPoint<D>& p, int64_t x1, const double* row, W worst) const {
+    W along = 0;
+    for (int c = 1; c < D; ++c) along += static_cast<W>(g_[c]) * static_cast<W>(p[c] - v0_[c]);
+    const W det = static_cast<W>(det_);
+    const W gx = static_cast<W>(g_[0]);
+    W n_x = -along - gx * static_cast<W>(p[0] - v0_[0]);  // the interpolant's part at x
+    const int64_t count = x1 - p[0] + 1;
+    for (int64_t i = 0; i < count; ++i) {
+      W value;
+      if constexpr (std::is_same_v<W, double>) {
+        value = row[i] - f0_;
+      } else {
+        value = static_cast<W>(static_cast<int64_t>(row[i]) - static_cast<int64_t>(f0_));
+      }
+      const W n = value * det + n_x;
+      worst = std::max(worst, n < 0 ? -n : n);
+      n_x -= gx;
+    }
+    return worst;
+  }
+
+  // The error from the largest numerator.
+  template <class W>
+  double ErrorOf(W numerator) const {
+    const int64_t adet = det_ < 0 ? -det_ : det_;
+    return static_cast<double>(numerator) / static_cast<double>(adet);
+  }
+
+ private:
+  std::array<T, D> g_{};
+  int64_t det_ = 1;
+  IPoint<D> v0_{};
+  T f0_{};
+  bool fits64_ = true;
+};
+
+// For every grid point p of simplex `rows` inside the box [lo, hi] (which
+// `view` must cover), and every interpolant j, tracks the largest
+// |field(p) - interp_j(p)|; raises errors[j] to it. Returns whether any
+// point was visited.
+template <int D, class T>
+bool MaxErrors(const ScannableSimplex<D>& rows, const Interpolant<D, T>* interps, int count,
+               const IPoint<D>& lo, const IPoint<D>& hi, const GridView<D>& view,
+               double* errors) {
+  constexpr int kMaxInterps = 64;
+  assert(count <= kMaxInterps);
+  const auto scan = [&](auto zero) {
+    using W = decltype(zero);
+    W worst[kMaxInterps] = {};
+    bool any = false;
+    rows.ForEachRow(lo, hi, [&](const IPoint<D>& p, int64_t x_end) {
+      any = true;
+      const double* row = view.Row(p);
+      for (int j = 0; j < count; ++j) worst[j] = interps[j].RowMax(p, x_end, row, worst[j]);
+    });
+    for (int j = 0; j < count; ++j) errors[j] = std::max(errors[j], interps[j].ErrorOf(worst[j]));
+    return any;
+  };
+  if constexpr (std::is_same_v<T, double>) {
+    return scan(double{0});
+  } else {
+    bool all64 = true;
+    for (int j = 0; j < count; ++j) all64 = all64 && interps[j].fits64();
+    return all64 ? scan(int64_t{0}) : scan(Int128{0});
+  }
+}
+
+// The error of simplex `s` itself over the box, with its own interpolant.
+struct ScanResult {
+  double error = 0;
+  bool any_point = false;
+};
+
+template <int D, class T>
+ScanResult MaxError(const ScannableSimplex<D>& s, const std::array<T, D + 1>& f,
+                    double max_value_step, const IPoint<D>& lo, const IPoint<D>& hi,
+                    const GridView<D>& view) {
+  double extent = 0;
+  for (int c = 0; c < D; ++c) {
+    extent = std::max(extent, static_cast<double>(s.box_hi()[c] - s.box_lo()[c]));
+  }
+  const Interpolant<D, T> interp(s, f, max_value_step, extent);
+  ScanResult r;
+  r.any_point = MaxErrors<D, T>(s, &interp, 1, lo, hi, view, &r.error);
+  return r;
+}
+
+}  // namespace simplexdb

@@ -1,0 +1,155 @@
+// Helpers for the store tests: temporary directories, small random volumes,
+// and the seed's error computed by brute force, independent of the builder.
+#pragma once
+
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "hierarchy/geometry.h"
+#include "hierarchy/simplex_code.h"
+#include "storage/nrrd_writer.h"
+#include "storage/simplex_scan.h"
+#include "storage/voxel_type.h"
+
+namespace simplexdb::testing {
+
+// A fresh directory, removed with everything in it at scope exit.
+class TempDir {
+ public:
+  TempDir() {
+    std::string t = std::filesystem::temp_directory_path().string() + "/simplexdb_test_XXXXXX";
+    path_ = mkdtemp(t.data());
+  }
+  ~TempDir() { std::filesystem::remove_all(path_); }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+// A volume held in memory, x fastest.
+struct TestVolume {
+  int dimension = 3;
+  std::array<uint32_t, 4> dims = {1, 1, 1, 1};
+  VoxelType type = VoxelType::kU8;
+  std::vector<double> values;
+
+  // Random values the type holds exactly (floats: dyadic fractions).
+  static TestVolume Random(int dimension, std::array<uint32_t, 4> dims, VoxelType type,
+                           uint64_t seed) {
+    TestVolume v{dimension, dims, type, {}};
+    std::mt19937_64 rng(seed);
+    uint64_t n = 1;
+    for (uint32_t d : dims) n *= d;
+    v.values.resize(n);
+    for (double& x : v.values) {
+      const uint64_t r = rng();
+      switch (type) {
+        case VoxelType::kU8: x = static_cast<double>(r % 256); break;
+        case VoxelType::kI8: x = static_cast<double>(static_cast<int>(r % 256) - 128); break;
+        case VoxelType::kU16: x = static_cast<double>(r % 65536); break;
+        case VoxelType::kI16: x = static_cast<double>(static_cast<int>(r % 6001) - 3000); break;
+        case VoxelType::kF32:
+        case VoxelType::kF64: x = static_cast<double>(static_cast<int>(r % 100001) - 50000) / 256.0; break;
+      }
+    }
+    return v;
+  }
+
+  double At(const std::array<int64_t, 4>& p) const {
+    uint64_t i = 0;
+    for (int a = 3; a >= 0; --a) i = i * dims[a] + static_cast<uint64_t>(p[a]);
+    return values[i];
+  }
+
+  // The value at a domain point: the nearest real point's (the padding).
+  template <int D>
+  double ClampedAt(const std::array<int64_t, D>& p) const {
+    std::array<int64_t, 4> q = {0, 0, 0, 0};
+    for (int a = 0; a < D; ++a) q[a] = std::clamp<int64_t>(p[a], 0, int64_t{dims[a]} - 1);
+    return At(q);
+  }
+
+  Status WriteNrrd(const std::string& path) const {
+    return ::simplexdb::WriteNrrd(path, dimension, dims, type, values);
+  }
+};
+
+// The seed's error of node `code` of a domain of side 2^k over `volume`:
+// every real grid point in the node's bounding box is tested for being in
+// the closed simplex by signed volumes, and compared with the barycentric
+// interpolation of the (clamped) vertex values. Exact: test values are
+// multiples of 1/256, so 256 * det * (value - interpolation) is an integer;
+// one division at the end.
+template <int D>
+long double BruteForceError(SimplexCode<D> code, int k, const TestVolume& volume) {
+  const auto lattice = Vertices(code);
+  std::array<IPoint<D>, D + 1> v{};
+  for (int i = 0; i <= D; ++i) {
+    for (int c = 0; c < D; ++c) v[i][c] = lattice[i][c] >> (kCoordBits<D> - k);
+  }
+  const auto volume_with = [&](int i, const IPoint<D>& p) {
+    auto w = v;
+    if (i >= 0) w[i] = p;
+    std::array<std::array<int64_t, D>, D> m{};
+    for (int j = 0; j < D; ++j) {
+      for (int c = 0; c < D; ++c) m[j][c] = w[j + 1][c] - w[0][c];
+    }
+    return internal::Det<D>(m);
+  };
+  const auto scaled = [](double value) { return static_cast<Int128>(std::llround(value * 256)); };
+  const Int128 total = volume_with(-1, v[0]);
+  std::array<Int128, D + 1> f{};
+  for (int i = 0; i <= D; ++i) f[i] = scaled(volume.ClampedAt<D>(v[i]));
+  IPoint<D> lo = v[0], hi = v[0];
+  for (const auto& q : v) {
+    for (int c = 0; c < D; ++c) {
+      lo[c] = std::min(lo[c], q[c]);
+      hi[c] = std::max(hi[c], q[c]);
+    }
+  }
+  for (int c = 0; c < D; ++c) {
+    hi[c] = std::min<int64_t>(hi[c], volume.dims[c] - 1);
+    if (lo[c] > hi[c]) return 0;  // no real point
+  }
+  Int128 worst = 0;
+  IPoint<D> p = lo;
+  while (true) {
+    bool inside = true;
+    Int128 interp = 0;  // det * 256 * interpolation
+    for (int i = 0; i <= D && inside; ++i) {
+      const Int128 part = volume_with(i, p);
+      if (part != 0 && (part > 0) != (total > 0)) inside = false;
+      interp += part * f[i];
+    }
+    if (inside) {
+      std::array<int64_t, 4> q = {0, 0, 0, 0};
+      for (int c = 0; c < D; ++c) q[c] = p[c];
+      const Int128 num = scaled(volume.At(q)) * total - interp;
+      worst = std::max(worst, num < 0 ? -num : num);
+    }
+    int c = 0;
+    for (; c < D; ++c) {
+      if (p[c] < hi[c]) {
+        ++p[c];
+        break;
+      }
+      p[c] = lo[c];
+    }
+    if (c == D) break;
+  }
+  const Int128 atotal = total < 0 ? -total : total;
+  return static_cast<long double>(worst) / (static_cast<long double>(atotal) * 256);
+}
+
+}  // namespace simplexdb::testing
