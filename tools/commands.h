@@ -27,5 +27,7 @@ class CommandError : public std::runtime_error {
 
 void RegisterCodesCommand(CLI::App& app);
 void RegisterInspectCommand(CLI::App& app);
+void RegisterStoreCommands(CLI::App& app);  // import, info, verify, export
+void RegisterGenerateCommand(CLI::App& app);
 
 }  // namespace simplexdb::tools

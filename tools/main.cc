@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   simplexdb::tools::RegisterCodesCommand(app);
   simplexdb::tools::RegisterInspectCommand(app);
+  simplexdb::tools::RegisterGenerateCommand(app);
+  simplexdb::tools::RegisterStoreCommands(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -9,18 +9,25 @@
 set -euo pipefail
 
 # Why each package is here:
-#   cmake, ninja-build, g++        the build
+#   cmake, ninja-build, g++,       the build (pkg-config finds zstd and xxhash)
+#   pkg-config
 #   libboost-dev                   boost::container::static_vector (hierarchy),
 #                                  Boost.Interprocess for memory mapping (storage)
+#   libzstd-dev                    compressed store blocks
+#   libxxhash-dev                  block and header checksums (XXH3)
+#   zlib1g-dev                     gzip-encoded NRRD input
 #   libfmt-dev                     formatting in the tools
 #   libcli11-dev                   the `simplexdb` command line
 #   nlohmann-json3-dev             JSON output (`codes`, `--json`)
 #   libgtest-dev, libgmock-dev     the test suites
 #   libbenchmark-dev               the benchmark suites
+#   python3-vtk9                   tests read the files we write with VTK itself
 PACKAGES=(
-  cmake ninja-build g++
-  libboost-dev libfmt-dev libcli11-dev nlohmann-json3-dev
+  cmake ninja-build g++ pkg-config
+  libboost-dev libzstd-dev libxxhash-dev zlib1g-dev
+  libfmt-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  python3-vtk9
 )
 
 install_missing_packages() {

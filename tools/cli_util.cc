@@ -1,0 +1,87 @@
+#include "tools/cli_util.h"
+
+#include <sys/resource.h>
+
+#include <charconv>
+#include <cmath>
+
+namespace simplexdb::tools {
+
+std::vector<double> ParseNumberList(std::string_view text, const char* option, size_t min_count,
+                                    size_t max_count) {
+  std::vector<double> out;
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = text.find(',', start);
+    const std::string item(text.substr(start, comma == std::string_view::npos ? std::string_view::npos
+                                                                              : comma - start));
+    char* end = nullptr;
+    const double v = std::strtod(item.c_str(), &end);
+    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(v)) {
+      throw CommandError(fmt::format("{}: '{}' is not a comma-separated list of numbers", option,
+                                     text),
+                         2);
+    }
+    out.push_back(v);
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  if (out.size() < min_count || out.size() > max_count) {
+    throw CommandError(fmt::format("{}: expected {} to {} numbers, got {} in '{}'", option,
+                                   min_count, max_count, out.size(), text),
+                       2);
+  }
+  return out;
+}
+
+std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension) {
+  const std::vector<double> v = ParseNumberList(text, "--dims", 3, 4);
+  std::array<uint32_t, 4> dims = {1, 1, 1, 1};
+  for (size_t i = 0; i < v.size(); ++i) {
+    if (v[i] < 2 || v[i] != std::floor(v[i]) || v[i] > 4294967295.0) {
+      throw CommandError(fmt::format("--dims: {} is not a whole number of at least 2 (in '{}')",
+                                     v[i], text),
+                         2);
+    }
+    dims[i] = static_cast<uint32_t>(v[i]);
+  }
+  *dimension = static_cast<int>(v.size());
+  return dims;
+}
+
+std::string HumanBytes(uint64_t bytes) {
+  static const char* kUnits[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+  double v = static_cast<double>(bytes);
+  int u = 0;
+  while (v >= 1024 && u < 4) {
+    v /= 1024;
+    ++u;
+  }
+  return u == 0 ? fmt::format("{} B", bytes) : fmt::format("{:.1f} {}", v, kUnits[u]);
+}
+
+uint64_t PeakResidentBytes() {
+  rusage r{};
+  getrusage(RUSAGE_SELF, &r);
+  return static_cast<uint64_t>(r.ru_maxrss) * 1024;  // Linux reports KiB
+}
+
+void ProgressLine::Update(const std::string& text) {
+  if (!enabled_) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (drawn_ && now - last_ < std::chrono::milliseconds(100)) return;
+  last_ = now;
+  std::fprintf(stderr, "\r\033[K%s", text.c_str());
+  std::fflush(stderr);
+  drawn_ = true;
+}
+
+void ProgressLine::Finish() {
+  if (enabled_ && drawn_) {
+    std::fprintf(stderr, "\r\033[K");
+    std::fflush(stderr);
+  }
+  drawn_ = false;
+}
+
+}  // namespace simplexdb::tools

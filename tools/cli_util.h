@@ -1,0 +1,49 @@
+// Small helpers shared by the `simplexdb` subcommands.
+#pragma once
+
+#include <unistd.h>
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "tools/commands.h"
+
+namespace simplexdb::tools {
+
+// "65,65,65" -> {65, 65, 65}; throws CommandError (exit 2) naming `option`
+// and the text otherwise.
+std::vector<double> ParseNumberList(std::string_view text, const char* option, size_t min_count,
+                                    size_t max_count);
+
+// Grid dimensions "X,Y,Z[,T]": every entry a whole number >= 2.
+std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension);
+
+// "1.5 GiB", "312 KiB", "17 B".
+std::string HumanBytes(uint64_t bytes);
+
+// Peak resident memory of this process, in bytes (getrusage).
+uint64_t PeakResidentBytes();
+
+// A one-line progress display on stderr, redrawn in place, only when stderr
+// is a terminal (scripts see nothing). Throttled to a few updates a second.
+class ProgressLine {
+ public:
+  explicit ProgressLine(bool enabled) : enabled_(enabled && isatty(2)) {}
+  ~ProgressLine() { Finish(); }
+  void Update(const std::string& text);
+  void Finish();
+
+ private:
+  bool enabled_;
+  bool drawn_ = false;
+  std::chrono::steady_clock::time_point last_{};
+};
+
+}  // namespace simplexdb::tools

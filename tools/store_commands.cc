@@ -1,0 +1,395 @@
+// `simplexdb import`, `info`, `verify` and `export`: building dense stores
+// from volumes and looking at them.
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "storage/dense_builder.h"
+#include "storage/dense_store.h"
+#include "storage/nrrd_writer.h"
+#include "storage/volume.h"
+#include "tools/cli_util.h"
+#include "tools/commands.h"
+
+namespace simplexdb::tools {
+namespace {
+
+using json = nlohmann::ordered_json;
+
+std::string HierarchyName(int dimension) { return dimension == 3 ? "ht" : "hp"; }
+
+[[noreturn]] void Fail(const Status& status) {
+  // Usage-like mistakes (bad values) exit 2 like CLI11's; the rest 1.
+  throw CommandError(std::string(status.message()), 1);
+}
+
+// --- import ----------------------------------------------------------------
+
+struct ImportArgs {
+  std::vector<std::string> inputs;
+  std::string output;
+  std::string hierarchy;
+  std::string dims;
+  std::string type;
+  std::string endian = "little";
+  uint64_t offset = 0;
+  std::string quantization = "u16";
+  std::string compression = "zstd";
+  bool sparse = false;
+  size_t memory_mb = 1024;
+  int threads = 0;
+  int levels_per_block = 14;
+  int zstd_level = 3;
+  bool json = false;
+  bool quiet = false;
+};
+
+VolumeInfo OpenInputs(const ImportArgs& a) {
+  if (a.dims.empty()) {
+    if (!a.type.empty() || a.offset != 0) {
+      throw CommandError("--type and --offset describe raw input and need --dims", 2);
+    }
+    Result<VolumeInfo> v = a.inputs.size() == 1 ? OpenVolume(a.inputs[0]) : OpenTimeSeries(a.inputs);
+    if (!v.ok()) Fail(v.status());
+    return *std::move(v);
+  }
+  if (a.type.empty()) throw CommandError("raw input needs --type (e.g. --type uint8)", 2);
+  Result<VoxelType> type = ParseVoxelType(a.type);
+  if (!type.ok()) throw CommandError("--type: " + std::string(type.status().message()), 2);
+  if (a.endian != "little" && a.endian != "big") {
+    throw CommandError("--endian: expected little or big, not '" + a.endian + "'", 2);
+  }
+  const ByteOrder order = a.endian == "big" ? ByteOrder::kBig : ByteOrder::kLittle;
+  int dimension = 0;
+  const std::array<uint32_t, 4> dims = ParseDims(a.dims, &dimension);
+  if (a.inputs.size() == 1) {
+    Result<VolumeInfo> v = OpenRawVolume(a.inputs[0], dimension, dims, *type, order, a.offset);
+    if (!v.ok()) Fail(v.status());
+    return *std::move(v);
+  }
+  // A time series of raw 3D volumes: one 4D volume, t in the order given.
+  if (dimension != 3) {
+    throw CommandError("several raw inputs form a time series of 3D volumes: give --dims X,Y,Z",
+                       2);
+  }
+  VolumeInfo series;
+  for (const std::string& path : a.inputs) {
+    Result<VolumeInfo> v = OpenRawVolume(path, 3, dims, *type, order, a.offset);
+    if (!v.ok()) Fail(v.status());
+    if (series.files.empty()) series = *v;
+    else series.files.push_back(path);
+  }
+  series.dimension = 4;
+  series.dims[3] = static_cast<uint32_t>(a.inputs.size());
+  series.description = fmt::format("time series of {} raw volumes ({}, ...)", a.inputs.size(),
+                                   a.inputs[0]);
+  return series;
+}
+
+void RunImport(const ImportArgs& a) {
+  if (a.sparse) {
+    throw CommandError(
+        "--sparse: the variable-resolution LMDB store is not built yet; import a dense store", 2);
+  }
+  const VolumeInfo input = OpenInputs(a);
+  const std::string expected = HierarchyName(input.dimension);
+  if (!a.hierarchy.empty() && a.hierarchy != expected) {
+    throw CommandError(fmt::format("--hierarchy {} needs a {}D volume; {} is {}D ({})", a.hierarchy,
+                                   a.hierarchy == "ht" ? 3 : 4, input.description,
+                                   input.dimension, FormatDims(input.dimension, input.dims)),
+                       2);
+  }
+  DenseBuildOptions options;
+  Result<Quantization> q = ParseQuantization(a.quantization);
+  if (!q.ok()) throw CommandError("--quantization: " + std::string(q.status().message()), 2);
+  options.quantization = *q;
+  Result<Compression> c = ParseCompression(a.compression);
+  if (!c.ok()) throw CommandError("--compression: " + std::string(c.status().message()), 2);
+  options.compression = *c;
+  options.memory_bytes = a.memory_mb << 20;
+  options.threads = a.threads;
+  options.levels_per_block = a.levels_per_block;
+  options.zstd_level = a.zstd_level;
+  ProgressLine line(!a.quiet);
+  options.progress = [&](const DenseBuildProgress& p) {
+    line.Update(fmt::format("{}: {} {}/{} ({:.0f}%), {:.1f} s", a.output, p.phase, p.done, p.total,
+                            p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
+  };
+  const Result<DenseBuildReport> built = BuildDenseStore(input, a.output, options);
+  line.Finish();
+  if (!built.ok()) Fail(built.status());
+  const DenseHeader& h = built->header;
+  const double points_per_second = built->grid_points / std::max(built->seconds, 1e-9);
+  const uint64_t peak = PeakResidentBytes();
+  if (a.json) {
+    json j;
+    j["store"] = a.output;
+    j["hierarchy"] = HierarchyName(h.dimension);
+    j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
+    j["domain_bits"] = h.domain_bits;
+    j["leaf_level"] = h.leaf_level();
+    j["nodes"] = built->nodes;
+    j["grid_points"] = built->grid_points;
+    j["seconds"] = built->seconds;
+    j["grid_points_per_second"] = points_per_second;
+    j["peak_memory_bytes"] = peak;
+    j["file_bytes"] = h.file_size;
+    std::cout << j.dump() << "\n";
+  } else if (!a.quiet) {
+    fmt::print("{}: {} over {} {} (domain 2^{} + 1 per axis, {} levels), {} errors, {}\n",
+               a.output, h.dimension == 3 ? "HT" : "HP", FormatDims(h.dimension, h.dims),
+               VoxelTypeName(h.voxel_type), h.domain_bits, h.leaf_level(),
+               QuantizationName(h.quantization), a.compression);
+    fmt::print("  built in {:.2f} s: {:.3g} grid points/s, {} nodes, peak memory {}\n",
+               built->seconds, points_per_second, built->nodes, HumanBytes(peak));
+    fmt::print("  {} on disk ({:.2f} bytes per grid point)\n", HumanBytes(h.file_size),
+               static_cast<double>(h.file_size) / built->grid_points);
+  }
+}
+
+// --- info ------------------------------------------------------------------
+
+std::unique_ptr<DenseStore> OpenStore(const std::string& path, const DenseStore::Options& o = {}) {
+  Result<std::unique_ptr<DenseStore>> s = DenseStore::Open(path, o);
+  if (!s.ok()) Fail(s.status());
+  return *std::move(s);
+}
+
+void RunInfo(const std::string& path, bool as_json) {
+  const auto store = OpenStore(path);
+  const DenseHeader& h = store->header();
+  uint64_t logical_errors = 0, logical_field = 0, stored_errors = 0, stored_field = 0;
+  uint64_t encodings[3] = {0, 0, 0};
+  for (uint64_t b = 0; b < store->block_count(); ++b) {
+    const IndexEntry& e = store->entry(b);
+    const bool is_error = b < store->error_block_count();
+    (is_error ? logical_errors : logical_field) += e.raw_size;
+    (is_error ? stored_errors : stored_field) += e.stored_size;
+    ++encodings[static_cast<int>(e.encoding)];
+  }
+  uint64_t points = 1;
+  for (int a = 0; a < h.dimension; ++a) points *= h.dims[a];
+  const uint64_t logical = logical_errors + logical_field;
+  const double ratio = static_cast<double>(logical) / static_cast<double>(h.file_size);
+  if (as_json) {
+    json j;
+    j["store"] = path;
+    j["kind"] = h.dimension == 3 ? "ht-dense" : "hp-dense";
+    j["hierarchy"] = HierarchyName(h.dimension);
+    j["format_version"] = h.version;
+    j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
+    j["grid_points"] = points;
+    j["domain_bits"] = h.domain_bits;
+    j["domain_side"] = (uint64_t{1} << h.domain_bits) + 1;
+    j["leaf_level"] = h.leaf_level();
+    j["voxel_type"] = VoxelTypeName(h.voxel_type);
+    j["quantization"] = QuantizationName(h.quantization);
+    j["quantum"] = h.quantum;
+    j["field_min"] = h.field_min;
+    j["field_max"] = h.field_max;
+    j["error_max"] = h.error_max;
+    j["levels_per_block"] = h.levels_per_block;
+    j["error_blocks"] = h.error_block_count;
+    j["field_bricks"] = h.brick_count;
+    j["blocks_zero"] = encodings[0];
+    j["blocks_raw"] = encodings[1];
+    j["blocks_zstd"] = encodings[2];
+    j["file_bytes"] = h.file_size;
+    j["logical_bytes"] = logical;
+    j["logical_error_bytes"] = logical_errors;
+    j["logical_field_bytes"] = logical_field;
+    j["stored_error_bytes"] = stored_errors;
+    j["stored_field_bytes"] = stored_field;
+    j["compression_ratio"] = ratio;
+    j["bytes_per_grid_point"] = static_cast<double>(h.file_size) / static_cast<double>(points);
+    j["source"] = h.source;
+    std::cout << j.dump() << "\n";
+    return;
+  }
+  fmt::print("{}: dense {} store (format {})\n", path, h.dimension == 3 ? "HT" : "HP", h.version);
+  fmt::print("  grid        {} {} ({} points), from {}\n", FormatDims(h.dimension, h.dims),
+             VoxelTypeName(h.voxel_type), points, h.source.empty() ? "?" : h.source);
+  fmt::print("  domain      side 2^{} + 1 = {}, {} levels ({} roots)\n", h.domain_bits,
+             (uint64_t{1} << h.domain_bits) + 1, h.leaf_level(), h.dimension == 3 ? 6 : 24);
+  fmt::print("  field       {} .. {}\n", h.field_min, h.field_max);
+  fmt::print("  errors      {} (quantum {:.6g}), largest {:.6g} ({:.3g}% of the range)\n",
+             QuantizationName(h.quantization), h.quantum, h.error_max,
+             h.field_max > h.field_min ? 100 * h.error_max / (h.field_max - h.field_min) : 0.0);
+  fmt::print("  blocks      {} error blocks of up to {} levels, {} field bricks; {} zero, {} raw, "
+             "{} zstd\n",
+             h.error_block_count, h.levels_per_block, h.brick_count, encodings[0], encodings[1],
+             encodings[2]);
+  fmt::print("  size        {} on disk, {} logical (errors {}, field {}): {:.2f}x, {:.2f} bytes "
+             "per grid point\n",
+             HumanBytes(h.file_size), HumanBytes(logical), HumanBytes(logical_errors),
+             HumanBytes(logical_field), ratio, static_cast<double>(h.file_size) / points);
+}
+
+// --- verify ----------------------------------------------------------------
+
+void RunVerify(const std::string& path, bool quiet) {
+  const auto store = OpenStore(path);  // header, size, index
+  ProgressLine line(!quiet);
+  const Status s = store->Verify([&](uint64_t done, uint64_t total) {
+    line.Update(fmt::format("{}: verifying block {}/{}", path, done, total));
+  });
+  line.Finish();
+  if (!s.ok()) Fail(s);
+  if (!quiet) fmt::print("{}: ok ({} blocks, every checksum and value range)\n", path, store->block_count());
+}
+
+// --- export ----------------------------------------------------------------
+
+struct ExportArgs {
+  std::string store;
+  std::string output;
+  std::string roi;
+  int step = 1;
+};
+
+template <int D>
+void ExportField(const DenseStore& store, const ExportArgs& a) {
+  const DenseHeader& h = store.header();
+  std::array<int64_t, 4> lo = {0, 0, 0, 0}, hi = {0, 0, 0, 0};
+  for (int c = 0; c < D; ++c) hi[c] = h.dims[c] - 1;
+  if (!a.roi.empty()) {
+    const std::vector<double> v = ParseNumberList(a.roi, "--roi", 2 * D, 2 * D);
+    for (int c = 0; c < D; ++c) {
+      lo[c] = static_cast<int64_t>(v[c]);
+      hi[c] = static_cast<int64_t>(v[D + c]);
+      if (v[c] != std::floor(v[c]) || v[D + c] != std::floor(v[D + c]) || lo[c] < 0 ||
+          hi[c] >= h.dims[c] || lo[c] > hi[c]) {
+        throw CommandError(fmt::format("--roi: axis {} range {}..{} is not within 0..{}", c,
+                                       v[c], v[D + c], h.dims[c] - 1),
+                           2);
+      }
+    }
+  }
+  if (a.step < 1) throw CommandError("--step must be at least 1", 2);
+  std::array<uint32_t, 4> dims = {1, 1, 1, 1};
+  for (int c = 0; c < D; ++c) dims[c] = static_cast<uint32_t>((hi[c] - lo[c]) / a.step + 1);
+  uint64_t count = 1;
+  for (uint32_t d : dims) count *= d;
+  std::vector<double> values(count);
+  DenseStore::Reader<D> reader(store);
+  std::array<int64_t, D> p{};
+  for (uint64_t i = 0; i < count; ++i) {
+    uint64_t rest = i;
+    for (int c = 0; c < D; ++c) {
+      p[c] = lo[c] + static_cast<int64_t>(rest % dims[c]) * a.step;
+      rest /= dims[c];
+    }
+    const Result<double> v = reader.Field(p);
+    if (!v.ok()) Fail(v.status());
+    values[i] = *v;
+  }
+  std::array<double, 4> spacing = h.spacing;
+  for (int c = 0; c < D; ++c) spacing[c] *= a.step;
+  const auto ends_with = [&](std::string_view suffix) {
+    return a.output.size() >= suffix.size() &&
+           a.output.compare(a.output.size() - suffix.size(), suffix.size(), suffix) == 0;
+  };
+  Status s;
+  std::string written = a.output;
+  if (ends_with(".nrrd")) {
+    s = WriteNrrd(a.output, D, dims, h.voxel_type, values, spacing);
+  } else {
+    const std::string base = ends_with(".raw") ? a.output.substr(0, a.output.size() - 4) : a.output;
+    written = a.output + " and " + base + ".nhdr";
+    s = WriteRawWithNhdr(a.output, base + ".nhdr", D, dims, h.voxel_type, values, spacing);
+  }
+  if (!s.ok()) Fail(s);
+  fmt::print("{}: {} {} values ({}) written to {}\n", a.store, count, VoxelTypeName(h.voxel_type),
+             FormatDims(D, dims), written);
+}
+
+}  // namespace
+
+void RegisterStoreCommands(CLI::App& app) {
+  {
+    auto a = std::make_shared<ImportArgs>();
+    auto* cmd = app.add_subcommand(
+        "import",
+        "Build a dense store from a volume: NRRD (.nrrd, .nhdr) and NIfTI-1 (.nii)\n"
+        "files describe themselves; raw files need --dims and --type. A 3D volume\n"
+        "builds a Hierarchy of Tetrahedra, a 4D one (or several 3D volumes, a time\n"
+        "series) a Hierarchy of Pentatopes. Any grid size: the domain is the\n"
+        "smallest cube of side 2^k + 1 points covering it (see README: padding).\n"
+        "Example: simplexdb import tooth.raw --dims 103,94,161 --type uint8 -o tooth.sdb");
+    cmd->add_option("input", a->inputs, "volume file(s); several 3D files form a time series")
+        ->required();
+    cmd->add_option("-o,--output", a->output, "the store to write")->required();
+    cmd->add_option("--hierarchy", a->hierarchy, "ht or hp (checked against the volume)")
+        ->check(CLI::IsMember({"ht", "hp"}));
+    cmd->add_option("--dims", a->dims, "raw input: X,Y,Z or X,Y,Z,T (x fastest)");
+    cmd->add_option("--type", a->type, "raw input: uint8|int8|uint16|int16|float32|float64");
+    cmd->add_option("--endian", a->endian, "raw input: little|big")->capture_default_str();
+    cmd->add_option("--offset", a->offset, "raw input: header bytes to skip")->capture_default_str();
+    cmd->add_option("--quantization", a->quantization,
+                    "errors as u16 (the seed's 14n bytes), u8 (7n) or f32; always rounded up")
+        ->capture_default_str();
+    cmd->add_option("--compression", a->compression, "blocks as zstd frames or none (raw)")
+        ->capture_default_str();
+    cmd->add_flag("--sparse", a->sparse, "build the variable-resolution LMDB store (not yet)");
+    cmd->add_option("--memory-mb", a->memory_mb, "the builder's memory bound")
+        ->capture_default_str();
+    cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")
+        ->capture_default_str();
+    cmd->add_option("--levels-per-block", a->levels_per_block, "levels of the hierarchy per error block")
+        ->capture_default_str()
+        ->check(CLI::Range(1, 24));
+    cmd->add_option("--zstd-level", a->zstd_level, "zstd compression level")->capture_default_str();
+    cmd->add_flag("--json", a->json, "print the build report as JSON");
+    cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
+    cmd->callback([a] { RunImport(*a); });
+  }
+  {
+    auto path = std::make_shared<std::string>();
+    auto as_json = std::make_shared<bool>(false);
+    auto* cmd = app.add_subcommand(
+        "info", "Describe a store: kind, grid, levels, value ranges, quantization, sizes on\n"
+                "disk against logical, compression ratio.");
+    cmd->add_option("store", *path, "a store file")->required();
+    cmd->add_flag("--json", *as_json, "as one JSON object");
+    cmd->callback([path, as_json] { RunInfo(*path, *as_json); });
+  }
+  {
+    auto path = std::make_shared<std::string>();
+    auto quiet = std::make_shared<bool>(false);
+    auto* cmd = app.add_subcommand(
+        "verify", "Check every checksum and invariant of a store; exit 0 only if all hold,\n"
+                  "otherwise 1 with the first bad block named.");
+    cmd->add_option("store", *path, "a store file")->required();
+    cmd->add_flag("-q,--quiet", *quiet, "no progress or summary");
+    cmd->callback([path, quiet] { RunVerify(*path, *quiet); });
+  }
+  {
+    auto a = std::make_shared<ExportArgs>();
+    auto* cmd = app.add_subcommand(
+        "export",
+        "Write a store's field back out: OUT.nrrd as one NRRD file, anything else\n"
+        "as raw with a detached NRRD header beside it (OUT.raw + OUT.nhdr). Values\n"
+        "are the store's own, losslessly.\n"
+        "Example: simplexdb export tooth.sdb --roi 0,0,0,50,50,80 --step 2 -o part.nrrd");
+    cmd->add_option("store", a->store, "a store file")->required();
+    cmd->add_option("-o,--output", a->output, "OUT.nrrd, or OUT.raw (+ OUT.nhdr)")->required();
+    cmd->add_option("--roi", a->roi, "x0,y0,z0[,t0],x1,y1,z1[,t1]: a box of the grid, inclusive");
+    cmd->add_option("--step", a->step, "every step-th point along each axis (a coarser resolution)")
+        ->capture_default_str();
+    cmd->callback([a] {
+      const auto store = OpenStore(a->store);
+      if (store->dimension() == 3) {
+        ExportField<3>(*store, *a);
+      } else {
+        ExportField<4>(*store, *a);
+      }
+    });
+  }
+}
+
+}  // namespace simplexdb::tools
