@@ -173,15 +173,17 @@ template <int D>
 constexpr std::array<std::array<int8_t, D + 1>, SimplexCode<D>::kRoots>
 DeriveRootFaceToRoot() {
   constexpr int kRoots = SimplexCode<D>::kRoots;
+  std::array<SimplexVertices<D>, kRoots> roots{};
+  for (int r = 0; r < kRoots; ++r) roots[r] = RootVertices<D>(r);
   std::array<std::array<int8_t, D + 1>, kRoots> table{};
   for (int r = 0; r < kRoots; ++r) {
-    const SimplexVertices<D> a = RootVertices<D>(r);
+    const SimplexVertices<D>& a = roots[r];
     for (int k = 1; k <= D + 1; ++k) {
       table[r][k - 1] = -1;
       const int omit = OmittedVertex<D>(k);
       for (int s = 0; s < kRoots; ++s) {
         if (s == r) continue;
-        const SimplexVertices<D> b = RootVertices<D>(s);
+        const SimplexVertices<D>& b = roots[s];
         // Same face type, vertex by vertex: stricter than the same vertex
         // set, and what crossing between roots with the rest of the path
         // unchanged needs (SEED-ERRATA item 3).

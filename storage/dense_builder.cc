@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -39,6 +40,8 @@ Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_p
   std::atomic<uint64_t> done{0};
   std::atomic<bool> failed{false};
   std::mutex mu;
+  std::condition_variable finished;
+  int running = threads;
   Status first_failure;
   std::vector<std::thread> pool;
   for (int w = 0; w < threads; ++w) {
@@ -54,13 +57,18 @@ Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_p
         }
         done.fetch_add(1, std::memory_order_relaxed);
       }
+      std::lock_guard<std::mutex> lock(mu);
+      if (--running == 0) finished.notify_all();
     });
   }
   if (progress) {
-    while (done.load() < count && !failed.load()) {
+    // Report a few times a second; wake as soon as the workers are done.
+    std::unique_lock<std::mutex> lock(mu);
+    while (!finished.wait_for(lock, std::chrono::milliseconds(200), [&] { return running == 0; })) {
+      lock.unlock();
       const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
       progress(DenseBuildProgress{phase, done.load(), count, seconds});
-      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      lock.lock();
     }
   }
   for (auto& t : pool) t.join();
@@ -100,8 +108,10 @@ class Builder {
         threads_(options.threads > 0 ? options.threads
                                      : std::max(1, static_cast<int>(
                                                        std::thread::hardware_concurrency()))),
-        k_(DomainBitsFor(D, input.dims)),
-        layout_(D * std::max(k_, 1), options.levels_per_block),
+        // At least k = 1: a grid of 2 points per axis still has internal
+        // nodes (in a domain of side 2, padded).
+        k_(std::max(1, DomainBitsFor(D, input.dims))),
+        layout_(D * k_, options.levels_per_block),
         bricks_(D, input.dims, options.brick_bits > 0 ? options.brick_bits : (D == 3 ? 5 : 4)),
         exact_(IsIntegerType(input.type)),
         start_(Clock::now()) {}
@@ -431,11 +441,18 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
   const IPoint<D> real_hi = RealHigh();
   bool outside = false;
   for (int c = 0; c < D; ++c) outside = outside || root_simplex.box_lo()[c] > real_hi[c];
-  std::vector<uint32_t> codes(entries, 0);
-  if (outside) {  // wholly in the padding: every error is 0
-    return WriteErrorBlock(block, codes, static_cast<float>(field_min_),
-                           static_cast<float>(field_max_), 0, *zstd);
+  if (outside) {
+    // Wholly in the padding: every error is 0, a zero block (no bytes). The
+    // common case for padded domains, so no block is materialized.
+    IndexEntry& entry = index_[block];
+    entry.encoding = BlockEncoding::kZero;
+    entry.raw_size = entries * static_cast<uint32_t>(QuantizedSize(options_.quantization));
+    entry.checksum = Checksum({});
+    entry.field_min = RoundDownToFloat(field_min_);
+    entry.field_max = RoundUpToFloat(field_max_);
+    return Status::OK();
   }
+  std::vector<uint32_t> codes(entries, 0);
   Region region;
   region.lo = root_simplex.box_lo();
   region.hi = root_simplex.box_hi();
@@ -582,10 +599,11 @@ Status Builder<D>::WriteErrorBlock(uint64_t block, const std::vector<uint32_t>& 
   entry.checksum = Checksum(stored.bytes);
   entry.field_min = field_min;
   entry.field_max = field_max;
-  // The largest stored (decoded) error, so a reader can trust it as a bound.
-  double stored_max = 0;
-  for (uint32_t c : codes) stored_max = std::max(stored_max, quantizer_->Decode(c));
-  entry.error_max = RoundUpToFloat(std::max(stored_max, error_max));
+  // The largest stored (decoded) error, so a reader can trust it as a
+  // bound. Decoding is monotone in the stored bits (codes; non-negative
+  // floats), so it is the largest entry's.
+  const uint32_t largest = codes.empty() ? 0 : *std::max_element(codes.begin(), codes.end());
+  entry.error_max = RoundUpToFloat(std::max(quantizer_->Decode(largest), error_max));
   if (!stored.bytes.empty()) {
     SDB_ASSIGN_OR_RETURN(entry.offset, writer_->Append(stored.bytes));
   }

@@ -79,7 +79,6 @@ constexpr size_t kOffIndexChecksum = 136;
 constexpr size_t kOffSourceLength = 144;
 constexpr size_t kOffSource = 145;
 constexpr size_t kMaxSource = 255;
-constexpr size_t kOffReservedTail = kOffSource + kMaxSource;  // 400
 constexpr size_t kOffChecksum = kHeaderSize - 8;              // 4088
 
 }  // namespace
@@ -168,13 +167,14 @@ Result<DenseHeader> ParseHeader(std::span<const uint8_t> bytes, std::string_view
   const auto corrupt = [&](const std::string& why) {
     return Status::Corruption(where + ": header: " + why);
   };
+  const uint8_t* b = bytes.data();
+  if (bytes.size() < kDenseMagic.size() ||
+      std::memcmp(b + kOffMagic, kDenseMagic.data(), kDenseMagic.size()) != 0) {
+    return Status::InvalidArgument(where + ": not a SimplexDB dense store (bad magic)");
+  }
   if (bytes.size() < kHeaderSize) {
     return corrupt("the file is " + std::to_string(bytes.size()) +
                    " bytes, shorter than a header (" + std::to_string(kHeaderSize) + ")");
-  }
-  const uint8_t* b = bytes.data();
-  if (std::memcmp(b + kOffMagic, kDenseMagic.data(), kDenseMagic.size()) != 0) {
-    return Status::InvalidArgument(where + ": not a SimplexDB dense store (bad magic)");
   }
   const uint64_t stored = Get64(b + kOffChecksum);
   if (stored != Checksum(std::span<const uint8_t>(b, kOffChecksum))) {
