@@ -102,6 +102,7 @@ const Case kCases[] = {
     {"hp5_u8", 4, {5, 5, 5, 5}, VoxelType::kU8, 14},
     {"hp9_i16_bands", 4, {9, 9, 9, 9}, VoxelType::kI16, 5},
     {"hp_padded_f64", 4, {6, 5, 4, 3}, VoxelType::kF64, 4},
+    {"ht_two_points", 3, {2, 2, 2, 1}, VoxelType::kU8, 14},  // k = 1, padded to 3^3
 };
 
 INSTANTIATE_TEST_SUITE_P(

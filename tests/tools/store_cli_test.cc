@@ -1,0 +1,185 @@
+// simplexdb import / info / verify / export / generate end to end: what a
+// user sees for good and bad input, a killed build, round trips.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "storage/dense_store.h"
+#include "storage/volume.h"
+#include "tests/storage/store_test_util.h"
+#include "tests/tools/cli_runner.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::RunCli;
+using testing::TempDir;
+namespace fs = std::filesystem;
+
+std::vector<double> ReadAll(const std::string& path) {
+  const VolumeInfo info = *OpenVolume(path);
+  auto reader = *VolumeReader::Open(info);
+  std::vector<double> v(info.voxel_count());
+  EXPECT_TRUE(reader->Read(0, v.size(), v.data()).ok());
+  return v;
+}
+
+TEST(StoreCli, GenerateImportInfoVerifyExport) {
+  const TempDir dir;
+  const std::string in = dir.path() + "/p.nrrd", store = dir.path() + "/p.sdb";
+  auto r = RunCli("generate --field perlin --dims 17,13,9 --type int16 --seed 3 -o " + in);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli("import " + in + " -o " + store + " --quantization u8 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto report = nlohmann::json::parse(r.out);
+  EXPECT_EQ(report["hierarchy"], "ht");
+  EXPECT_EQ(report["leaf_level"], 12);  // 17 -> domain 2^4 + 1, 3 levels per halving
+  r = RunCli("info " + store + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto info = nlohmann::json::parse(r.out);
+  EXPECT_EQ(info["kind"], "ht-dense");
+  EXPECT_EQ(info["quantization"], "u8");
+  EXPECT_EQ(info["dims"], (std::vector<int>{17, 13, 9}));
+  EXPECT_EQ(info["voxel_type"], "int16");
+  EXPECT_GT(info["compression_ratio"].get<double>(), 1.0);
+  EXPECT_EQ(info["file_bytes"].get<uint64_t>(), fs::file_size(store));
+  EXPECT_EQ(RunCli("verify " + store).exit_code, 0);
+  // The field comes back losslessly, whole or as a box at a coarser step.
+  ASSERT_EQ(RunCli("export " + store + " -o " + dir.path() + "/back.nrrd").exit_code, 0);
+  EXPECT_EQ(ReadAll(dir.path() + "/back.nrrd"), ReadAll(in));
+  r = RunCli("export " + store + " --roi 2,1,0,10,12,8 --step 2 -o " + dir.path() + "/box.raw");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::vector<double> all = ReadAll(in), box = ReadAll(dir.path() + "/box.nhdr");
+  ASSERT_EQ(box.size(), 5u * 6 * 5);
+  size_t i = 0;
+  for (int z = 0; z <= 8; z += 2) {
+    for (int y = 1; y <= 12; y += 2) {
+      for (int x = 2; x <= 10; x += 2) ASSERT_EQ(box[i++], all[(z * 13 + y) * 17 + x]);
+    }
+  }
+}
+
+TEST(StoreCli, RealVolumesAndTimeSeries) {
+  const std::string data = SIMPLEXDB_SHARED_DATA;
+  if (!fs::exists(data)) GTEST_SKIP() << "no " << data;
+  const TempDir dir;
+  auto r = RunCli("import " + data + "/bucky/bucky_32x32x32_uint8.raw --dims 32,32,32 --type uint8 -o " +
+                  dir.path() + "/b.sdb --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["domain_bits"], 5);  // 32 needs 2^5 + 1
+  EXPECT_EQ(RunCli("verify " + dir.path() + "/b.sdb").exit_code, 0);
+  // A 4D NIfTI file builds an HP.
+  r = RunCli("import " + data + "/dwi_small_101D/small_101D.nii -o " + dir.path() + "/d.sdb --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["hierarchy"], "hp");
+  // Several 3D volumes: a time series, an HP.
+  for (int t = 0; t < 3; ++t) {
+    ASSERT_EQ(RunCli("generate --field perlin --dims 9,9,9 --seed " + std::to_string(t) + " -o " +
+                     dir.path() + "/t" + std::to_string(t) + ".nrrd")
+                  .exit_code,
+              0);
+  }
+  r = RunCli("import " + dir.path() + "/t0.nrrd " + dir.path() + "/t1.nrrd " + dir.path() +
+             "/t2.nrrd -o " + dir.path() + "/ts.sdb --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli("info " + dir.path() + "/ts.sdb --json");
+  EXPECT_EQ(nlohmann::json::parse(r.out)["dims"], (std::vector<int>{9, 9, 9, 3}));
+}
+
+TEST(StoreCli, BadInputSaysWhatAndWhere) {
+  const TempDir dir;
+  const std::string raw = dir.path() + "/v.raw";
+  std::ofstream(raw, std::ios::binary) << std::string(1000, 'x');
+  // Wrong dims for the file size.
+  auto r = RunCli("import " + raw + " --dims 10,10,11 --type uint8 -o " + dir.path() + "/s.sdb");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("v.raw"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1100"), std::string::npos) << r.err;  // bytes expected
+  EXPECT_FALSE(fs::exists(dir.path() + "/s.sdb"));
+  // Unsupported voxel type, missing type, unknown quantization: usage errors.
+  EXPECT_EQ(RunCli("import " + raw + " --dims 10,10,10 --type int32 -o x.sdb").exit_code, 2);
+  EXPECT_EQ(RunCli("import " + raw + " --dims 10,10,10 -o x.sdb").exit_code, 2);
+  EXPECT_EQ(RunCli("import " + raw + " --dims 10,10,10 --type uint8 --quantization u4 -o x.sdb")
+                .exit_code,
+            2);
+  // A 3D volume asked to build an HP.
+  r = RunCli("import " + raw + " --dims 10,10,10 --type uint8 --hierarchy hp -o " + dir.path() +
+             "/s.sdb");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("4D"), std::string::npos) << r.err;
+  // NaN in float input.
+  testing::TestVolume nan = testing::TestVolume::Random(3, {4, 4, 4, 1}, VoxelType::kF32, 1);
+  nan.values[7] = std::nan("");
+  ASSERT_TRUE(nan.WriteNrrd(dir.path() + "/nan.nrrd").ok());
+  r = RunCli("import " + dir.path() + "/nan.nrrd -o " + dir.path() + "/n.sdb");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("NaN"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(3, 1, 0)"), std::string::npos) << r.err;  // voxel 7 of 4x4x4
+  // Not a store; a damaged store.
+  r = RunCli("info " + raw);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("not a SimplexDB"), std::string::npos) << r.err;
+  ASSERT_EQ(RunCli("generate --dims 9,9,9 -o " + dir.path() + "/g.nrrd").exit_code, 0);
+  ASSERT_EQ(RunCli("import " + dir.path() + "/g.nrrd -o " + dir.path() + "/g.sdb").exit_code, 0);
+  {
+    std::fstream f(dir.path() + "/g.sdb", std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(kHeaderSize + 10);
+    f.put('\x5a');
+  }
+  r = RunCli("verify " + dir.path() + "/g.sdb");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("block"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("checksum"), std::string::npos) << r.err;
+}
+
+// A build killed part-way leaves nothing under the store's name, and the
+// next build succeeds (and removes the dead build's temporary file).
+TEST(StoreCli, KilledBuildLeavesNoStore) {
+  const TempDir dir;
+  const std::string in = dir.path() + "/big.nrrd", store = dir.path() + "/big.sdb";
+  ASSERT_EQ(RunCli("generate --field perlin --dims 129,129,129 -o " + in).exit_code, 0);
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      execl(SIMPLEXDB_CLI, SIMPLEXDB_CLI, "import", in.c_str(), "-o", store.c_str(), "-q",
+            "--threads", "1", static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    // Wait until the build is writing, then kill it without warning.
+    const auto temporary_exists = [&] {
+      for (const auto& e : fs::directory_iterator(dir.path())) {
+        if (e.path().filename().string().find("big.sdb.tmp.") == 0) return true;
+      }
+      return false;
+    };
+    const auto start = std::chrono::steady_clock::now();
+    while (!temporary_exists() && std::chrono::steady_clock::now() - start < std::chrono::seconds(20)) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100 * attempt));
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status)) << "the build finished before it was killed";
+    EXPECT_FALSE(fs::exists(store)) << "a partial store under the final name";
+  }
+  const auto r = RunCli("import " + in + " -o " + store + " -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(RunCli("verify " + store + " -q").exit_code, 0);
+  for (const auto& e : fs::directory_iterator(dir.path())) {
+    EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << e.path();
+  }
+}
+
+}  // namespace
+}  // namespace simplexdb
