@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# The dense store's scale run: a 1025^3 Perlin volume (1.08 billion grid
+# points, about 6.4 billion tetrahedra) built into an HT store with the
+# builder's memory bounded to 4 GiB. Prints the build report (time, peak
+# memory) and the store's info (size), and fails if the peak resident memory
+# exceeds the bound.
+#
+#   bench/scale_1025.sh [WORK_DIR]     (needs ~10 GB of disk; ~20 min on 2 cores)
+#
+# Also ctest's ScaleBuild1025 (label "long", not in the default suite).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+simplexdb=${SIMPLEXDB:-build/release/tools/simplexdb}
+work=${1:-$(mktemp -d)}
+limit_mb=4096
+mkdir -p "$work"
+trap 'rm -f "$work/perlin1025.nrrd" "$work/perlin1025.sdb"' EXIT
+start=$(date +%s)
+"$simplexdb" generate --field perlin --dims 1025,1025,1025 --type uint8 -q -o "$work/perlin1025.nrrd"
+echo "generated in $(( $(date +%s) - start )) s" >&2
+report=$("$simplexdb" import "$work/perlin1025.nrrd" -o "$work/perlin1025.sdb" \
+         --memory-mb "$limit_mb" --json -q)
+echo "$report"
+"$simplexdb" info "$work/perlin1025.sdb" --json
+peak=$(python3 -c 'import json,sys; print(json.loads(sys.argv[1])["peak_memory_bytes"])' "$report")
+if (( peak > limit_mb * 1024 * 1024 )); then
+  echo "peak memory $peak bytes exceeds the ${limit_mb} MiB bound" >&2
+  exit 1
+fi

@@ -1,0 +1,251 @@
+// Dense store benchmarks (issue 4):
+//
+//   ErrorLookup/<store>/<order>   ns per error lookup on a Perlin 129^3 store:
+//                                 in memory, mapped raw, zstd with a warm cache
+//                                 and with no cache (every new block decoded),
+//                                 random codes or a depth-first walk.
+//   Build/<volume>                build throughput (grid points/s) and peak
+//                                 memory of `simplexdb import` (a child process).
+//   Size/<volume>/<mode>          bytes per grid point on disk for each
+//                                 quantization and compression, against the
+//                                 seed's 14n (u16) and 7n (u8) bytes.
+//
+//   build/release/bench/storage_bench --benchmark_filter=ErrorLookup
+//
+// Volumes are generated into a temporary directory (fixed seeds) or read
+// from ../shared/data when it is there.
+#include <benchmark/benchmark.h>
+#include <stdlib.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "storage/dense_builder.h"
+#include "storage/dense_store.h"
+#include "storage/generate.h"
+#include "storage/nrrd_writer.h"
+#include "storage/volume.h"
+
+namespace simplexdb {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string& WorkDir() {
+  static const std::string dir = [] {
+    std::string t = fs::temp_directory_path().string() + "/simplexdb_bench_XXXXXX";
+    return std::string(mkdtemp(t.data()));
+  }();
+  return dir;
+}
+
+// A Perlin volume (uint8, like the seed's byte-valued data), written once.
+std::string PerlinVolume(int dimension, uint32_t side) {
+  const std::string path = WorkDir() + "/perlin" + std::to_string(dimension) + "d_" +
+                           std::to_string(side) + ".nrrd";
+  if (fs::exists(path)) return path;
+  GenerateOptions g;
+  g.dimension = dimension;
+  g.dims = {side, side, side, dimension == 4 ? side : 1u};
+  const FieldGenerator field(g);
+  uint64_t n = uint64_t{side} * side * side * (dimension == 4 ? side : 1);
+  std::vector<double> values(n);
+  field.Fill(0, n, values.data());
+  for (double& v : values) v = std::round(v);
+  if (!WriteNrrd(path, dimension, g.dims, VoxelType::kU8, values).ok()) std::abort();
+  return path;
+}
+
+// Runs a command and returns its standard output.
+std::string Capture(const std::string& command) {
+  std::string out;
+  FILE* p = popen(command.c_str(), "r");
+  if (p == nullptr) return out;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+  pclose(p);
+  return out;
+}
+
+// --- lookups ------------------------------------------------------------------
+
+struct LookupStores {
+  std::unique_ptr<DenseStore> in_memory, raw, zstd_warm, zstd_cold;
+  std::vector<TetCode> random, depth_first;
+};
+
+LookupStores& Stores() {
+  static LookupStores s = [] {
+    LookupStores l;
+    const VolumeInfo in = *OpenVolume(PerlinVolume(3, 129));
+    DenseBuildOptions options;
+    options.compression = Compression::kNone;
+    const std::string raw = WorkDir() + "/lookup_raw.sdb", zstd = WorkDir() + "/lookup_zstd.sdb";
+    if (!BuildDenseStore(in, raw, options).ok()) std::abort();
+    options.compression = Compression::kZstd;
+    if (!BuildDenseStore(in, zstd, options).ok()) std::abort();
+    DenseStore::Options o;
+    l.raw = *DenseStore::Open(raw, o);
+    o.cache_bytes = size_t{1} << 30;
+    l.zstd_warm = *DenseStore::Open(zstd, o);
+    o.cache_bytes = 0;
+    l.zstd_cold = *DenseStore::Open(zstd, o);
+    o.in_memory = true;
+    l.in_memory = *DenseStore::Open(zstd, o);
+    const int leaf = l.raw->header().leaf_level();
+    std::mt19937_64 rng(1);
+    for (int i = 0; i < (1 << 16); ++i) {
+      const int level = static_cast<int>(rng() % leaf);
+      l.random.push_back(TetCode::FromPath(static_cast<int>(rng() % 6),
+                                           level ? rng() >> (64 - level) : 0, level));
+    }
+    std::function<void(TetCode)> walk = [&](TetCode c) {
+      if (c.level() >= leaf || l.depth_first.size() >= (1u << 20)) return;
+      l.depth_first.push_back(c);
+      walk(c.child(0));
+      walk(c.child(1));
+    };
+    walk(TetCode::Root(2));
+    return l;
+  }();
+  return s;
+}
+
+void RegisterLookups() {
+  const std::pair<const char*, std::unique_ptr<DenseStore> LookupStores::*> stores[] = {
+      {"in-memory", &LookupStores::in_memory},
+      {"mapped-raw", &LookupStores::raw},
+      {"zstd-warm", &LookupStores::zstd_warm},
+      {"zstd-cold", &LookupStores::zstd_cold}};
+  for (const auto& [name, member] : stores) {
+    for (const bool random : {true, false}) {
+      const std::string label =
+          std::string("ErrorLookup/") + name + (random ? "/random" : "/depth-first");
+      benchmark::RegisterBenchmark(label.c_str(), [member = member, random](benchmark::State& state) {
+        LookupStores& s = Stores();
+        const DenseStore& store = *(s.*member);
+        const std::vector<TetCode>& codes = random ? s.random : s.depth_first;
+        DenseStore::Reader<3> reader(store);
+        const uint64_t decoded_before = store.stats().blocks_decoded;
+        size_t i = 0;
+        for (auto _ : state) {
+          benchmark::DoNotOptimize(reader.ErrorBound(codes[i]));
+          if (++i == codes.size()) i = 0;
+        }
+        state.SetItemsProcessed(state.iterations());
+        state.counters["blocks_decoded"] = benchmark::Counter(
+            static_cast<double>(store.stats().blocks_decoded - decoded_before),
+            benchmark::Counter::kAvgIterations);
+      });
+    }
+  }
+}
+
+// --- builds and sizes -------------------------------------------------------
+
+nlohmann::json Import(const std::string& input, const std::string& args, const std::string& out) {
+  const std::string report =
+      Capture(std::string(SIMPLEXDB_CLI) + " import " + input + " -o " + out + " --json -q " + args);
+  const std::string info = Capture(std::string(SIMPLEXDB_CLI) + " info " + out + " --json");
+  nlohmann::json j = nlohmann::json::parse(report.empty() ? "{}" : report);
+  j["info"] = nlohmann::json::parse(info.empty() ? "{}" : info);
+  return j;
+}
+
+void RegisterBuilds() {
+  struct Volume {
+    const char* name;
+    std::function<std::string()> path;
+  };
+  const Volume volumes[] = {
+      {"ht129_perlin", [] { return PerlinVolume(3, 129); }},
+      {"ht257_perlin", [] { return PerlinVolume(3, 257); }},
+      {"hp33_perlin", [] { return PerlinVolume(4, 33); }},
+  };
+  for (const Volume& v : volumes) {
+    benchmark::RegisterBenchmark((std::string("Build/") + v.name).c_str(),
+                                 [v](benchmark::State& state) {
+                                   const std::string input = v.path();
+                                   nlohmann::json j;
+                                   for (auto _ : state) {
+                                     j = Import(input, "", WorkDir() + "/build.sdb");
+                                   }
+                                   state.counters["grid_points_per_s"] =
+                                       j.value("grid_points_per_second", 0.0);
+                                   state.counters["peak_MiB"] =
+                                       j.value("peak_memory_bytes", 0.0) / (1 << 20);
+                                   state.counters["build_s"] = j.value("seconds", 0.0);
+                                   state.counters["nodes"] = j.value("nodes", 0.0);
+                                 })
+        ->Iterations(1)
+        ->Unit(benchmark::kSecond);
+  }
+}
+
+void RegisterSizes() {
+  std::vector<std::pair<std::string, std::function<std::string()>>> volumes = {
+      {"plasma64_perlin65", [] { return PerlinVolume(3, 65); }}};
+  const std::string data = SIMPLEXDB_SHARED_DATA;
+  const std::pair<const char*, const char*> real[] = {
+      {"bucky", "/bucky/bucky_32x32x32_uint8.raw --dims 32,32,32 --type uint8"},
+      {"neghip", "/neghip/neghip_64x64x64_uint8.raw --dims 64,64,64 --type uint8"},
+      {"headsq", "/headsq/headsq_64x64x93_int16le.raw --dims 64,64,93 --type int16"},
+      {"tooth", "/tooth/tooth_103x94x161_uint8.raw --dims 103,94,161 --type uint8"},
+      {"lidc2", "/lidc2/LIDC2_256x256x133_uint8.raw --dims 256,256,133 --type uint8"},
+      {"fmri_4d", "/fmri_example4d/example4d.nii"},
+  };
+  if (fs::exists(data)) {
+    for (const auto& [name, args] : real) {
+      const std::string a = data + args;
+      volumes.emplace_back(name, [a] { return a; });
+    }
+  }
+  const char* modes[] = {"u16 zstd", "u16 none", "u8 zstd", "u8 none", "f32 zstd"};
+  for (const auto& [name, path] : volumes) {
+    for (const char* mode : modes) {
+      std::string m = mode;
+      const std::string q = m.substr(0, m.find(' ')), c = m.substr(m.find(' ') + 1);
+      benchmark::RegisterBenchmark(
+          ("Size/" + name + "/" + q + "-" + c).c_str(),
+          [path = path, q, c](benchmark::State& state) {
+            nlohmann::json j;
+            for (auto _ : state) {
+              j = Import(path(), "--quantization " + q + " --compression " + c,
+                         WorkDir() + "/size.sdb");
+            }
+            const nlohmann::json& info = j["info"];
+            const double points = info.value("grid_points", 1.0);
+            state.counters["bytes_per_point"] = info.value("bytes_per_grid_point", 0.0);
+            state.counters["error_bytes_per_point"] = info.value("stored_error_bytes", 0.0) / points;
+            state.counters["field_bytes_per_point"] = info.value("stored_field_bytes", 0.0) / points;
+            state.counters["seed_bytes_per_point"] = q == "u8" ? 7 : 14;  // the seed's 7n / 14n
+          })
+          ->Iterations(1)
+          ->Unit(benchmark::kSecond);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace simplexdb
+
+int main(int argc, char** argv) {
+  simplexdb::RegisterLookups();
+  simplexdb::RegisterBuilds();
+  simplexdb::RegisterSizes();
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  std::filesystem::remove_all(simplexdb::WorkDir());
+  return 0;
+}
