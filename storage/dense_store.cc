@@ -212,7 +212,10 @@ Result<DenseStore::BlockHandle> DenseStore::Block(uint64_t b) const {
   if (b >= index_.size()) {
     return Status::InvalidArgument(path_ + ": block " + std::to_string(b) + " out of range");
   }
-  if (!resident_.empty()) return HandleOf(resident_[b]);
+  if (!resident_.empty()) {
+    // Resident blocks live as long as the store: no reference to count.
+    return BlockHandle{resident_[b]->data(), resident_[b]->size(), nullptr};
+  }
   const IndexEntry& e = index_[b];
   switch (e.encoding) {
     case BlockEncoding::kZero:
