@@ -11,9 +11,12 @@
 
 #include "hierarchy/geometry.h"
 #include "hierarchy/simplex_code.h"
+#include "tests/storage/store_test_util.h"
 
 namespace simplexdb {
 namespace {
+
+using testing::Det;
 
 template <int D>
 using Verts = std::array<IPoint<D>, D + 1>;
@@ -27,7 +30,7 @@ Int128 VolumeWith(const Verts<D>& v, int i, const IPoint<D>& p) {
   for (int j = 0; j < D; ++j) {
     for (int c = 0; c < D; ++c) m[j][c] = w[j + 1][c] - w[0][c];
   }
-  return internal::Det<D>(m);
+  return Det<D>(m);
 }
 
 // Brute force: p is in the closed simplex iff replacing any vertex by p
@@ -38,7 +41,7 @@ bool InsideBrute(const Verts<D>& v, const IPoint<D>& p) {
   for (int j = 0; j < D; ++j) {
     for (int c = 0; c < D; ++c) m[j][c] = v[j + 1][c] - v[0][c];
   }
-  const Int128 total = internal::Det<D>(m);
+  const Int128 total = Det<D>(m);
   for (int i = 0; i <= D; ++i) {
     const Int128 part = VolumeWith<D>(v, i, p);
     if (part != 0 && (part > 0) != (total > 0)) return false;
@@ -59,6 +62,38 @@ Verts<D> RandomHierarchySimplex(std::mt19937_64& rng, int k) {
   }
   return out;
 }
+
+// A * adj(A) = det(A) * I, with det(A) by cofactor expansion, for random
+// matrices with entries as large as edge vectors get.
+template <int D>
+void CheckAdjugate(uint64_t seed, int trials) {
+  std::mt19937_64 rng(seed);
+  const int64_t span = 2 * kMaxScanCoordinate<D> + 1;
+  for (int t = 0; t < trials; ++t) {
+    std::array<std::array<int64_t, D>, D> a{};
+    for (auto& row : a) {
+      for (auto& x : row) {
+        // Mostly small entries (hierarchy edges are axis steps), some at
+        // the extremes.
+        x = (t % 3 == 0) ? static_cast<int64_t>(rng() % span) - kMaxScanCoordinate<D>
+                         : static_cast<int64_t>(rng() % 5) - 2;
+      }
+    }
+    std::array<std::array<int64_t, D>, D> adj{};
+    const int64_t det = internal::Adjugate<D>(a, &adj);
+    ASSERT_EQ(Int128{det}, Det<D>(a)) << "trial " << t;
+    for (int r = 0; r < D; ++r) {
+      for (int j = 0; j < D; ++j) {
+        Int128 s = 0;
+        for (int c = 0; c < D; ++c) s += Int128{a[r][c]} * adj[c][j];
+        ASSERT_EQ(s, r == j ? Int128{det} : Int128{0}) << "trial " << t << " entry " << r << "," << j;
+      }
+    }
+  }
+}
+
+TEST(SimplexScan, AdjugateTimesMatrixIsDeterminant3D) { CheckAdjugate<3>(11, 30000); }
+TEST(SimplexScan, AdjugateTimesMatrixIsDeterminant4D) { CheckAdjugate<4>(12, 30000); }
 
 template <int D>
 void CheckEnumeration(uint64_t seed, int k, int trials) {
@@ -112,7 +147,7 @@ long double ErrorBrute(const Verts<D>& v, const std::array<int64_t, D + 1>& fv,
   for (int j = 0; j < D; ++j) {
     for (int c = 0; c < D; ++c) m[j][c] = v[j + 1][c] - v[0][c];
   }
-  const Int128 total = internal::Det<D>(m);
+  const Int128 total = Det<D>(m);
   long double worst = 0;
   IPoint<D> lo = v[0], hi = v[0];
   for (const auto& q : v) {
