@@ -7,6 +7,7 @@
 #include <cstring>
 
 #include "storage/codec.h"
+#include "util/little_endian.h"
 
 namespace simplexdb {
 namespace {
@@ -32,22 +33,10 @@ double ReadVoxel(VoxelType type, const uint8_t* p) {
   switch (type) {
     case VoxelType::kU8: return p[0];
     case VoxelType::kI8: return static_cast<int8_t>(p[0]);
-    case VoxelType::kU16: return static_cast<uint16_t>(p[0] | p[1] << 8);
-    case VoxelType::kI16: return static_cast<int16_t>(static_cast<uint16_t>(p[0] | p[1] << 8));
-    case VoxelType::kF32: {
-      uint32_t u = 0;
-      for (int i = 3; i >= 0; --i) u = u << 8 | p[i];
-      float f;
-      std::memcpy(&f, &u, 4);
-      return f;
-    }
-    case VoxelType::kF64: {
-      uint64_t u = 0;
-      for (int i = 7; i >= 0; --i) u = u << 8 | p[i];
-      double d;
-      std::memcpy(&d, &u, 8);
-      return d;
-    }
+    case VoxelType::kU16: return LoadLittle<uint16_t>(p);
+    case VoxelType::kI16: return static_cast<int16_t>(LoadLittle<uint16_t>(p));
+    case VoxelType::kF32: return LoadLittle<float>(p);
+    case VoxelType::kF64: return LoadLittle<double>(p);
   }
   return 0;
 }
@@ -121,7 +110,6 @@ Status DenseStore::ValidateIndex() {
   const std::span<const uint8_t> index =
       bytes.subspan(h.index_offset, h.block_count() * kIndexEntrySize);
   if (Checksum(index) != h.index_checksum) return corrupt("checksum mismatch");
-  index_.resize(h.block_count());
   for (uint64_t b = 0; b < h.block_count(); ++b) {
     const uint8_t* e = index.data() + b * kIndexEntrySize;
     if (e[25] != 0 || e[26] != 0 || e[27] != 0) {
@@ -165,8 +153,8 @@ Status DenseStore::ValidateIndex() {
         !std::isfinite(entry.error_max)) {
       return corrupt(DescribeBlock(b) + ": block statistics are not finite ranges");
     }
-    index_[b] = entry;
   }
+  index_ = index.data();
   zeros_.assign(std::max(error_block_bytes_, brick_bytes_), 0);
   return Status::OK();
 }
@@ -196,7 +184,7 @@ DenseStore::BlockHandle HandleOf(std::shared_ptr<const BlockCache::Block> block)
 }  // namespace
 
 Result<std::shared_ptr<const BlockCache::Block>> DenseStore::DecodeBlock(uint64_t b) const {
-  const IndexEntry& e = index_[b];
+  const IndexEntry e = entry(b);
   const std::span<const uint8_t> stored = file_->bytes().subspan(e.offset, e.stored_size);
   if (Checksum(stored) != e.checksum) {
     return Status::Corruption(path_ + ": " + DescribeBlock(b) + ": checksum mismatch");
@@ -209,14 +197,14 @@ Result<std::shared_ptr<const BlockCache::Block>> DenseStore::DecodeBlock(uint64_
 }
 
 Result<DenseStore::BlockHandle> DenseStore::Block(uint64_t b) const {
-  if (b >= index_.size()) {
+  if (b >= block_count()) {
     return Status::InvalidArgument(path_ + ": block " + std::to_string(b) + " out of range");
   }
   if (!resident_.empty()) {
     // Resident blocks live as long as the store: no reference to count.
     return BlockHandle{resident_[b]->data(), resident_[b]->size(), nullptr};
   }
-  const IndexEntry& e = index_[b];
+  const IndexEntry e = entry(b);
   switch (e.encoding) {
     case BlockEncoding::kZero:
       return BlockHandle{zeros_.data(), e.raw_size, nullptr};
@@ -244,9 +232,9 @@ Result<DenseStore::BlockHandle> DenseStore::Block(uint64_t b) const {
 }
 
 Status DenseStore::LoadAll() {
-  resident_.resize(index_.size());
-  for (uint64_t b = 0; b < index_.size(); ++b) {
-    const IndexEntry& e = index_[b];
+  resident_.resize(block_count());
+  for (uint64_t b = 0; b < block_count(); ++b) {
+    const IndexEntry e = entry(b);
     auto block = std::make_shared<BlockCache::Block>(e.raw_size, 0);
     if (e.encoding == BlockEncoding::kRaw) {
       const std::span<const uint8_t> stored = file_->bytes().subspan(e.offset, e.stored_size);
@@ -266,15 +254,11 @@ Status DenseStore::LoadAll() {
 double DenseStore::ErrorAt(const uint8_t* block, uint32_t i) const {
   switch (header_.quantization) {
     case Quantization::kU16:
-      return quantizer_.Decode(static_cast<uint32_t>(block[2 * i] | block[2 * i + 1] << 8));
+      return quantizer_.Decode(LoadLittle<uint16_t>(block + 2 * static_cast<size_t>(i)));
     case Quantization::kU8:
       return quantizer_.Decode(block[i]);
-    case Quantization::kF32: {
-      const uint8_t* p = block + 4 * static_cast<size_t>(i);
-      return quantizer_.Decode(static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
-                               static_cast<uint32_t>(p[2]) << 16 |
-                               static_cast<uint32_t>(p[3]) << 24);
-    }
+    case Quantization::kF32:
+      return quantizer_.Decode(LoadLittle<uint32_t>(block + 4 * static_cast<size_t>(i)));
   }
   return 0;
 }
@@ -287,7 +271,7 @@ Status DenseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progres
   const uint64_t total = block_count();
   for (uint64_t b = 0; b < total; ++b) {
     if (progress && (b % 256 == 0)) progress(b, total);
-    const IndexEntry& e = index_[b];
+    const IndexEntry e = entry(b);
     // Check the stored bytes even if the block is cached or resident.
     if (e.encoding != BlockEncoding::kZero &&
         Checksum(file_->bytes().subspan(e.offset, e.stored_size)) != e.checksum) {

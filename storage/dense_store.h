@@ -16,8 +16,9 @@
 // stays in them).
 //
 // Memory: decoded blocks live in the BlockCache (a budget set by the
-// caller) plus the few a Reader holds; raw blocks are read from the mapping
-// (file pages, not anonymous memory). With Options::in_memory every block
+// caller) plus the few a Reader holds; raw blocks and the block index are
+// read from the mapping (file pages, not anonymous memory). Beyond that a
+// store keeps one byte per block (raw blocks' checksum state). With Options::in_memory every block
 // is decoded into memory at open: the in-core case.
 #pragma once
 
@@ -65,7 +66,11 @@ class DenseStore {
   // Blocks are numbered error blocks first, then field bricks.
   uint64_t block_count() const { return header_.block_count(); }
   uint64_t error_block_count() const { return header_.error_block_count; }
-  const IndexEntry& entry(uint64_t block) const { return index_[block]; }
+  // Parsed from the mapping on every call: the index is never copied, so a
+  // store's anonymous memory does not grow with its size.
+  IndexEntry entry(uint64_t block) const {
+    return ParseIndexEntry(index_ + block * kIndexEntrySize);
+  }
   uint64_t BrickBlock(uint64_t brick) const { return header_.error_block_count + brick; }
 
   // A decoded block; its bytes stay valid while the handle lives.
@@ -141,7 +146,7 @@ class DenseStore {
   DenseHeader header_;
   ErrorQuantizer quantizer_{Quantization::kU16, 1, 0};
   std::unique_ptr<MappedFile> file_;
-  std::vector<IndexEntry> index_;
+  const uint8_t* index_ = nullptr;  // in the mapping; validated at open
   std::shared_ptr<BlockCache> cache_;
   uint64_t cache_space_ = 0;  // this store's key space in the cache
   std::vector<uint8_t> zeros_;

@@ -9,50 +9,17 @@
 namespace simplexdb {
 namespace {
 
-// Little-endian field access, independent of the host's byte order.
+// Little-endian field access (util/little_endian.h), by width.
 void Put8(uint8_t* p, uint8_t v) { p[0] = v; }
-void Put16(uint8_t* p, uint16_t v) {
-  for (int i = 0; i < 2; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
-}
-void Put32(uint8_t* p, uint32_t v) {
-  for (int i = 0; i < 4; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
-}
-void Put64(uint8_t* p, uint64_t v) {
-  for (int i = 0; i < 8; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
-}
-void PutF32(uint8_t* p, float v) {
-  uint32_t u;
-  std::memcpy(&u, &v, 4);
-  Put32(p, u);
-}
-void PutF64(uint8_t* p, double v) {
-  uint64_t u;
-  std::memcpy(&u, &v, 8);
-  Put64(p, u);
-}
-uint16_t Get16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | p[1] << 8); }
-uint32_t Get32(const uint8_t* p) {
-  uint32_t v = 0;
-  for (int i = 3; i >= 0; --i) v = v << 8 | p[i];
-  return v;
-}
-uint64_t Get64(const uint8_t* p) {
-  uint64_t v = 0;
-  for (int i = 7; i >= 0; --i) v = v << 8 | p[i];
-  return v;
-}
-float GetF32(const uint8_t* p) {
-  const uint32_t u = Get32(p);
-  float v;
-  std::memcpy(&v, &u, 4);
-  return v;
-}
-double GetF64(const uint8_t* p) {
-  const uint64_t u = Get64(p);
-  double v;
-  std::memcpy(&v, &u, 8);
-  return v;
-}
+void Put16(uint8_t* p, uint16_t v) { StoreLittle(p, v); }
+void Put32(uint8_t* p, uint32_t v) { StoreLittle(p, v); }
+void Put64(uint8_t* p, uint64_t v) { StoreLittle(p, v); }
+void PutF32(uint8_t* p, float v) { StoreLittle(p, v); }
+void PutF64(uint8_t* p, double v) { StoreLittle(p, v); }
+uint16_t Get16(const uint8_t* p) { return LoadLittle<uint16_t>(p); }
+uint32_t Get32(const uint8_t* p) { return LoadLittle<uint32_t>(p); }
+uint64_t Get64(const uint8_t* p) { return LoadLittle<uint64_t>(p); }
+double GetF64(const uint8_t* p) { return LoadLittle<double>(p); }
 
 // Byte offsets of the header fields (docs/format/dense-store.md).
 constexpr size_t kOffMagic = 0;
@@ -263,19 +230,6 @@ void SerializeIndexEntry(const IndexEntry& e, uint8_t* out) {
   PutF32(out + 28, e.field_min);
   PutF32(out + 32, e.field_max);
   PutF32(out + 36, e.error_max);
-}
-
-IndexEntry ParseIndexEntry(const uint8_t* in) {
-  IndexEntry e;
-  e.offset = Get64(in + 0);
-  e.stored_size = Get32(in + 8);
-  e.raw_size = Get32(in + 12);
-  e.checksum = Get64(in + 16);
-  e.encoding = static_cast<BlockEncoding>(in[24]);  // checked by the reader
-  e.field_min = GetF32(in + 28);
-  e.field_max = GetF32(in + 32);
-  e.error_max = GetF32(in + 36);
-  return e;
 }
 
 }  // namespace simplexdb

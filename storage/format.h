@@ -24,6 +24,7 @@
 #include <string_view>
 
 #include "storage/voxel_type.h"
+#include "util/little_endian.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -94,7 +95,20 @@ struct IndexEntry {
 };
 
 void SerializeIndexEntry(const IndexEntry& e, uint8_t* out);  // kIndexEntrySize bytes
-IndexEntry ParseIndexEntry(const uint8_t* in);
+
+// Inline: readers parse entries from the mapping on every block switch.
+inline IndexEntry ParseIndexEntry(const uint8_t* in) {
+  IndexEntry e;
+  e.offset = LoadLittle<uint64_t>(in + 0);
+  e.stored_size = LoadLittle<uint32_t>(in + 8);
+  e.raw_size = LoadLittle<uint32_t>(in + 12);
+  e.checksum = LoadLittle<uint64_t>(in + 16);
+  e.encoding = static_cast<BlockEncoding>(in[24]);  // checked by the reader
+  e.field_min = LoadLittle<float>(in + 28);
+  e.field_max = LoadLittle<float>(in + 32);
+  e.error_max = LoadLittle<float>(in + 36);
+  return e;
+}
 
 // XXH3-64 of `bytes`.
 uint64_t Checksum(std::span<const uint8_t> bytes);

@@ -8,6 +8,8 @@
 #include <limits>
 #include <string>
 
+#include "util/little_endian.h"
+
 namespace simplexdb {
 namespace {
 
@@ -17,17 +19,6 @@ template <> struct UintOfSize<1> { using type = uint8_t; };
 template <> struct UintOfSize<2> { using type = uint16_t; };
 template <> struct UintOfSize<4> { using type = uint32_t; };
 template <> struct UintOfSize<8> { using type = uint64_t; };
-
-// std::byteswap is C++23; compilers turn this loop into one bswap.
-template <class U>
-constexpr U ByteSwap(U v) noexcept {
-  U r = 0;
-  for (size_t i = 0; i < sizeof(U); ++i) {
-    r = static_cast<U>((r << 8) | (v & 0xFF));
-    v = static_cast<U>(v >> 8);
-  }
-  return r;
-}
 
 template <class T>
 void DecodeAs(bool swap, const std::byte* bytes, size_t count, double* out) {

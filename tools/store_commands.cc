@@ -166,7 +166,7 @@ void RunInfo(const std::string& path, bool as_json) {
   uint64_t logical_errors = 0, logical_field = 0, stored_errors = 0, stored_field = 0;
   uint64_t encodings[3] = {0, 0, 0};
   for (uint64_t b = 0; b < store->block_count(); ++b) {
-    const IndexEntry& e = store->entry(b);
+    const IndexEntry e = store->entry(b);
     const bool is_error = b < store->error_block_count();
     (is_error ? logical_errors : logical_field) += e.raw_size;
     (is_error ? stored_errors : stored_field) += e.stored_size;

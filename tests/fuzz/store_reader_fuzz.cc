@@ -24,18 +24,13 @@
 
 #include "storage/dense_store.h"
 #include "storage/format.h"
+#include "util/little_endian.h"
 
 namespace simplexdb {
 namespace {
 
-uint64_t Get64(const uint8_t* p) {
-  uint64_t v = 0;
-  for (int i = 7; i >= 0; --i) v = v << 8 | p[i];
-  return v;
-}
-void Put64(uint8_t* p, uint64_t v) {
-  for (int i = 0; i < 8; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
-}
+uint64_t Get64(const uint8_t* p) { return LoadLittle<uint64_t>(p); }
+void Put64(uint8_t* p, uint64_t v) { StoreLittle(p, v); }
 
 // Recomputes the checksums the format defines, wherever the offsets the
 // (possibly damaged) header and index give stay inside the bytes.
@@ -47,8 +42,7 @@ void RepairChecksums(std::vector<uint8_t>& f) {
     for (uint64_t b = 0; b < count; ++b) {
       uint8_t* e = f.data() + index_offset + b * kIndexEntrySize;
       const uint64_t offset = Get64(e);
-      uint64_t stored = 0;
-      for (int i = 3; i >= 0; --i) stored = stored << 8 | e[8 + i];
+      const uint64_t stored = LoadLittle<uint32_t>(e + 8);
       if (offset <= f.size() && stored <= f.size() - offset) {
         Put64(e + 16, Checksum(std::span<const uint8_t>(f.data() + offset, stored)));
       }
