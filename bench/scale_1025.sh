@@ -3,7 +3,9 @@
 # points, about 6.4 billion tetrahedra) built into an HT store with the
 # builder's memory bounded to 4 GiB. Prints the build report (time, peak
 # memory) and the store's info (size), and fails if the peak resident memory
-# exceeds the bound.
+# exceeds the bound. Then a reader does a million random lookups with a 64
+# MiB cache (tests/storage/memory_probe.cc) and prints its anonymous memory;
+# fails if it grew by more than the budget plus 16 MiB.
 #
 #   bench/scale_1025.sh [WORK_DIR]     (needs ~10 GB of disk; ~20 min on 2 cores)
 #
@@ -11,6 +13,7 @@
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 simplexdb=${SIMPLEXDB:-build/release/tools/simplexdb}
+probe=${MEMORY_PROBE:-build/release/tests/memory_probe}
 work=${1:-$(mktemp -d)}
 limit_mb=4096
 mkdir -p "$work"
@@ -25,5 +28,13 @@ echo "$report"
 peak=$(python3 -c 'import json,sys; print(json.loads(sys.argv[1])["peak_memory_bytes"])' "$report")
 if (( peak > limit_mb * 1024 * 1024 )); then
   echo "peak memory $peak bytes exceeds the ${limit_mb} MiB bound" >&2
+  exit 1
+fi
+budget=$((64 << 20))
+read -r before after decoded < <("$probe" "$work/perlin1025.sdb" "$budget" 1000000 |
+  sed -E 's/[a-z_]+=//g')
+echo "reader: 1000000 random lookups, cache budget 64 MiB: anonymous memory $before KiB -> $after KiB, $decoded blocks decoded"
+if (( after - before > (budget >> 10) + 16384 )); then
+  echo "the reader's anonymous memory grew by $(( after - before )) KiB" >&2
   exit 1
 fi

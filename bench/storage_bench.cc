@@ -193,7 +193,8 @@ void RegisterBuilds() {
 
 void RegisterSizes() {
   std::vector<std::pair<std::string, std::function<std::string()>>> volumes = {
-      {"plasma64_perlin65", [] { return PerlinVolume(3, 65); }}};
+      {"plasma64_perlin65", [] { return PerlinVolume(3, 65); }},
+      {"perlin33_4d", [] { return PerlinVolume(4, 33); }}};
   const std::string data = SIMPLEXDB_SHARED_DATA;
   const std::pair<const char*, const char*> real[] = {
       {"bucky", "/bucky/bucky_32x32x32_uint8.raw --dims 32,32,32 --type uint8"},
@@ -202,6 +203,7 @@ void RegisterSizes() {
       {"tooth", "/tooth/tooth_103x94x161_uint8.raw --dims 103,94,161 --type uint8"},
       {"lidc2", "/lidc2/LIDC2_256x256x133_uint8.raw --dims 256,256,133 --type uint8"},
       {"fmri_4d", "/fmri_example4d/example4d.nii"},
+      {"dwi_4d", "/dwi_small_101D/small_101D.nii"},
   };
   if (fs::exists(data)) {
     for (const auto& [name, args] : real) {
@@ -227,6 +229,11 @@ void RegisterSizes() {
             state.counters["bytes_per_point"] = info.value("bytes_per_grid_point", 0.0);
             state.counters["error_bytes_per_point"] = info.value("stored_error_bytes", 0.0) / points;
             state.counters["field_bytes_per_point"] = info.value("stored_field_bytes", 0.0) / points;
+            // The rest: the 4 KiB header and the block index (40 bytes a
+            // block, empty ones included).
+            state.counters["index_bytes_per_point"] =
+                (info.value("file_bytes", 0.0) - info.value("stored_error_bytes", 0.0) -
+                 info.value("stored_field_bytes", 0.0)) / points;
             state.counters["seed_bytes_per_point"] = q == "u8" ? 7 : 14;  // the seed's 7n / 14n
           })
           ->Iterations(1)

@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
 # The main job: builds SimplexDB and demonstrates it.
 #
-# Today it shows the two hierarchies: codes from the seed's worked examples
-# with their vertices, face neighbors (found in constant time) and clusters,
-# then the JSON contract of `simplexdb codes`.
+# First the two hierarchies: codes from the seed's worked examples with their
+# vertices, face neighbors (found in constant time) and clusters, and the
+# JSON contract of `simplexdb codes`. Then the dense store: a real CT volume
+# (HT) and a real 4D fMRI volume (HP) from ../shared/data, or generated
+# Perlin noise when that folder is absent, imported into stores, described,
+# verified, and the CT field exported back at half resolution. Everything it
+# writes goes to a temporary directory, removed at the end.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 source tools/setup.sh
@@ -31,3 +35,34 @@ echo
 echo "== simplexdb codes (JSON lines, the contract outside checks read)"
 printf '2:10011\n3:\n' | "$simplexdb" codes --hierarchy ht
 printf '9:010110\n' | "$simplexdb" codes --hierarchy hp
+
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+data=../shared/data
+echo
+if [[ -f "$data/tooth/tooth_103x94x161_uint8.raw" ]]; then
+  echo "== Import a real CT scan (103x94x161 uint8) into a Hierarchy of Tetrahedra"
+  "$simplexdb" import "$data/tooth/tooth_103x94x161_uint8.raw" --dims 103,94,161 --type uint8 \
+    -o "$work/ht.sdb"
+else
+  echo "== ($data is absent) Import 65^3 Perlin noise, the seed's Plasma64, into an HT"
+  "$simplexdb" generate --field perlin --dims 65,65,65 --type uint8 -q -o "$work/plasma64.nrrd"
+  "$simplexdb" import "$work/plasma64.nrrd" -o "$work/ht.sdb"
+fi
+"$simplexdb" info "$work/ht.sdb"
+"$simplexdb" verify "$work/ht.sdb"
+
+echo
+if [[ -f "$data/fmri_example4d/example4d.nii" ]]; then
+  echo "== Import a real 4D fMRI volume (NIfTI, 128x96x24 over 2 time points) into a Hierarchy of Pentatopes"
+  "$simplexdb" import "$data/fmri_example4d/example4d.nii" -o "$work/hp.sdb"
+else
+  echo "== Import 17^4 Perlin noise into a Hierarchy of Pentatopes"
+  "$simplexdb" generate --field perlin --dims 17,17,17,17 --type float32 -q -o "$work/p17.nrrd"
+  "$simplexdb" import "$work/p17.nrrd" -o "$work/hp.sdb"
+fi
+"$simplexdb" info "$work/hp.sdb"
+
+echo
+echo "== Export the HT store's field back out: the whole grid at every 2nd point"
+"$simplexdb" export "$work/ht.sdb" --step 2 -o "$work/half.nrrd"
