@@ -234,7 +234,12 @@ void RegisterSizes() {
             state.counters["index_bytes_per_point"] =
                 (info.value("file_bytes", 0.0) - info.value("stored_error_bytes", 0.0) -
                  info.value("stored_field_bytes", 0.0)) / points;
-            state.counters["seed_bytes_per_point"] = q == "u8" ? 7 : 14;  // the seed's 7n / 14n
+            // The seed's costs with n grid points: 12n error bytes + 2n field
+            // bytes in the HT (14n, 7n at one byte a value; section 3.1.3),
+            // 48n error bytes in the HP (section 4.1), so 50n, or 25n at one
+            // byte a value.
+            const bool hp = info.value("hierarchy", "") == "hp";
+            state.counters["seed_bytes_per_point"] = hp ? (q == "u8" ? 25 : 50) : (q == "u8" ? 7 : 14);
           })
           ->Iterations(1)
           ->Unit(benchmark::kSecond);
