@@ -8,7 +8,8 @@
 //                                 memory of `simplexdb import` (a child process).
 //   Size/<volume>/<mode>          bytes per grid point on disk for each
 //                                 quantization and compression, against the
-//                                 seed's 14n (u16) and 7n (u8) bytes.
+//                                 seed's 14n (u16) and 7n (u8) bytes in the
+//                                 HT, 50n and 25n in the HP.
 //
 //   build/release/bench/storage_bench --benchmark_filter=ErrorLookup
 //

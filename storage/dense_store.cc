@@ -251,14 +251,14 @@ Status DenseStore::LoadAll() {
   return Status::OK();
 }
 
-double DenseStore::ErrorAt(const uint8_t* block, uint32_t i) const {
+uint32_t DenseStore::StoredAt(const uint8_t* block, uint32_t i) const {
   switch (header_.quantization) {
     case Quantization::kU16:
-      return quantizer_.Decode(LoadLittle<uint16_t>(block + 2 * static_cast<size_t>(i)));
+      return LoadLittle<uint16_t>(block + 2 * static_cast<size_t>(i));
     case Quantization::kU8:
-      return quantizer_.Decode(block[i]);
+      return block[i];
     case Quantization::kF32:
-      return quantizer_.Decode(LoadLittle<uint32_t>(block + 4 * static_cast<size_t>(i)));
+      return LoadLittle<uint32_t>(block + 4 * static_cast<size_t>(i));
   }
   return 0;
 }
@@ -318,13 +318,19 @@ DenseStore::Reader<D>::Reader(const DenseStore& store)
 
 template <int D>
 Result<double> DenseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
-  if (code.level() >= layout_.leaf_level()) return 0.0;
+  SDB_ASSIGN_OR_RETURN(const uint32_t stored, StoredError(code));
+  return store_.quantizer().Decode(stored);
+}
+
+template <int D>
+Result<uint32_t> DenseStore::Reader<D>::StoredError(SimplexCode<D> code) {
+  if (code.level() >= layout_.leaf_level()) return 0u;
   const BlockSlot slot = layout_.Locate(code);
   if (slot.block != error_block_) {
     SDB_ASSIGN_OR_RETURN(error_handle_, store_.Block(slot.block));
     error_block_ = slot.block;
   }
-  return store_.ErrorAt(error_handle_.data, slot.entry);
+  return store_.StoredAt(error_handle_.data, slot.entry);
 }
 
 template <int D>

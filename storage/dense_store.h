@@ -82,7 +82,10 @@ class DenseStore {
   Result<BlockHandle> Block(uint64_t block) const;
 
   // The value of entry `i` of a decoded error block / brick.
-  double ErrorAt(const uint8_t* block, uint32_t i) const;
+  double ErrorAt(const uint8_t* block, uint32_t i) const {
+    return quantizer_.Decode(StoredAt(block, i));
+  }
+  uint32_t StoredAt(const uint8_t* block, uint32_t i) const;
   double FieldAt(const uint8_t* brick, uint32_t i) const;
 
   // Reads every block: checksum, decoding, and that stored values are in
@@ -118,6 +121,8 @@ class DenseStore {
     // leaf level have error 0.
     // REQUIRES: code.is_valid().
     Result<double> ErrorBound(SimplexCode<D> code);
+    // The entry as stored (u16 / u8 codes, f32 bits): what ErrorBound decodes.
+    Result<uint32_t> StoredError(SimplexCode<D> code);
 
     // The field at grid point p of the domain [0, 2^k]^D; points outside the
     // real grid take the value of the nearest real point (the padding).

@@ -42,7 +42,8 @@ std::string BaseOf(const std::string& path) {
   return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
-// Removes `<base>.tmp.<pid>` files in `dir` whose process no longer runs.
+}  // namespace
+
 void RemoveStaleTemporaries(const std::string& final_path) {
   const std::string dir = DirectoryOf(final_path);
   const std::string prefix = BaseOf(final_path) + ".tmp.";
@@ -54,13 +55,33 @@ void RemoveStaleTemporaries(const std::string& final_path) {
     const std::string pid_text(name.substr(prefix.size()));
     char* end = nullptr;
     const long pid = std::strtol(pid_text.c_str(), &end, 10);
-    if (end == pid_text.c_str() || *end != '\0' || pid <= 0) continue;
+    const std::string_view rest = end;
+    if (end == pid_text.c_str() || (!rest.empty() && rest != "-lock") || pid <= 0) continue;
     if (kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
       unlink((dir + "/" + std::string(name)).c_str());
     }
   }
   closedir(d);
 }
+
+std::string TemporaryPathFor(const std::string& final_path) {
+  return final_path + ".tmp." + std::to_string(getpid());
+}
+
+Status RenameDurably(const std::string& from, const std::string& to) {
+  if (rename(from.c_str(), to.c_str()) != 0) {
+    return StatusFromErrno(errno, to, "rename " + from + " to");
+  }
+  const std::string dir = DirectoryOf(to);
+  const int dfd = open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    fsync(dfd);  // best effort: some file systems refuse to sync directories
+    close(dfd);
+  }
+  return Status::OK();
+}
+
+namespace {
 
 Status WriteFully(int fd, uint64_t offset, std::span<const uint8_t> bytes, const std::string& path) {
   size_t done = 0;
@@ -83,7 +104,7 @@ AtomicFileWriter::AtomicFileWriter(std::string final_path, std::string temp_path
 
 Result<std::unique_ptr<AtomicFileWriter>> AtomicFileWriter::Create(const std::string& final_path) {
   RemoveStaleTemporaries(final_path);
-  const std::string temp = final_path + ".tmp." + std::to_string(getpid());
+  const std::string temp = TemporaryPathFor(final_path);
   const int fd = open(temp.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) return StatusFromErrno(errno, temp, "create");
   return std::unique_ptr<AtomicFileWriter>(new AtomicFileWriter(final_path, temp, fd));
@@ -115,16 +136,8 @@ Status AtomicFileWriter::Commit() {
     return StatusFromErrno(errno, temp_path_, "close");
   }
   fd_ = -1;
-  if (rename(temp_path_.c_str(), final_path_.c_str()) != 0) {
-    return StatusFromErrno(errno, final_path_, "rename " + temp_path_ + " to");
-  }
+  SDB_RETURN_IF_ERROR(RenameDurably(temp_path_, final_path_));
   committed_ = true;
-  const std::string dir = DirectoryOf(final_path_);
-  const int dfd = open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dfd >= 0) {
-    fsync(dfd);  // best effort: some file systems refuse to sync directories
-    close(dfd);
-  }
   return Status::OK();
 }
 

@@ -25,6 +25,18 @@ namespace simplexdb {
 // The Status for a failed system call on `path` with errno `err`.
 Status StatusFromErrno(int err, const std::string& path, const std::string& action);
 
+// `<final_path>.tmp.<pid>`: where this process writes what becomes
+// `final_path`.
+std::string TemporaryPathFor(const std::string& final_path);
+
+// Removes the temporaries of `final_path` (`.tmp.<pid>`, and LMDB's
+// `.tmp.<pid>-lock`) left by processes that no longer run.
+void RemoveStaleTemporaries(const std::string& final_path);
+
+// Renames `from` to `to` and flushes the directory (best effort): after it
+// returns, the file is durable under its new name.
+Status RenameDurably(const std::string& from, const std::string& to);
+
 class AtomicFileWriter {
  public:
   // Creates `<final_path>.tmp.<pid>` for writing. Stale temporaries of the

@@ -63,6 +63,9 @@ class ErrorLayout {
   uint64_t blocks_per_root() const { return blocks_per_root_; }
   uint64_t block_count() const { return blocks_per_root_ * SimplexCode<D>::kRoots; }
 
+  int BandOfLevel(int level) const { return band_of_level_[level]; }
+  // The first block of band b within a root.
+  uint64_t band_first(int b) const { return first_[b]; }
   // Entries (nodes) in a block of band b.
   uint32_t entries_in_band(int b) const { return (uint32_t{1} << depth_[b]) - 1; }
 

@@ -4,6 +4,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
 
 namespace simplexdb::tools {
 
@@ -32,6 +33,19 @@ std::vector<double> ParseNumberList(std::string_view text, const char* option, s
                        2);
   }
   return out;
+}
+
+double ParseAmount(std::string_view text, const char* option, double range) {
+  const bool percent = !text.empty() && text.back() == '%';
+  const std::string number(percent ? text.substr(0, text.size() - 1) : text);
+  char* end = nullptr;
+  const double v = std::strtod(number.c_str(), &end);
+  if (number.empty() || end != number.c_str() + number.size() || !std::isfinite(v) || v < 0) {
+    throw CommandError(fmt::format("{}: expected a number >= 0 such as 7.3 or 1%, not '{}'", option,
+                                   text),
+                       2);
+  }
+  return percent ? v / 100 * range : v;
 }
 
 std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension) {

@@ -22,6 +22,11 @@ namespace simplexdb::tools {
 std::vector<double> ParseNumberList(std::string_view text, const char* option, size_t min_count,
                                     size_t max_count);
 
+// An amount in field units: "7.3" (absolute) or "1%" (of `range`, the
+// field's max - min). Must be finite and >= 0; throws CommandError (exit 2)
+// naming `option` otherwise.
+double ParseAmount(std::string_view text, const char* option, double range);
+
 // Grid dimensions "X,Y,Z[,T]": every entry a whole number >= 2.
 std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension);
 

@@ -29,5 +29,6 @@ void RegisterCodesCommand(CLI::App& app);
 void RegisterInspectCommand(CLI::App& app);
 void RegisterStoreCommands(CLI::App& app);  // import, info, verify, export
 void RegisterGenerateCommand(CLI::App& app);
+void RegisterConvertCommand(CLI::App& app);  // sparse_commands.cc
 
 }  // namespace simplexdb::tools

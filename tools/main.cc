@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   simplexdb::tools::RegisterInspectCommand(app);
   simplexdb::tools::RegisterGenerateCommand(app);
   simplexdb::tools::RegisterStoreCommands(app);
+  simplexdb::tools::RegisterConvertCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -14,6 +14,7 @@ set -euo pipefail
 #   libboost-dev                   boost::container::static_vector (hierarchy),
 #                                  Boost.Interprocess for memory mapping (storage)
 #   libzstd-dev                    compressed store blocks
+#   liblmdb-dev                    the sparse store (a B-tree with MVCC readers)
 #   libxxhash-dev                  block and header checksums (XXH3)
 #   zlib1g-dev                     gzip-encoded NRRD input
 #   libfmt-dev                     formatting in the tools
@@ -24,7 +25,7 @@ set -euo pipefail
 #   python3-vtk9                   tests read the files we write with VTK itself
 PACKAGES=(
   cmake ninja-build g++ pkg-config
-  libboost-dev libzstd-dev libxxhash-dev zlib1g-dev
+  libboost-dev libzstd-dev liblmdb-dev libxxhash-dev zlib1g-dev
   libfmt-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-vtk9

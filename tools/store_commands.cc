@@ -1,5 +1,6 @@
-// `simplexdb import`, `info`, `verify` and `export`: building dense stores
-// from volumes and looking at them.
+// `simplexdb import`, `info`, `verify` and `export`: building stores from
+// volumes and looking at them (the sparse store's side is in
+// sparse_commands.cc).
 #include <cmath>
 #include <iostream>
 #include <memory>
@@ -15,6 +16,7 @@
 #include "storage/volume.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
+#include "tools/sparse_commands.h"
 
 namespace simplexdb::tools {
 namespace {
@@ -41,6 +43,7 @@ struct ImportArgs {
   std::string quantization = "u16";
   std::string compression = "zstd";
   bool sparse = false;
+  std::string tolerance = "0";
   size_t memory_mb = 1024;
   int threads = 0;
   int levels_per_block = 14;
@@ -92,10 +95,7 @@ VolumeInfo OpenInputs(const ImportArgs& a) {
 }
 
 void RunImport(const ImportArgs& a) {
-  if (a.sparse) {
-    throw CommandError(
-        "--sparse: the variable-resolution LMDB store is not built yet; import a dense store", 2);
-  }
+  if (!a.sparse && a.tolerance != "0") throw CommandError("--tolerance needs --sparse", 2);
   const VolumeInfo input = OpenInputs(a);
   const std::string expected = HierarchyName(input.dimension);
   if (!a.hierarchy.empty() && a.hierarchy != expected) {
@@ -115,6 +115,10 @@ void RunImport(const ImportArgs& a) {
   options.threads = a.threads;
   options.levels_per_block = a.levels_per_block;
   options.zstd_level = a.zstd_level;
+  if (a.sparse) {
+    ImportSparse(input, a.output, options, a.tolerance, a.json, a.quiet);
+    return;
+  }
   ProgressLine line(!a.quiet);
   options.progress = [&](const DenseBuildProgress& p) {
     line.Update(fmt::format("{}: {} {}/{} ({:.0f}%), {:.1f} s", a.output, p.phase, p.done, p.total,
@@ -161,6 +165,10 @@ std::unique_ptr<DenseStore> OpenStore(const std::string& path, const DenseStore:
 }
 
 void RunInfo(const std::string& path, bool as_json) {
+  if (IsSparseStorePath(path)) {
+    RunSparseInfo(path, as_json);
+    return;
+  }
   const auto store = OpenStore(path);
   const DenseHeader& h = store->header();
   uint64_t logical_errors = 0, logical_field = 0, stored_errors = 0, stored_field = 0;
@@ -233,6 +241,10 @@ void RunInfo(const std::string& path, bool as_json) {
 // --- verify ----------------------------------------------------------------
 
 void RunVerify(const std::string& path, bool quiet) {
+  if (IsSparseStorePath(path)) {
+    RunSparseVerify(path, quiet);
+    return;
+  }
   const auto store = OpenStore(path);  // header, size, index
   ProgressLine line(!quiet);
   const Status s = store->Verify([&](uint64_t done, uint64_t total) {
@@ -315,7 +327,7 @@ void RegisterStoreCommands(CLI::App& app) {
     auto a = std::make_shared<ImportArgs>();
     auto* cmd = app.add_subcommand(
         "import",
-        "Build a dense store from a volume: NRRD (.nrrd, .nhdr) and NIfTI-1 (.nii)\n"
+        "Build a store from a volume (dense; or sparse with --sparse): NRRD (.nrrd, .nhdr) and NIfTI-1 (.nii)\n"
         "files describe themselves; raw files need --dims and --type. A 3D volume\n"
         "builds a Hierarchy of Tetrahedra, a 4D one (or several 3D volumes, a time\n"
         "series) a Hierarchy of Pentatopes. Any grid size: the domain is the\n"
@@ -335,7 +347,12 @@ void RegisterStoreCommands(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--compression", a->compression, "blocks as zstd frames or none (raw)")
         ->capture_default_str();
-    cmd->add_flag("--sparse", a->sparse, "build the variable-resolution LMDB store (not yet)");
+    cmd->add_flag("--sparse", a->sparse,
+                  "build the variable-resolution LMDB store (through a temporary dense one)");
+    cmd->add_option("--tolerance", a->tolerance,
+                    "--sparse: drop subtrees whose errors are all within this (7.3, or 1% of the "
+                    "field range; 0: lossless)")
+        ->capture_default_str();
     cmd->add_option("--memory-mb", a->memory_mb, "the builder's memory bound")
         ->capture_default_str();
     cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")
@@ -382,6 +399,9 @@ void RegisterStoreCommands(CLI::App& app) {
     cmd->add_option("--step", a->step, "every step-th point along each axis (a coarser resolution)")
         ->capture_default_str();
     cmd->callback([a] {
+      if (IsSparseStorePath(a->store)) {
+        throw CommandError(a->store + " is a sparse store: convert it --to dense to export", 2);
+      }
       const auto store = OpenStore(a->store);
       if (store->dimension() == 3) {
         ExportField<3>(*store, *a);

@@ -17,6 +17,7 @@
 #include "hierarchy/simplex_code.h"
 #include "storage/nrrd_writer.h"
 #include "storage/simplex_scan.h"
+#include "storage/volume.h"
 #include "storage/voxel_type.h"
 
 namespace simplexdb::testing {
@@ -44,6 +45,15 @@ Int128 Det(const std::array<std::array<int64_t, N>, N>& m) {
     }
     return det;
   }
+}
+
+// Every value of the volume file at `path` (any format OpenVolume reads).
+inline std::vector<double> ReadVolumeValues(const std::string& path) {
+  const VolumeInfo info = *OpenVolume(path);
+  auto reader = *VolumeReader::Open(info);
+  std::vector<double> v(info.voxel_count());
+  if (!reader->Read(0, v.size(), v.data()).ok()) v.clear();
+  return v;
 }
 
 // A fresh directory, removed with everything in it at scope exit.

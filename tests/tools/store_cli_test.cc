@@ -21,17 +21,11 @@
 namespace simplexdb {
 namespace {
 
+using testing::ReadVolumeValues;
 using testing::RunCli;
 using testing::TempDir;
 namespace fs = std::filesystem;
 
-std::vector<double> ReadAll(const std::string& path) {
-  const VolumeInfo info = *OpenVolume(path);
-  auto reader = *VolumeReader::Open(info);
-  std::vector<double> v(info.voxel_count());
-  EXPECT_TRUE(reader->Read(0, v.size(), v.data()).ok());
-  return v;
-}
 
 TEST(StoreCli, GenerateImportInfoVerifyExport) {
   const TempDir dir;
@@ -55,10 +49,10 @@ TEST(StoreCli, GenerateImportInfoVerifyExport) {
   EXPECT_EQ(RunCli("verify " + store).exit_code, 0);
   // The field comes back losslessly, whole or as a box at a coarser step.
   ASSERT_EQ(RunCli("export " + store + " -o " + dir.path() + "/back.nrrd").exit_code, 0);
-  EXPECT_EQ(ReadAll(dir.path() + "/back.nrrd"), ReadAll(in));
+  EXPECT_EQ(ReadVolumeValues(dir.path() + "/back.nrrd"), ReadVolumeValues(in));
   r = RunCli("export " + store + " --roi 2,1,0,10,12,8 --step 2 -o " + dir.path() + "/box.raw");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::vector<double> all = ReadAll(in), box = ReadAll(dir.path() + "/box.nhdr");
+  const std::vector<double> all = ReadVolumeValues(in), box = ReadVolumeValues(dir.path() + "/box.nhdr");
   ASSERT_EQ(box.size(), 5u * 6 * 5);
   size_t i = 0;
   for (int z = 0; z <= 8; z += 2) {

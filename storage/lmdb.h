@@ -1,0 +1,165 @@
+// A thin layer over LMDB (liblmdb, the C library): owning handles for the
+// environment and transactions, and LMDB's return codes as a Status that
+// names the file. Nothing here knows about SimplexDB's data.
+//
+// Environments are single files (MDB_NOSUBDIR: STORE and STORE-lock) opened
+// with MDB_NOTLS, so one thread may hold several read transactions (one per
+// Reader) and a read transaction is not tied to the thread that began it.
+//
+// Map size: LMDB fails a write with MDB_MAP_FULL when the map is too small.
+// Writers here never show that to a user: BatchWriter keeps each batch until
+// it commits, and on MDB_MAP_FULL aborts it, doubles the map and replays it.
+// Readers follow a map grown by another process (MDB_MAP_RESIZED) by
+// adopting the new size and retrying.
+//
+// Thread safety: an Env may be shared by threads; a Txn belongs to one
+// thread at a time; a BatchWriter to one thread.
+#pragma once
+
+#include <lmdb.h>
+
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "util/status.h"
+
+namespace simplexdb::lmdb {
+
+// The Status for LMDB return code `rc` (not MDB_SUCCESS) from `action` on
+// the environment at `path`: a full disk is ResourceExhausted, a damaged
+// file Corruption, a file that is not LMDB (or of another LMDB version)
+// InvalidArgument, a missing file NotFound.
+Status FromCode(int rc, const std::string& path, std::string_view action);
+
+// Keys: a 64-bit integer stored big-endian, so LMDB's byte order (memcmp)
+// is the integer's order.
+inline std::array<uint8_t, 8> KeyBytes(uint64_t key) {
+  std::array<uint8_t, 8> out;
+  for (int i = 0; i < 8; ++i) out[i] = static_cast<uint8_t>(key >> (56 - 8 * i));
+  return out;
+}
+inline uint64_t KeyValue(const MDB_val& v) {
+  const auto* b = static_cast<const uint8_t*>(v.mv_data);
+  uint64_t key = 0;
+  for (int i = 0; i < 8; ++i) key = key << 8 | b[i];
+  return key;
+}
+inline MDB_val Val(const void* data, size_t size) {
+  return MDB_val{size, const_cast<void*>(data)};
+}
+
+class Env {
+ public:
+  struct Options {
+    bool read_only = true;
+    uint64_t map_bytes = 0;  // 0: the size recorded in the file (readers)
+    // Writers: make every commit durable. Off for builders, which write a
+    // temporary file and call Sync() once before renaming it.
+    bool sync_commits = false;
+    unsigned max_dbs = 4;
+    unsigned max_readers = 510;
+  };
+  // Opens (a writer creates) the single-file environment at `path`, and
+  // clears the reader slots of processes that died (mdb_reader_check).
+  static Result<std::unique_ptr<Env>> Open(const std::string& path, const Options& options);
+  ~Env();  // closes the environment
+
+  MDB_env* get() const { return env_; }
+  const std::string& path() const { return path_; }
+  uint64_t map_bytes() const;
+  // Sets the map size (no transaction of this process may be open).
+  Status SetMapBytes(uint64_t bytes);
+  // Flushes to disk (a no-op unless the environment was opened without
+  // syncing: here it is, for writers that sync once at the end).
+  Status Sync();
+  Status FromCode(int rc, std::string_view action) const {
+    return lmdb::FromCode(rc, path_, action);
+  }
+
+ private:
+  Env(MDB_env* env, std::string path) : env_(env), path_(std::move(path)) {}
+  MDB_env* env_;
+  std::string path_;
+};
+
+class Txn {
+ public:
+  // A read-only snapshot, or the (single) write transaction.
+  static Result<Txn> Begin(Env& env, bool read_only);
+  Txn(Txn&& other) noexcept : env_(other.env_), txn_(other.txn_) { other.txn_ = nullptr; }
+  Txn& operator=(Txn&& other) noexcept;
+  ~Txn() { Abort(); }
+
+  MDB_txn* get() const { return txn_; }
+  Status Commit();
+  int CommitCode();  // Commit's LMDB return code, for callers that retry
+  void Abort();
+
+  // The named database `name`; `create` in a write transaction.
+  Result<MDB_dbi> OpenDb(const char* name, bool create);
+
+  // The value of `key` in `dbi`: the bytes (valid until the transaction
+  // ends), or an empty span with found = false.
+  Result<std::span<const uint8_t>> Get(MDB_dbi dbi, std::span<const uint8_t> key, bool* found);
+  Status Put(MDB_dbi dbi, std::span<const uint8_t> key, std::span<const uint8_t> value,
+             unsigned flags = 0);
+
+ private:
+  Txn(Env* env, MDB_txn* txn) : env_(env), txn_(txn) {}
+  Env* env_;
+  MDB_txn* txn_;
+};
+
+// A cursor that closes itself (before its transaction ends).
+class Cursor {
+ public:
+  static Result<Cursor> Open(Txn& txn, MDB_dbi dbi, const Env& env);
+  Cursor(Cursor&& other) noexcept : cursor_(other.cursor_) { other.cursor_ = nullptr; }
+  ~Cursor() {
+    if (cursor_ != nullptr) mdb_cursor_close(cursor_);
+  }
+  MDB_cursor* get() const { return cursor_; }
+
+ private:
+  explicit Cursor(MDB_cursor* c) : cursor_(c) {}
+  MDB_cursor* cursor_;
+};
+
+// Writes many entries in batches of transactions. Each batch is kept in
+// memory until its transaction commits; if the map is full, the batch is
+// aborted, the map doubled and the batch replayed, so callers never see
+// MDB_MAP_FULL. Entries added in key order to a database (per database) can
+// use `append` (MDB_APPEND: no B-tree search, pages filled completely).
+class BatchWriter {
+ public:
+  BatchWriter(Env& env, size_t batch_bytes = size_t{64} << 20)
+      : env_(env), batch_bytes_(batch_bytes) {}
+
+  Status Put(MDB_dbi dbi, std::span<const uint8_t> key, std::span<const uint8_t> value,
+             bool append);
+  // Commits what is pending.
+  Status Flush();
+  uint64_t map_growths() const { return growths_; }
+
+ private:
+  struct Entry {
+    MDB_dbi dbi;
+    uint32_t key_size, value_size;
+    bool append;
+  };
+  Status TryCommit(int* rc);
+
+  Env& env_;
+  size_t batch_bytes_;
+  std::vector<Entry> entries_;
+  std::vector<uint8_t> bytes_;
+  uint64_t growths_ = 0;
+};
+
+}  // namespace simplexdb::lmdb

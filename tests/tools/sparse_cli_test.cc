@@ -1,0 +1,82 @@
+// simplexdb import --sparse / convert / info / verify on sparse stores, end
+// to end: the contract's forms, round trips through the dense store, and
+// what a user sees for wrong input.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "storage/volume.h"
+#include "tests/storage/store_test_util.h"
+#include "tests/tools/cli_runner.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::ReadVolumeValues;
+using testing::RunCli;
+using testing::TempDir;
+namespace fs = std::filesystem;
+
+
+nlohmann::json Json(const testing::CommandResult& r) { return nlohmann::json::parse(r.out); }
+
+TEST(SparseCli, ImportConvertInfoVerifyRoundTrip) {
+  const TempDir dir;
+  const std::string in = dir.path() + "/p.nrrd";
+  ASSERT_EQ(RunCli("generate --field perlin --dims 17,13,9 --type uint8 --seed 2 -o " + in).exit_code, 0);
+  // Built directly from the volume, and converted from a dense store.
+  auto r = RunCli("import " + in + " --sparse -o " + dir.path() + "/a.lmdb --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(Json(r)["kind"], "ht-sparse");
+  ASSERT_EQ(RunCli("import " + in + " -o " + dir.path() + "/d.sdb --threads 1 -q").exit_code, 0);
+  r = RunCli("convert " + dir.path() + "/d.sdb --to sparse -o " + dir.path() + "/b.lmdb --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli("info " + dir.path() + "/b.lmdb --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto info = Json(r);
+  EXPECT_EQ(info["kind"], "ht-sparse");
+  EXPECT_EQ(info["dims"], (std::vector<int>{17, 13, 9}));
+  EXPECT_EQ(info["tolerance"], 0.0);
+  EXPECT_EQ(info["nodes"], Json(RunCli("info " + dir.path() + "/a.lmdb --json"))["nodes"]);
+  EXPECT_EQ(RunCli("verify " + dir.path() + "/b.lmdb").exit_code, 0);
+  // Back to dense: the same field.
+  ASSERT_EQ(RunCli("convert " + dir.path() + "/b.lmdb --to dense -o " + dir.path() + "/back.sdb -q").exit_code, 0);
+  ASSERT_EQ(RunCli("export " + dir.path() + "/back.sdb -o " + dir.path() + "/back.nrrd").exit_code, 0);
+  EXPECT_EQ(ReadVolumeValues(dir.path() + "/back.nrrd"), ReadVolumeValues(in));
+  // A tolerance as a share of the field range keeps fewer nodes.
+  r = RunCli("convert " + dir.path() + "/d.sdb --to sparse --tolerance 10% -o " + dir.path() + "/c.lmdb --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_LT(Json(r)["nodes"].get<uint64_t>(), info["nodes"].get<uint64_t>());
+  EXPECT_NEAR(Json(r)["tolerance"].get<double>(), 0.1 * (info["field_max"].get<double>() - info["field_min"].get<double>()), 1e-9);
+}
+
+TEST(SparseCli, WrongInputSaysWhat) {
+  const TempDir dir;
+  const std::string in = dir.path() + "/p.nrrd", dense = dir.path() + "/d.sdb", sparse = dir.path() + "/s.lmdb";
+  ASSERT_EQ(RunCli("generate --field perlin --dims 9,9,9 --type uint8 -o " + in).exit_code, 0);
+  ASSERT_EQ(RunCli("import " + in + " -o " + dense + " -q").exit_code, 0);
+  ASSERT_EQ(RunCli("convert " + dense + " --to sparse -o " + sparse + " -q").exit_code, 0);
+  const auto expect = [](const std::string& args, int code, const std::string& needle) {
+    SCOPED_TRACE(args);
+    const auto r = RunCli(args);
+    EXPECT_EQ(r.exit_code, code) << r.err;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
+  };
+  expect("convert " + sparse + " --to sparse -o " + dir.path() + "/x.lmdb", 2, "already a sparse store");
+  expect("convert " + dense + " --to dense -o " + dir.path() + "/x.sdb", 2, "not a sparse store");
+  expect("convert " + dense + " --to sparse --tolerance -3 -o " + dir.path() + "/x.lmdb", 2, "--tolerance");
+  expect("convert " + dense + " --to sparse --tolerance lots -o " + dir.path() + "/x.lmdb", 2, "'lots'");
+  expect("import " + in + " --tolerance 1 -o " + dir.path() + "/x.sdb", 2, "--tolerance needs --sparse");
+  expect("export " + sparse + " -o " + dir.path() + "/x.nrrd", 2, "convert it --to dense");
+  // Not a store, and an LMDB file of another program.
+  std::ofstream(dir.path() + "/junk.lmdb") << "junk";
+  expect("info " + dir.path() + "/junk.lmdb", 1, "junk.lmdb");
+  EXPECT_FALSE(fs::exists(dir.path() + "/x.lmdb"));
+  EXPECT_FALSE(fs::exists(dir.path() + "/x.sdb"));
+}
+
+}  // namespace
+}  // namespace simplexdb

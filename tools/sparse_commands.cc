@@ -1,0 +1,258 @@
+#include "tools/sparse_commands.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <iostream>
+#include <memory>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "storage/file.h"
+#include "storage/sparse_builder.h"
+#include "storage/sparse_store.h"
+#include "tools/cli_util.h"
+#include "tools/commands.h"
+
+namespace simplexdb::tools {
+namespace {
+
+using json = nlohmann::ordered_json;
+
+[[noreturn]] void Fail(const Status& status) { throw CommandError(std::string(status.message()), 1); }
+
+std::unique_ptr<SparseStore> OpenSparse(const std::string& path) {
+  Result<std::unique_ptr<SparseStore>> s = SparseStore::Open(path);
+  if (!s.ok()) Fail(s.status());
+  return *std::move(s);
+}
+
+std::unique_ptr<DenseStore> OpenDense(const std::string& path) {
+  Result<std::unique_ptr<DenseStore>> s = DenseStore::Open(path);
+  if (!s.ok()) Fail(s.status());
+  return *std::move(s);
+}
+
+// Internal nodes of the complete hierarchy: what a dense store holds.
+double CompleteNodes(int dimension, int leaf_level) {
+  return (dimension == 3 ? 6.0 : 24.0) * (std::ldexp(1.0, leaf_level) - 1);
+}
+
+uint64_t GridPoints(int dimension, const std::array<uint32_t, 4>& dims) {
+  uint64_t n = 1;
+  for (int c = 0; c < dimension; ++c) n *= dims[c];
+  return n;
+}
+
+SparseBuildReport Convert(const DenseStore& dense, const std::string& output,
+                          const std::string& tolerance, bool quiet) {
+  SparseBuildOptions options;
+  options.tolerance = ParseAmount(tolerance, "--tolerance",
+                                  dense.header().field_max - dense.header().field_min);
+  ProgressLine line(!quiet);
+  options.progress = [&](const DenseBuildProgress& p) {
+    line.Update(fmt::format("{}: nodes {}/{} ({:.0f}%), {:.1f} s", output, p.done, p.total,
+                            p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
+  };
+  Result<SparseBuildReport> report = ConvertDenseToSparse(dense, output, options);
+  line.Finish();
+  if (!report.ok()) Fail(report.status());
+  return *std::move(report);
+}
+
+void PrintSparseReport(const SparseBuildReport& r, const std::string& output, bool as_json,
+                       bool quiet) {
+  const SparseHeader& h = r.header;
+  const uint64_t points = GridPoints(h.dimension, h.dims);
+  if (as_json) {
+    json j;
+    j["store"] = output;
+    j["kind"] = h.dimension == 3 ? "ht-sparse" : "hp-sparse";
+    j["nodes"] = h.nodes;
+    j["vertices"] = h.vertices;
+    j["tolerance"] = h.tolerance;
+    j["seconds"] = r.seconds;
+    j["nodes_visited"] = r.nodes_visited;
+    j["map_growths"] = r.map_growths;
+    j["file_bytes"] = r.file_bytes;
+    j["bytes_per_grid_point"] = static_cast<double>(r.file_bytes) / static_cast<double>(points);
+    j["peak_memory_bytes"] = PeakResidentBytes();
+    std::cout << j.dump() << "\n";
+  } else if (!quiet) {
+    fmt::print("{}: sparse {} store, tolerance {:.6g}: {} of {:.4g} nodes kept ({:.3g}%), {} "
+               "vertices\n",
+               output, h.dimension == 3 ? "HT" : "HP", h.tolerance, h.nodes,
+               CompleteNodes(h.dimension, h.leaf_level()),
+               100.0 * static_cast<double>(h.nodes) / CompleteNodes(h.dimension, h.leaf_level()),
+               h.vertices);
+    fmt::print("  converted in {:.2f} s; {} on disk ({:.2f} bytes per grid point), peak memory "
+               "{}\n",
+               r.seconds, HumanBytes(r.file_bytes),
+               static_cast<double>(r.file_bytes) / static_cast<double>(points),
+               HumanBytes(PeakResidentBytes()));
+  }
+}
+
+void RunConvert(const std::string& input, const std::string& output, const std::string& to,
+                const std::string& tolerance, const std::string& compression, bool as_json,
+                bool quiet) {
+  if (to == "sparse") {
+    if (IsSparseStorePath(input)) {
+      throw CommandError(input + " is already a sparse store; convert it --to dense first", 2);
+    }
+    const auto dense = OpenDense(input);
+    PrintSparseReport(Convert(*dense, output, tolerance, quiet), output, as_json, quiet);
+    return;
+  }
+  if (tolerance != "0") throw CommandError("--tolerance applies to --to sparse", 2);
+  if (!IsSparseStorePath(input)) {
+    throw CommandError(input + " is not a sparse store; only sparse stores convert --to dense", 2);
+  }
+  const auto sparse = OpenSparse(input);
+  DenseBuildOptions options;
+  Result<Compression> c = ParseCompression(compression);
+  if (!c.ok()) throw CommandError("--compression: " + std::string(c.status().message()), 2);
+  options.compression = *c;
+  ProgressLine line(!quiet);
+  options.progress = [&](const DenseBuildProgress& p) {
+    line.Update(fmt::format("{}: {} {}/{} ({:.0f}%), {:.1f} s", output, p.phase, p.done, p.total,
+                            p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
+  };
+  const Result<DenseBuildReport> built = ConvertSparseToDense(*sparse, output, options);
+  line.Finish();
+  if (!built.ok()) Fail(built.status());
+  if (as_json) {
+    json j;
+    j["store"] = output;
+    j["kind"] = sparse->dimension() == 3 ? "ht-dense" : "hp-dense";
+    j["nodes"] = built->nodes;
+    j["seconds"] = built->seconds;
+    j["file_bytes"] = built->header.file_size;
+    std::cout << j.dump() << "\n";
+  } else if (!quiet) {
+    fmt::print("{}: dense store from {} ({} nodes) in {:.2f} s, {} on disk\n", output, input,
+               built->nodes, built->seconds, HumanBytes(built->header.file_size));
+  }
+}
+
+}  // namespace
+
+bool IsSparseStorePath(const std::string& path) { return LooksLikeLmdb(path); }
+
+void RunSparseInfo(const std::string& path, bool as_json) {
+  const auto store = OpenSparse(path);
+  const SparseHeader& h = store->header();
+  const uint64_t points = GridPoints(h.dimension, h.dims);
+  const uint64_t bytes = store->file_bytes();
+  const double complete = CompleteNodes(h.dimension, h.leaf_level());
+  if (as_json) {
+    json j;
+    j["store"] = path;
+    j["kind"] = h.dimension == 3 ? "ht-sparse" : "hp-sparse";
+    j["hierarchy"] = h.dimension == 3 ? "ht" : "hp";
+    j["format_version"] = h.version;
+    j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
+    j["grid_points"] = points;
+    j["domain_bits"] = h.domain_bits;
+    j["domain_side"] = h.domain_side();
+    j["leaf_level"] = h.leaf_level();
+    j["voxel_type"] = VoxelTypeName(h.voxel_type);
+    j["quantization"] = QuantizationName(h.quantization);
+    j["quantum"] = h.quantum;
+    j["field_min"] = h.field_min;
+    j["field_max"] = h.field_max;
+    j["error_max"] = h.error_max;
+    j["tolerance"] = h.tolerance;
+    j["nodes"] = h.nodes;
+    j["complete_nodes"] = complete;
+    j["vertices"] = h.vertices;
+    j["file_bytes"] = bytes;
+    j["bytes_per_grid_point"] = static_cast<double>(bytes) / static_cast<double>(points);
+    j["source"] = h.source;
+    std::cout << j.dump() << "\n";
+    return;
+  }
+  fmt::print("{}: sparse {} store (LMDB, format {})\n", path, h.dimension == 3 ? "HT" : "HP",
+             h.version);
+  fmt::print("  grid        {} {} ({} points), from {}\n", FormatDims(h.dimension, h.dims),
+             VoxelTypeName(h.voxel_type), points, h.source);
+  fmt::print("  domain      side 2^{} + 1 = {}, {} levels ({} roots)\n", h.domain_bits,
+             h.domain_side(), h.leaf_level(), h.dimension == 3 ? 6 : 24);
+  fmt::print("  field       {} .. {}; {} vertices stored\n", h.field_min, h.field_max, h.vertices);
+  fmt::print("  errors      {} (quantum {:.6g}), largest {:.6g}; subtrees within {:.6g} "
+             "dropped\n",
+             QuantizationName(h.quantization), h.quantum, h.error_max, h.tolerance);
+  fmt::print("  nodes       {} of {:.4g} ({:.3g}%)\n", h.nodes, complete,
+             100.0 * static_cast<double>(h.nodes) / complete);
+  fmt::print("  size        {} on disk, {:.2f} bytes per grid point\n", HumanBytes(bytes),
+             static_cast<double>(bytes) / static_cast<double>(points));
+}
+
+void RunSparseVerify(const std::string& path, bool quiet) {
+  const auto store = OpenSparse(path);
+  ProgressLine line(!quiet);
+  const Status s = store->Verify([&](uint64_t done, uint64_t total) {
+    line.Update(fmt::format("{}: verifying entry {}/{}", path, done, total));
+  });
+  line.Finish();
+  if (!s.ok()) Fail(s);
+  if (!quiet) {
+    fmt::print("{}: ok ({} nodes, {} vertices: keys, values, tree, vertices and checksum)\n",
+               path, store->header().nodes, store->header().vertices);
+  }
+}
+
+void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuildOptions options,
+                  const std::string& tolerance, bool as_json, bool quiet) {
+  // The dense store is the sparse one's source; it lives only as long as
+  // this function (removed on every path out).
+  struct Remove {
+    std::string path;
+    ~Remove() { unlink(path.c_str()); }
+  } temp{output + ".dense.tmp." + std::to_string(getpid())};
+  RemoveStaleTemporaries(output + ".dense");
+  ProgressLine line(!quiet);
+  options.progress = [&](const DenseBuildProgress& p) {
+    line.Update(fmt::format("{}: {} {}/{} ({:.0f}%), {:.1f} s", output, p.phase, p.done, p.total,
+                            p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
+  };
+  const Result<DenseBuildReport> built = BuildDenseStore(input, temp.path, options);
+  line.Finish();
+  if (!built.ok()) Fail(built.status());
+  const auto dense = OpenDense(temp.path);
+  SparseBuildReport report = Convert(*dense, output, tolerance, quiet || as_json);
+  report.seconds += built->seconds;
+  PrintSparseReport(report, output, as_json, quiet);
+}
+
+void RegisterConvertCommand(CLI::App& app) {
+  struct Args {
+    std::string input, output, to, tolerance = "0", compression = "zstd";
+    bool json = false, quiet = false;
+  };
+  auto a = std::make_shared<Args>();
+  auto* cmd = app.add_subcommand(
+      "convert",
+      "Convert between the dense store and the sparse (LMDB, variable-resolution)\n"
+      "store. --to sparse keeps a node only when some error in its subtree exceeds\n"
+      "--tolerance (0: lossless, only where the field is not linear); --to dense\n"
+      "rebuilds the full grid, interpolating over the dropped subtrees.\n"
+      "Example: simplexdb convert tooth.sdb --to sparse --tolerance 1% -o tooth.lmdb");
+  cmd->add_option("store", a->input, "the store to read")->required();
+  cmd->add_option("-o,--output", a->output, "the store to write")->required();
+  cmd->add_option("--to", a->to, "dense or sparse")->required()->check(CLI::IsMember({"dense", "sparse"}));
+  cmd->add_option("--tolerance", a->tolerance,
+                  "--to sparse: drop subtrees whose errors are all within this (7.3, or 1% of "
+                  "the field range)")
+      ->capture_default_str();
+  cmd->add_option("--compression", a->compression, "--to dense: blocks as zstd or none")
+      ->capture_default_str();
+  cmd->add_flag("--json", a->json, "print the report as JSON");
+  cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
+  cmd->callback([a] {
+    RunConvert(a->input, a->output, a->to, a->tolerance, a->compression, a->json, a->quiet);
+  });
+}
+
+}  // namespace simplexdb::tools

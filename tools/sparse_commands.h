@@ -1,0 +1,25 @@
+// The sparse (LMDB) store in the `simplexdb` command: `import --sparse`,
+// `convert`, and the sparse side of `info` and `verify`.
+#pragma once
+
+#include <string>
+
+#include "storage/dense_builder.h"
+#include "storage/volume.h"
+
+namespace simplexdb::tools {
+
+// True when `path` is an LMDB file (so info and verify treat it as a sparse
+// store, and say so if it is another program's LMDB file).
+bool IsSparseStorePath(const std::string& path);
+
+void RunSparseInfo(const std::string& path, bool as_json);
+void RunSparseVerify(const std::string& path, bool quiet);
+
+// Builds a dense store from `input` beside `output` (a temporary), converts
+// it with `tolerance` ("7.3" absolute or "1%" of the field range), removes
+// the temporary.
+void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuildOptions options,
+                  const std::string& tolerance, bool as_json, bool quiet);
+
+}  // namespace simplexdb::tools
