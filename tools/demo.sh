@@ -6,7 +6,8 @@
 # JSON contract of `simplexdb codes`. Then the dense store: a real CT volume
 # (HT) and a real 4D fMRI volume (HP) from ../shared/data, or generated
 # Perlin noise when that folder is absent, imported into stores, described,
-# verified, and the CT field exported back at half resolution. Everything it
+# verified, the HP converted to the sparse (LMDB) store, and the CT field
+# exported back at half resolution. Everything it
 # writes goes to a temporary directory, removed at the end.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -62,6 +63,11 @@ else
   "$simplexdb" import "$work/p17.nrrd" -o "$work/hp.sdb"
 fi
 "$simplexdb" info "$work/hp.sdb"
+
+echo
+echo "== Convert it to the sparse LMDB store: only subtrees with a non-zero error (lossless)"
+"$simplexdb" convert "$work/hp.sdb" --to sparse -o "$work/hp.lmdb"
+"$simplexdb" verify "$work/hp.lmdb"
 
 echo
 echo "== Export the HT store's field back out: the whole grid at every 2nd point"
