@@ -6,8 +6,11 @@
 //                                 random codes or a depth-first walk.
 //   Build/<volume>                build throughput (grid points/s) and peak
 //                                 memory of `simplexdb import` (a child process).
+//   ErrorLookup/sparse-<how>      the same codes on the lossless sparse store
+//                                 (LMDB B-tree lookups, or prefetched subtrees).
 //   Size/<volume>/<mode>          bytes per grid point on disk for each
-//                                 quantization and compression, against the
+//                                 quantization and compression (and the
+//                                 lossless sparse store), against the
 //                                 seed's 14n (u16) and 7n (u8) bytes in the
 //                                 HT, 50n and 25n in the HP.
 //
@@ -33,6 +36,8 @@
 #include "storage/dense_store.h"
 #include "storage/generate.h"
 #include "storage/nrrd_writer.h"
+#include "storage/sparse_builder.h"
+#include "storage/sparse_store.h"
 #include "storage/volume.h"
 
 namespace simplexdb {
@@ -49,9 +54,11 @@ const std::string& WorkDir() {
 }
 
 // A Perlin volume (uint8, like the seed's byte-valued data), written once.
-std::string PerlinVolume(int dimension, uint32_t side) {
+// With `blob`, only a centred cube of a quarter of the side keeps its noise
+// and every other point is 0: a mostly uniform volume (1/64 of it varies).
+std::string PerlinVolume(int dimension, uint32_t side, bool blob = false) {
   const std::string path = WorkDir() + "/perlin" + std::to_string(dimension) + "d_" +
-                           std::to_string(side) + ".nrrd";
+                           std::to_string(side) + (blob ? "_blob" : "") + ".nrrd";
   if (fs::exists(path)) return path;
   GenerateOptions g;
   g.dimension = dimension;
@@ -60,7 +67,16 @@ std::string PerlinVolume(int dimension, uint32_t side) {
   uint64_t n = uint64_t{side} * side * side * (dimension == 4 ? side : 1);
   std::vector<double> values(n);
   field.Fill(0, n, values.data());
-  for (double& v : values) v = std::round(v);
+  for (uint64_t i = 0; i < n; ++i) {
+    values[i] = std::round(values[i]);
+    if (!blob) continue;
+    uint64_t rest = i;
+    for (int c = 0; c < dimension; ++c) {
+      const uint64_t x = rest % side;
+      rest /= side;
+      if (x < 3 * side / 8 || x >= 5 * side / 8) values[i] = 0;
+    }
+  }
   if (!WriteNrrd(path, dimension, g.dims, VoxelType::kU8, values).ok()) std::abort();
   return path;
 }
@@ -81,6 +97,7 @@ std::string Capture(const std::string& command) {
 
 struct LookupStores {
   std::unique_ptr<DenseStore> in_memory, raw, zstd_warm, zstd_cold;
+  std::unique_ptr<SparseStore> sparse;  // lossless, from the zstd store
   std::vector<TetCode> random, depth_first;
 };
 
@@ -102,6 +119,9 @@ LookupStores& Stores() {
     l.zstd_cold = *DenseStore::Open(zstd, o);
     o.in_memory = true;
     l.in_memory = *DenseStore::Open(zstd, o);
+    const std::string sparse = WorkDir() + "/lookup.lmdb";
+    if (!ConvertDenseToSparse(*l.zstd_warm, sparse, SparseBuildOptions{}).ok()) std::abort();
+    l.sparse = *SparseStore::Open(sparse);
     const int leaf = l.raw->header().leaf_level();
     std::mt19937_64 rng(1);
     for (int i = 0; i < (1 << 16); ++i) {
@@ -151,6 +171,32 @@ void RegisterLookups() {
   }
 }
 
+// The sparse store, lossless (Perlin noise keeps almost every node): LMDB
+// B-tree lookups, and a walk that prefetches each 14-level subtree it enters
+// (at most 2^15 entries) with one cursor scan, the scan's cost included.
+void RegisterSparseLookups() {
+  for (const char* mode : {"btree/random", "btree/depth-first", "prefetch/depth-first"}) {
+    const std::string m = mode;
+    benchmark::RegisterBenchmark(("ErrorLookup/sparse-" + m).c_str(), [m](benchmark::State& state) {
+      LookupStores& s = Stores();
+      const bool random = m == "btree/random", prefetch = m == "prefetch/depth-first";
+      const std::vector<TetCode>& codes = random ? s.random : s.depth_first;
+      auto reader = *SparseStore::Reader<3>::Create(*s.sparse);
+      size_t i = 0;
+      for (auto _ : state) {
+        if (prefetch && codes[i].level() % 14 == 0) {
+          if (!reader.Prefetch(codes[i], size_t{1} << 15).ok()) std::abort();
+        }
+        benchmark::DoNotOptimize(reader.ErrorBound(codes[i]));
+        if (++i == codes.size()) i = 0;
+      }
+      state.SetItemsProcessed(state.iterations());
+      state.counters["btree_lookups"] = benchmark::Counter(
+          static_cast<double>(reader.stats().btree_lookups), benchmark::Counter::kAvgIterations);
+    });
+  }
+}
+
 // --- builds and sizes -------------------------------------------------------
 
 nlohmann::json Import(const std::string& input, const std::string& args, const std::string& out) {
@@ -195,7 +241,8 @@ void RegisterBuilds() {
 void RegisterSizes() {
   std::vector<std::pair<std::string, std::function<std::string()>>> volumes = {
       {"plasma64_perlin65", [] { return PerlinVolume(3, 65); }},
-      {"perlin33_4d", [] { return PerlinVolume(4, 33); }}};
+      {"perlin33_4d", [] { return PerlinVolume(4, 33); }},
+      {"blob129", [] { return PerlinVolume(3, 129, /*blob=*/true); }}};
   const std::string data = SIMPLEXDB_SHARED_DATA;
   const std::pair<const char*, const char*> real[] = {
       {"bucky", "/bucky/bucky_32x32x32_uint8.raw --dims 32,32,32 --type uint8"},
@@ -212,7 +259,7 @@ void RegisterSizes() {
       volumes.emplace_back(name, [a] { return a; });
     }
   }
-  const char* modes[] = {"u16 zstd", "u16 none", "u8 zstd", "u8 none", "f32 zstd"};
+  const char* modes[] = {"u16 zstd", "u16 none", "u8 zstd", "u8 none", "f32 zstd", "u16 sparse"};
   for (const auto& [name, path] : volumes) {
     for (const char* mode : modes) {
       std::string m = mode;
@@ -222,12 +269,19 @@ void RegisterSizes() {
           [path = path, q, c](benchmark::State& state) {
             nlohmann::json j;
             for (auto _ : state) {
-              j = Import(path(), "--quantization " + q + " --compression " + c,
-                         WorkDir() + "/size.sdb");
+              j = c == "sparse" ? Import(path(), "--quantization " + q + " --sparse",
+                                         WorkDir() + "/size.lmdb")
+                                : Import(path(), "--quantization " + q + " --compression " + c,
+                                         WorkDir() + "/size.sdb");
             }
             const nlohmann::json& info = j["info"];
             const double points = info.value("grid_points", 1.0);
             state.counters["bytes_per_point"] = info.value("bytes_per_grid_point", 0.0);
+            if (c == "sparse") {  // the lossless sparse store: nodes kept
+              state.counters["nodes"] = info.value("nodes", 0.0);
+              state.counters["complete_nodes"] = info.value("complete_nodes", 0.0);
+              return;
+            }
             state.counters["error_bytes_per_point"] = info.value("stored_error_bytes", 0.0) / points;
             state.counters["field_bytes_per_point"] = info.value("stored_field_bytes", 0.0) / points;
             // The rest: the 4 KiB header and the block index (40 bytes a
@@ -253,6 +307,7 @@ void RegisterSizes() {
 
 int main(int argc, char** argv) {
   simplexdb::RegisterLookups();
+  simplexdb::RegisterSparseLookups();
   simplexdb::RegisterBuilds();
   simplexdb::RegisterSizes();
   benchmark::Initialize(&argc, argv);
