@@ -164,6 +164,28 @@ constexpr std::array<uint8_t, 2> SplitEdge(SimplexCode<D> code) {
   return SplitRules<D>::kCaseToSplitEdge[SplitRules<D>::CaseOf(code.level(), code.path())];
 }
 
+// Lattice point `v` as a point of the grid [0, 2^domain_bits]^D (stores
+// address grid points; the lattice is that grid refined to kCoordBits).
+// REQUIRES: v is on that grid (true of every vertex above the leaf level of
+// a domain of side 2^domain_bits), 0 <= domain_bits <= kCoordBits<D>.
+template <int D>
+constexpr std::array<int64_t, D> LatticeToGrid(const Point<D>& v, int domain_bits) {
+  std::array<int64_t, D> g{};
+  for (int i = 0; i < D; ++i) g[i] = int64_t{v[i]} >> (kCoordBits<D> - domain_bits);
+  return g;
+}
+
+// The vertex that splitting `code`, whose vertices are `v`, creates: the
+// midpoint of its split edge.
+template <int D>
+constexpr Point<D> SplitMidpoint(SimplexCode<D> code,
+                                 const std::type_identity_t<SimplexVertices<D>>& v) {
+  const auto edge = SplitEdge<D>(code);
+  Point<D> m{};
+  for (int i = 0; i < D; ++i) m[i] = (v[edge[0]][i] + v[edge[1]][i]) / 2;
+  return m;
+}
+
 // Root adjacency, derived from the root geometry at compile time:
 // kRootFaceToRoot<D>[top][k-1] is the root across face type k of root `top`,
 // or -1 when that face lies on the boundary of the cube. With the seed's

@@ -146,10 +146,7 @@ class Builder {
   // Grid coordinates of lattice vertices.
   std::array<IPoint<D>, D + 1> GridVertices(const SimplexVertices<D>& v) const {
     std::array<IPoint<D>, D + 1> g{};
-    const int shift = kCoordBits<D> - k_;
-    for (int i = 0; i <= D; ++i) {
-      for (int c = 0; c < D; ++c) g[i][c] = v[i][c] >> shift;
-    }
+    for (int i = 0; i <= D; ++i) g[i] = LatticeToGrid<D>(v[i], k_);
     return g;
   }
   IPoint<D> RealHigh() const {

@@ -33,7 +33,7 @@
 namespace simplexdb {
 
 struct DenseBuildProgress {
-  const char* phase;  // "field" or "errors"
+  const char* phase;  // "field" or "errors"; "nodes" when converting to sparse
   uint64_t done;
   uint64_t total;
   double seconds;     // since the build started

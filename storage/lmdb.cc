@@ -1,5 +1,7 @@
 #include "storage/lmdb.h"
 
+#include <sys/stat.h>
+
 #include <cerrno>
 #include <string>
 
@@ -51,6 +53,20 @@ Result<std::unique_ptr<Env>> Env::Open(const std::string& path, const Options& o
   }
   rc = mdb_env_open(raw, path.c_str(), flags, 0644);
   if (rc != MDB_SUCCESS) return env->FromCode(rc, options.read_only ? "opening" : "creating");
+  // LMDB reads pages through its map and trusts the file to hold every page
+  // its meta page counts: a truncated file would fault (SIGBUS) on first
+  // touch. Check the size first.
+  MDB_envinfo info;
+  MDB_stat stat_info;
+  mdb_env_info(raw, &info);
+  mdb_env_stat(raw, &stat_info);
+  const uint64_t needed = (static_cast<uint64_t>(info.me_last_pgno) + 1) * stat_info.ms_psize;
+  struct stat now;
+  if (stat(path.c_str(), &now) != 0) return lmdb::FromCode(errno, path, "opening");
+  if (static_cast<uint64_t>(now.st_size) < needed) {
+    return Status::Corruption(path + ": truncated: " + std::to_string(now.st_size) +
+                              " bytes, but its pages need " + std::to_string(needed));
+  }
   int dead = 0;
   rc = mdb_reader_check(raw, &dead);
   if (rc != MDB_SUCCESS) return env->FromCode(rc, "clearing stale readers");
@@ -142,10 +158,10 @@ Status Txn::Put(MDB_dbi dbi, std::span<const uint8_t> key, std::span<const uint8
   return rc == MDB_SUCCESS ? Status::OK() : env_->FromCode(rc, "writing");
 }
 
-Result<Cursor> Cursor::Open(Txn& txn, MDB_dbi dbi, const Env& env) {
+Result<Cursor> Cursor::Open(Txn& txn, MDB_dbi dbi) {
   MDB_cursor* c = nullptr;
   const int rc = mdb_cursor_open(txn.get(), dbi, &c);
-  if (rc != MDB_SUCCESS) return env.FromCode(rc, "opening a cursor");
+  if (rc != MDB_SUCCESS) return txn.env().FromCode(rc, "opening a cursor");
   return Cursor(c);
 }
 

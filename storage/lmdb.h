@@ -65,8 +65,10 @@ class Env {
     unsigned max_dbs = 4;
     unsigned max_readers = 510;
   };
-  // Opens (a writer creates) the single-file environment at `path`, and
-  // clears the reader slots of processes that died (mdb_reader_check).
+  // Opens (a writer creates) the single-file environment at `path`, checks
+  // that the file holds every page LMDB's meta page counts (Corruption if it
+  // was cut short), and clears the reader slots of processes that died
+  // (mdb_reader_check).
   static Result<std::unique_ptr<Env>> Open(const std::string& path, const Options& options);
   ~Env();  // closes the environment
 
@@ -97,6 +99,7 @@ class Txn {
   ~Txn() { Abort(); }
 
   MDB_txn* get() const { return txn_; }
+  const Env& env() const { return *env_; }
   Status Commit();
   int CommitCode();  // Commit's LMDB return code, for callers that retry
   void Abort();
@@ -119,7 +122,7 @@ class Txn {
 // A cursor that closes itself (before its transaction ends).
 class Cursor {
  public:
-  static Result<Cursor> Open(Txn& txn, MDB_dbi dbi, const Env& env);
+  static Result<Cursor> Open(Txn& txn, MDB_dbi dbi);
   Cursor(Cursor&& other) noexcept : cursor_(other.cursor_) { other.cursor_ = nullptr; }
   ~Cursor() {
     if (cursor_ != nullptr) mdb_cursor_close(cursor_);

@@ -7,6 +7,7 @@
 #include <boost/interprocess/file_mapping.hpp>
 #include <boost/interprocess/mapped_region.hpp>
 #include <chrono>
+#include <filesystem>
 #include <cmath>
 #include <vector>
 
@@ -45,14 +46,6 @@ class TemporaryLmdb {
   bool released_ = false;
 };
 
-// The grid point of lattice point v (geometry.h) in a domain of side 2^k.
-template <int D>
-IPoint<D> ToGrid(const Point<D>& v, int domain_bits) {
-  IPoint<D> g;
-  for (int c = 0; c < D; ++c) g[c] = int64_t{v[c]} >> (kCoordBits<D> - domain_bits);
-  return g;
-}
-
 template <int D>
 std::array<int64_t, D> PointOfKey(uint64_t key, int domain_bits) {
   const uint64_t side = (uint64_t{1} << domain_bits) + 1;
@@ -71,7 +64,6 @@ class DenseToSparse {
                 const SparseBuildOptions& options, Clock::time_point start)
       : dense_(dense),
         reader_(dense),
-        env_(env),
         errors_(errors),
         field_(field),
         options_(options),
@@ -102,7 +94,6 @@ class DenseToSparse {
 
   uint64_t visited() const { return visited_; }
   uint64_t map_growths() const { return writer_.map_growths(); }
-  lmdb::BatchWriter& writer() { return writer_; }
 
  private:
   struct Pending {
@@ -148,7 +139,7 @@ class DenseToSparse {
     SDB_ASSIGN_OR_RETURN(const uint32_t stored, reader_.StoredError(code));
     const double e = dense_.quantizer().Decode(stored);
     if (options_.progress && (++visited_ & 0xfffff) == 0) {
-      options_.progress(DenseBuildProgress{"errors", visited_, total_, SecondsSince(start_)});
+      options_.progress(DenseBuildProgress{"nodes", visited_, total_, SecondsSince(start_)});
     }
     pending_.push_back(Pending{code, stored, vertices});
     if (e > options_.tolerance) SDB_RETURN_IF_ERROR(EmitPending());
@@ -174,10 +165,8 @@ class DenseToSparse {
       SDB_RETURN_IF_ERROR(writer_.Put(errors_, key, {value, n}, /*append=*/true));
       sum_ += SparseEntryHash(kErrorsDb, key, {value, n});
       ++nodes_;
-      const auto edge = SplitEdge<D>(p.code);
-      Point<D> mid;
-      for (int c = 0; c < D; ++c) mid[c] = (p.vertices[edge[0]][c] + p.vertices[edge[1]][c]) / 2;
-      needed_.Insert(SparseStore::VertexKey<D>(ToGrid<D>(mid, k_), k_));
+      needed_.Insert(SparseStore::VertexKey<D>(
+          LatticeToGrid<D>(SplitMidpoint<D>(p.code, p.vertices), k_), k_));
     }
     pending_.clear();
     return Status::OK();
@@ -209,7 +198,6 @@ class DenseToSparse {
 
   const DenseStore& dense_;
   DenseStore::Reader<D> reader_;
-  lmdb::Env& env_;
   MDB_dbi errors_, field_;
   const SparseBuildOptions& options_;
   Clock::time_point start_;
@@ -287,10 +275,10 @@ Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
   temp.Release();
   unlink((temp.path() + "-lock").c_str());
   report.seconds = SecondsSince(start);
-  SDB_ASSIGN_OR_RETURN(auto written, SparseStore::Open(out_path));
-  report.file_bytes = written->file_bytes();
+  std::error_code size_error;
+  report.file_bytes = std::filesystem::file_size(out_path, size_error);
   if (options.progress) {
-    options.progress(DenseBuildProgress{"errors", report.nodes_visited, report.nodes_visited,
+    options.progress(DenseBuildProgress{"nodes", report.nodes_visited, report.nodes_visited,
                                         report.seconds});
   }
   return report;
@@ -356,7 +344,7 @@ class FieldRebuilder {
       const SimplexCode<D> root = SimplexCode<D>::Root(top);
       Node node{RootVertices<D>(top), {}};
       for (int i = 0; i <= D; ++i) {
-        SDB_ASSIGN_OR_RETURN(node.values[i], Value(ToGrid<D>(node.vertices[i], h_.domain_bits)));
+        SDB_ASSIGN_OR_RETURN(node.values[i], Value(LatticeToGrid<D>(node.vertices[i], h_.domain_bits)));
       }
       SDB_RETURN_IF_ERROR(Visit(root, node));
     }
@@ -389,10 +377,9 @@ class FieldRebuilder {
       Rasterize(node);
       return Status::OK();
     }
-    const auto edge = SplitEdge<D>(code);
-    Point<D> mid;
-    for (int c = 0; c < D; ++c) mid[c] = (node.vertices[edge[0]][c] + node.vertices[edge[1]][c]) / 2;
-    SDB_ASSIGN_OR_RETURN(const double mid_value, Value(ToGrid<D>(mid, h_.domain_bits)));
+    SDB_ASSIGN_OR_RETURN(const double mid_value,
+                         Value(LatticeToGrid<D>(SplitMidpoint<D>(code, node.vertices),
+                                                         h_.domain_bits)));
     for (int child = 0; child < 2; ++child) {
       Node next;
       next.vertices = ChildVertices<D>(code, node.vertices, child);
@@ -411,7 +398,7 @@ class FieldRebuilder {
   // Writes the interpolation over a leaf at the real grid points in it.
   void Rasterize(const Node& node) {
     std::array<IPoint<D>, D + 1> v;
-    for (int i = 0; i <= D; ++i) v[i] = ToGrid<D>(node.vertices[i], h_.domain_bits);
+    for (int i = 0; i <= D; ++i) v[i] = LatticeToGrid<D>(node.vertices[i], h_.domain_bits);
     const ScannableSimplex<D> s(v);
     const std::array<double, D> g = s.template ScaledGradient<double>(node.values);
     const double det = static_cast<double>(s.det());
@@ -428,9 +415,15 @@ class FieldRebuilder {
     });
   }
 
-  void Write(const IPoint<D>& p, double value) {
+  // The offset of real grid point p in the rebuilt volume (x fastest).
+  uint64_t IndexOf(const IPoint<D>& p) const {
     uint64_t index = 0;
     for (int c = D - 1; c >= 0; --c) index = index * h_.dims[c] + static_cast<uint64_t>(p[c]);
+    return index;
+  }
+
+  void Write(const IPoint<D>& p, double value) {
+    const uint64_t index = IndexOf(p);
     double v = std::clamp(value, h_.field_min, h_.field_max);
     if (h_.voxel_type != VoxelType::kF32 && h_.voxel_type != VoxelType::kF64) v = std::round(v);
     EncodeVoxels(h_.voxel_type, ByteOrder::kLittle, &v, 1, out_ + index * voxel_);
@@ -440,7 +433,7 @@ class FieldRebuilder {
   Status WriteStoredValues() {
     SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(sparse_.env(), /*read_only=*/true));
     SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor,
-                         lmdb::Cursor::Open(txn, sparse_.field_db(), sparse_.env()));
+                         lmdb::Cursor::Open(txn, sparse_.field_db()));
     MDB_val k, v;
     int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_FIRST);
     for (; rc == MDB_SUCCESS; rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT)) {
@@ -451,9 +444,7 @@ class FieldRebuilder {
       bool inside = true;
       for (int c = 0; c < D; ++c) inside = inside && p[c] <= hi_[c];
       if (!inside) continue;
-      uint64_t index = 0;
-      for (int c = D - 1; c >= 0; --c) index = index * h_.dims[c] + static_cast<uint64_t>(p[c]);
-      std::copy_n(static_cast<const std::byte*>(v.mv_data), voxel_, out_ + index * voxel_);
+      std::copy_n(static_cast<const std::byte*>(v.mv_data), voxel_, out_ + IndexOf(p) * voxel_);
     }
     if (rc != MDB_NOTFOUND) return sparse_.env().FromCode(rc, "reading the field");
     return Status::OK();

@@ -7,8 +7,9 @@
 // everywhere). The walk keeps the nodes whose fate is still open on a stack
 // (the path from the last kept node down): a node is written as soon as
 // anything in its subtree is kept, so errors reach LMDB in key order
-// (MDB_APPEND) and memory stays at the path plus one bit per domain vertex
-// (which vertices the kept nodes need; see VertexSet).
+// (MDB_APPEND), and memory stays at the path, one bit per domain vertex
+// (which vertices the kept nodes need; see VertexSet), a write batch of
+// about 16 MiB and the dense store's block cache.
 //
 // Sparse -> dense rebuilds the field on the real grid: stored vertices keep
 // their values, every other grid point takes the linear interpolation over

@@ -156,22 +156,6 @@ Result<std::unique_ptr<SparseStore>> SparseStore::Open(const std::string& path) 
   lmdb::Env::Options options;
   options.read_only = true;
   SDB_ASSIGN_OR_RETURN(store->env_, lmdb::Env::Open(path, options));
-  // LMDB reads pages through its map and trusts the file to hold every page
-  // its meta page counts: a truncated file would fault (SIGBUS) on first
-  // touch. Check the size first.
-  {
-    MDB_envinfo info;
-    MDB_stat stat_info;
-    mdb_env_info(store->env_->get(), &info);
-    mdb_env_stat(store->env_->get(), &stat_info);
-    const uint64_t needed = (static_cast<uint64_t>(info.me_last_pgno) + 1) * stat_info.ms_psize;
-    struct stat now;
-    if (stat(path.c_str(), &now) != 0) return StatusFromErrno(errno, path, "open");
-    if (static_cast<uint64_t>(now.st_size) < needed) {
-      return Status::Corruption(path + ": truncated: " + std::to_string(now.st_size) +
-                                " bytes, but its pages need " + std::to_string(needed));
-    }
-  }
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*store->env_, /*read_only=*/true));
   auto meta = txn.OpenDb("meta", false);
   if (!meta.ok()) {
@@ -222,12 +206,11 @@ Status VerifyTyped(const SparseStore& store,
     SimplexVertices<D> vertices;
   };
   std::vector<Open> stack;
-  const int shift = kCoordBits<D> - h.domain_bits;
   // No stored error may exceed the code the largest error was stored as.
   const double limit = store.quantizer().Decode(store.quantizer().Encode(h.error_max));
   uint64_t nodes = 0;
   {
-    SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, store.errors_db(), store.env()));
+    SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, store.errors_db()));
     MDB_val k, v;
     int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_FIRST);
     for (; rc == MDB_SUCCESS; rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT)) {
@@ -254,12 +237,9 @@ Status VerifyTyped(const SparseStore& store,
         }
         vertices = ChildVertices<D>(stack.back().code, stack.back().vertices, code.child_index());
       }
-      const auto edge = SplitEdge<D>(code);
-      std::array<int64_t, D> mid;
-      for (int c = 0; c < D; ++c) {
-        mid[c] = ((int64_t{vertices[edge[0]][c]} + vertices[edge[1]][c]) / 2) >> shift;
-      }
-      needed.Insert(SparseStore::VertexKey<D>(mid, h.domain_bits));
+      needed.Insert(SparseStore::VertexKey<D>(
+          LatticeToGrid<D>(SplitMidpoint<D>(code, vertices), h.domain_bits),
+          h.domain_bits));
       stack.push_back(Open{code, vertices});
       sum += SparseEntryHash(kErrorsDb, {static_cast<const uint8_t*>(k.mv_data), 8}, value);
       ++nodes;
@@ -273,7 +253,7 @@ Status VerifyTyped(const SparseStore& store,
   }
   uint64_t vertices = 0;
   {
-    SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, store.field_db(), store.env()));
+    SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, store.field_db()));
     MDB_val k, v;
     int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_FIRST);
     const size_t voxel = VoxelSize(h.voxel_type);
@@ -396,7 +376,7 @@ Status SparseStore::Reader<D>::Prefetch(SimplexCode<D> code, size_t max_entries)
   prefetch_.clear();
   prefetch_lo_ = 1;
   prefetch_hi_ = 0;
-  SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn_, store_->errors_db(), store_->env()));
+  SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn_, store_->errors_db()));
   const uint64_t lo = code.range_min(), hi = code.range_max();
   auto first = lmdb::KeyBytes(lo);
   MDB_val k = lmdb::Val(first.data(), 8), v;
