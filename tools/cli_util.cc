@@ -98,4 +98,18 @@ void ProgressLine::Finish() {
   drawn_ = false;
 }
 
+std::unique_ptr<DenseStore> OpenDenseStore(const std::string& path) {
+  Result<std::unique_ptr<DenseStore>> s = DenseStore::Open(path);
+  if (!s.ok()) Fail(s.status());
+  return *std::move(s);
+}
+
+std::function<void(const DenseBuildProgress&)> ProgressTo(ProgressLine& line,
+                                                         const std::string& output) {
+  return [&line, output](const DenseBuildProgress& p) {
+    line.Update(fmt::format("{}: {} {}/{} ({:.0f}%), {:.1f} s", output, p.phase, p.done, p.total,
+                            p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
+  };
+}
+
 }  // namespace simplexdb::tools

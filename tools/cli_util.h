@@ -7,15 +7,25 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "storage/dense_builder.h"
+#include "storage/dense_store.h"
 #include "tools/commands.h"
+#include "util/status.h"
 
 namespace simplexdb::tools {
+
+// Throws `status` as a CommandError (exit 1), its message as the reason.
+[[noreturn]] inline void Fail(const Status& status) {
+  throw CommandError(std::string(status.message()), 1);
+}
 
 // "65,65,65" -> {65, 65, 65}; throws CommandError (exit 2) naming `option`
 // and the text otherwise.
@@ -50,5 +60,13 @@ class ProgressLine {
   bool drawn_ = false;
   std::chrono::steady_clock::time_point last_{};
 };
+
+// Opens a dense store, or Fail()s with the reason.
+std::unique_ptr<DenseStore> OpenDenseStore(const std::string& path);
+
+// A builder's progress callback that draws "OUTPUT: phase done/total (P%),
+// S s" on `line`. `line` must outlive the callback.
+std::function<void(const DenseBuildProgress&)> ProgressTo(ProgressLine& line,
+                                                         const std::string& output);
 
 }  // namespace simplexdb::tools

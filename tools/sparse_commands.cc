@@ -20,16 +20,8 @@ namespace {
 
 using json = nlohmann::ordered_json;
 
-[[noreturn]] void Fail(const Status& status) { throw CommandError(std::string(status.message()), 1); }
-
 std::unique_ptr<SparseStore> OpenSparse(const std::string& path) {
   Result<std::unique_ptr<SparseStore>> s = SparseStore::Open(path);
-  if (!s.ok()) Fail(s.status());
-  return *std::move(s);
-}
-
-std::unique_ptr<DenseStore> OpenDense(const std::string& path) {
-  Result<std::unique_ptr<DenseStore>> s = DenseStore::Open(path);
   if (!s.ok()) Fail(s.status());
   return *std::move(s);
 }
@@ -51,10 +43,7 @@ SparseBuildReport Convert(const DenseStore& dense, const std::string& output,
   options.tolerance = ParseAmount(tolerance, "--tolerance",
                                   dense.header().field_max - dense.header().field_min);
   ProgressLine line(!quiet);
-  options.progress = [&](const DenseBuildProgress& p) {
-    line.Update(fmt::format("{}: nodes {}/{} ({:.0f}%), {:.1f} s", output, p.done, p.total,
-                            p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
-  };
+  options.progress = ProgressTo(line, output);
   Result<SparseBuildReport> report = ConvertDenseToSparse(dense, output, options);
   line.Finish();
   if (!report.ok()) Fail(report.status());
@@ -101,7 +90,7 @@ void RunConvert(const std::string& input, const std::string& output, const std::
     if (IsSparseStorePath(input)) {
       throw CommandError(input + " is already a sparse store; convert it --to dense first", 2);
     }
-    const auto dense = OpenDense(input);
+    const auto dense = OpenDenseStore(input);
     PrintSparseReport(Convert(*dense, output, tolerance, quiet), output, as_json, quiet);
     return;
   }
@@ -115,10 +104,7 @@ void RunConvert(const std::string& input, const std::string& output, const std::
   if (!c.ok()) throw CommandError("--compression: " + std::string(c.status().message()), 2);
   options.compression = *c;
   ProgressLine line(!quiet);
-  options.progress = [&](const DenseBuildProgress& p) {
-    line.Update(fmt::format("{}: {} {}/{} ({:.0f}%), {:.1f} s", output, p.phase, p.done, p.total,
-                            p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
-  };
+  options.progress = ProgressTo(line, output);
   const Result<DenseBuildReport> built = ConvertSparseToDense(*sparse, output, options);
   line.Finish();
   if (!built.ok()) Fail(built.status());
@@ -213,14 +199,11 @@ void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuild
   } temp{output + ".dense.tmp." + std::to_string(getpid())};
   RemoveStaleTemporaries(output + ".dense");
   ProgressLine line(!quiet);
-  options.progress = [&](const DenseBuildProgress& p) {
-    line.Update(fmt::format("{}: {} {}/{} ({:.0f}%), {:.1f} s", output, p.phase, p.done, p.total,
-                            p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
-  };
+  options.progress = ProgressTo(line, output);
   const Result<DenseBuildReport> built = BuildDenseStore(input, temp.path, options);
   line.Finish();
   if (!built.ok()) Fail(built.status());
-  const auto dense = OpenDense(temp.path);
+  const auto dense = OpenDenseStore(temp.path);
   SparseBuildReport report = Convert(*dense, output, tolerance, quiet || as_json);
   report.seconds += built->seconds;
   PrintSparseReport(report, output, as_json, quiet);

@@ -25,10 +25,6 @@ using json = nlohmann::ordered_json;
 
 std::string HierarchyName(int dimension) { return dimension == 3 ? "ht" : "hp"; }
 
-[[noreturn]] void Fail(const Status& status) {
-  // Usage-like mistakes (bad values) exit 2 like CLI11's; the rest 1.
-  throw CommandError(std::string(status.message()), 1);
-}
 
 // --- import ----------------------------------------------------------------
 
@@ -120,10 +116,7 @@ void RunImport(const ImportArgs& a) {
     return;
   }
   ProgressLine line(!a.quiet);
-  options.progress = [&](const DenseBuildProgress& p) {
-    line.Update(fmt::format("{}: {} {}/{} ({:.0f}%), {:.1f} s", a.output, p.phase, p.done, p.total,
-                            p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
-  };
+  options.progress = ProgressTo(line, a.output);
   const Result<DenseBuildReport> built = BuildDenseStore(input, a.output, options);
   line.Finish();
   if (!built.ok()) Fail(built.status());
@@ -158,18 +151,13 @@ void RunImport(const ImportArgs& a) {
 
 // --- info ------------------------------------------------------------------
 
-std::unique_ptr<DenseStore> OpenStore(const std::string& path, const DenseStore::Options& o = {}) {
-  Result<std::unique_ptr<DenseStore>> s = DenseStore::Open(path, o);
-  if (!s.ok()) Fail(s.status());
-  return *std::move(s);
-}
 
 void RunInfo(const std::string& path, bool as_json) {
   if (IsSparseStorePath(path)) {
     RunSparseInfo(path, as_json);
     return;
   }
-  const auto store = OpenStore(path);
+  const auto store = OpenDenseStore(path);
   const DenseHeader& h = store->header();
   uint64_t logical_errors = 0, logical_field = 0, stored_errors = 0, stored_field = 0;
   uint64_t encodings[3] = {0, 0, 0};
@@ -245,7 +233,7 @@ void RunVerify(const std::string& path, bool quiet) {
     RunSparseVerify(path, quiet);
     return;
   }
-  const auto store = OpenStore(path);  // header, size, index
+  const auto store = OpenDenseStore(path);  // header, size, index
   ProgressLine line(!quiet);
   const Status s = store->Verify([&](uint64_t done, uint64_t total) {
     line.Update(fmt::format("{}: verifying block {}/{}", path, done, total));
@@ -402,7 +390,7 @@ void RegisterStoreCommands(CLI::App& app) {
       if (IsSparseStorePath(a->store)) {
         throw CommandError(a->store + " is a sparse store: convert it --to dense to export", 2);
       }
-      const auto store = OpenStore(a->store);
+      const auto store = OpenDenseStore(a->store);
       if (store->dimension() == 3) {
         ExportField<3>(*store, *a);
       } else {
