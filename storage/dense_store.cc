@@ -329,6 +329,7 @@ Result<uint32_t> DenseStore::Reader<D>::StoredError(SimplexCode<D> code) {
   if (slot.block != error_block_) {
     SDB_ASSIGN_OR_RETURN(error_handle_, store_.Block(slot.block));
     error_block_ = slot.block;
+    ++block_fetches_;
   }
   return store_.StoredAt(error_handle_.data, slot.entry);
 }
@@ -345,6 +346,7 @@ Result<double> DenseStore::Reader<D>::Field(const std::array<int64_t, D>& p) {
   if (block != brick_) {
     SDB_ASSIGN_OR_RETURN(brick_handle_, store_.Block(block));
     brick_ = block;
+    ++block_fetches_;
   }
   return store_.FieldAt(brick_handle_.data, slot.entry);
 }

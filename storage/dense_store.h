@@ -129,6 +129,9 @@ class DenseStore {
     Result<double> Field(const std::array<int64_t, D>& p);
 
     const DenseStore& store() const { return store_; }
+    // Blocks this reader switched to (error blocks and field bricks): the
+    // blocks a walk read, counting a block again when it comes back to it.
+    uint64_t block_fetches() const { return block_fetches_; }
 
    private:
     const DenseStore& store_;
@@ -138,6 +141,7 @@ class DenseStore {
     BlockHandle error_handle_;
     uint64_t brick_ = ~uint64_t{0};
     BlockHandle brick_handle_;
+    uint64_t block_fetches_ = 0;
   };
 
  private:

@@ -1,0 +1,106 @@
+// Writing extracted meshes: leaf codes as text, and VTK XML unstructured
+// grids (.vtu) any VTK reader opens.
+//
+// Files are written under a temporary name and renamed when complete
+// (storage/file.h), so a failed or interrupted write never leaves a partial
+// file under the real name. "-" means standard output for text.
+//
+// Thread safety: free functions; the walk uses the caller's source.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "hierarchy/geometry.h"
+#include "query/mesh.h"
+#include "query/refine.h"
+#include "util/status.h"
+
+namespace simplexdb {
+
+// The codes in text form ("T:bits"), one per line.
+template <int D>
+Status WriteCodes(std::span<const SimplexCode<D>> codes, const std::string& path);
+
+// A tetrahedral mesh with its arrays, as .vtu holds it.
+struct TetMeshData {
+  std::vector<double> points;       // x, y, z per point, in grid units
+  std::vector<double> field;        // per point
+  std::vector<int64_t> connectivity;  // 4 point indices per cell
+  std::vector<double> error;        // per cell: the stored error bound
+  std::vector<uint8_t> level;       // per cell
+  std::vector<uint64_t> code;       // per cell: the packed location code
+  uint64_t cells() const { return connectivity.size() / 4; }
+};
+
+// VTK XML UnstructuredGrid, raw binary appended data (little-endian, 64-bit
+// headers): point array "field", cell arrays "error", "level" and "code",
+// cell type VTK_TETRA.
+Status WriteVtu(const TetMeshData& mesh, const std::string& path);
+
+// Walks the leaves of `mesh` depth-first, carrying vertices and their field
+// values down from the roots: calls leaf(code, vertices, values).
+template <int D, class Source, class Leaf>
+Status ForEachLeaf(const Mesh<D>& mesh, Source& source, Leaf&& leaf) {
+  using Code = SimplexCode<D>;
+  VertexValues<D, Source> values(source);
+  struct Frame {
+    Code code;
+    SimplexVertices<D> v;
+    std::array<double, D + 1> f;
+  };
+  std::vector<Frame> stack;
+  for (int t = Code::kRoots - 1; t >= 0; --t) {
+    Frame fr{Code::Root(t), RootVertices<D>(t), {}};
+    SDB_RETURN_IF_ERROR(values.RootValues(t, fr.v, fr.f));
+    stack.push_back(fr);
+  }
+  while (!stack.empty()) {
+    const Frame fr = stack.back();
+    stack.pop_back();
+    if (!mesh.is_split(fr.code)) {
+      SDB_RETURN_IF_ERROR(leaf(fr.code, fr.v, fr.f));
+      continue;
+    }
+    SDB_ASSIGN_OR_RETURN(const double mid, values.Midpoint(fr.code, fr.v, fr.f));
+    for (int i = 1; i >= 0; --i) {
+      Frame child{fr.code.child(i), ChildVertices<D>(fr.code, fr.v, i), {}};
+      internal::Split<D>(fr.f, SplitRules<D>::CaseOf(fr.code.level(), fr.code.path()), i, child.f,
+                         [&](double, double) { return mid; });
+      stack.push_back(child);
+    }
+  }
+  return Status::OK();
+}
+
+// The HT mesh's leaves with their field and errors, points shared.
+template <class Source>
+Result<TetMeshData> CollectTetMesh(const Mesh<3>& mesh, Source& source) {
+  TetMeshData out;
+  std::unordered_map<uint64_t, int64_t> index;
+  const double scale = std::ldexp(1.0, -(kCoordBits<3> - source.info().domain_bits));
+  SDB_RETURN_IF_ERROR(ForEachLeaf<3>(
+      mesh, source,
+      [&](SimplexCode<3> code, const SimplexVertices<3>& v, const std::array<double, 4>& f) -> Status {
+        for (int i = 0; i < 4; ++i) {
+          const auto [it, fresh] = index.emplace(internal::Pack<3>(v[i]), static_cast<int64_t>(index.size()));
+          if (fresh) {
+            for (int a = 0; a < 3; ++a) out.points.push_back(v[i][a] * scale);
+            out.field.push_back(f[i]);
+          }
+          out.connectivity.push_back(it->second);
+        }
+        SDB_ASSIGN_OR_RETURN(const double e, source.Error(code));
+        out.error.push_back(e);
+        out.level.push_back(static_cast<uint8_t>(code.level()));
+        out.code.push_back(code.key());
+        return Status::OK();
+      }));
+  return out;
+}
+
+}  // namespace simplexdb

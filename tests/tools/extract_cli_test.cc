@@ -1,0 +1,153 @@
+// simplexdb extract and conformity, end to end: the contract's forms, the
+// files read back by VTK itself, and what a user sees for wrong input.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "tests/storage/store_test_util.h"
+#include "tests/tools/cli_runner.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::ReadWholeFile;
+using testing::RunCli;
+using testing::TempDir;
+
+nlohmann::json Json(const testing::CommandResult& r) { return nlohmann::json::parse(r.out); }
+
+size_t Lines(const std::string& text) {
+  size_t n = 0;
+  for (char c : text) n += c == '\n';
+  return n;
+}
+
+// Debian's python3-vtk9 is installed for /usr/bin/python3; a python3 earlier
+// on PATH may not have it.
+std::string PythonWithVtk() {
+  for (const char* python : {"/usr/bin/python3", "python3"}) {
+    const std::string cmd = std::string(python) + " -c 'import vtkmodules.vtkIOXML' 2>/dev/null";
+    if (std::system(cmd.c_str()) == 0) return python;
+  }
+  return "";
+}
+
+class ExtractCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    nrrd_ = dir_.path() + "/p.nrrd";
+    store_ = dir_.path() + "/p.sdb";
+    ASSERT_EQ(RunCli("generate --field perlin --dims 33,33,33 --type uint8 --seed 3 -o " + nrrd_).exit_code, 0);
+    ASSERT_EQ(RunCli("import " + nrrd_ + " -o " + store_ + " -q").exit_code, 0);
+  }
+  TempDir dir_;
+  std::string nrrd_, store_;
+};
+
+TEST_F(ExtractCli, CodesJsonAndConformity) {
+  const std::string codes = dir_.path() + "/m.codes";
+  auto r = RunCli("extract " + store_ + " --error 5% --format codes -o " + codes);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli("extract " + store_ + " --error 5% --format json --check");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = Json(r);
+  for (const char* key : {"simplices", "splits", "cluster_computations", "seconds", "blocks_read"}) {
+    EXPECT_TRUE(j.contains(key)) << key;
+  }
+  EXPECT_EQ(j["conforming"], true);
+  EXPECT_EQ(Lines(ReadWholeFile(codes)), j["simplices"].get<size_t>());
+  r = RunCli("conformity " + codes);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(Json(r)["conforming"], true);
+
+  // Every algorithm agrees on the count but saturation, which is not smaller.
+  for (const char* a : {"priority", "incremental"}) {
+    r = RunCli("extract " + store_ + " --error 5% --algorithm " + a);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(Json(r)["simplices"], j["simplices"]) << a;
+  }
+  r = RunCli("extract " + store_ + " --error 5% --algorithm saturated");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_GE(Json(r)["simplices"].get<uint64_t>(), j["simplices"].get<uint64_t>());
+
+  // Incremental from the 5% mesh to 2%: the same as depth-first at 2% here.
+  r = RunCli("extract " + store_ + " --error 2% --algorithm incremental --from " + codes + " --check");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto inc = Json(r);
+  r = RunCli("extract " + store_ + " --error 2%");
+  EXPECT_GE(inc["simplices"].get<uint64_t>(), Json(r)["simplices"].get<uint64_t>());
+  EXPECT_EQ(inc["conforming"], true);
+
+  // A mesh with a simplex missing, or with a hanging vertex, is refused.
+  std::string text = ReadWholeFile(codes);
+  const std::string broken = dir_.path() + "/broken.codes";
+  std::ofstream(broken) << text.substr(text.find('\n') + 1);
+  r = RunCli("conformity " + broken);
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.err.find("not a conforming mesh"), std::string::npos) << r.err;
+  // Split one leaf alone: its children leave a hanging vertex.
+  const std::string first = text.substr(0, text.find('\n'));
+  std::ofstream(broken) << first + "0\n" + first + "1\n" + text.substr(text.find('\n') + 1);
+  r = RunCli("conformity " + broken);
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.err.find("hanging vertex"), std::string::npos) << r.err;
+}
+
+TEST_F(ExtractCli, VtuReadByVtk) {
+  const std::string python = PythonWithVtk();
+  if (python.empty()) GTEST_SKIP() << "no python3 that can import VTK (Debian: apt-get install python3-vtk9)";
+  const std::string vtu = dir_.path() + "/m.vtu";
+  for (const std::string criteria : {"--error 0", "--error 3%", "--error 1% --box 4,4,4,20,12,30",
+                                     "--error 0.5% --iso 128"}) {
+    SCOPED_TRACE(criteria);
+    auto r = RunCli("extract " + store_ + " " + criteria + " --format vtu -o " + vtu);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto stats = Json(r);
+    r = RunCli("info " + store_ + " --json");
+    const auto info = Json(r);
+    FILE* p = popen((python + " " SIMPLEXDB_QUERY_TEST_DIR "/vtk_read_vtu.py " + vtu).c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    std::string out;
+    char buf[4096];
+    for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+    ASSERT_EQ(pclose(p), 0) << out;
+    const auto vtk = nlohmann::json::parse(out);
+    EXPECT_EQ(vtk["cells"], stats["simplices"]);
+    EXPECT_EQ(vtk["cell_types"], nlohmann::json::array({10}));  // VTK_TETRA
+    // The tetrahedra tile the 2^5 cube exactly.
+    EXPECT_NEAR(vtk["volume"].get<double>(), 32.0 * 32 * 32, 1e-6);
+    // Points: shared, within the grid; field within the store's range.
+    EXPECT_LE(vtk["points"].get<uint64_t>(), 33u * 33 * 33);
+    EXPECT_GE(vtk["point_arrays"]["field"][0].get<double>(), info["field_min"].get<double>());
+    EXPECT_LE(vtk["point_arrays"]["field"][1].get<double>(), info["field_max"].get<double>());
+    for (const char* a : {"error", "level", "code"}) EXPECT_TRUE(vtk["cell_arrays"].contains(a)) << a;
+    EXPECT_LE(vtk["cell_arrays"]["level"][1].get<double>(), 15);
+  }
+}
+
+TEST_F(ExtractCli, ClearErrors) {
+  auto r = RunCli("extract " + store_ + " --error -1");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--error"), std::string::npos) << r.err;
+  r = RunCli("extract " + store_ + " --error 1 --box 1,2,3");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--box"), std::string::npos) << r.err;
+  r = RunCli("extract " + store_ + " --error 1 --algorithm fastest");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("depth-first"), std::string::npos) << r.err;
+  r = RunCli("extract " + store_ + " --error 1 --time 3");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("HP"), std::string::npos) << r.err;
+  r = RunCli("extract " + dir_.path() + "/missing.sdb --error 1");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("missing.sdb"), std::string::npos) << r.err;
+  r = RunCli("extract " + store_ + " --error 1 --format vtu");
+  EXPECT_EQ(r.exit_code, 2);
+}
+
+}  // namespace
+}  // namespace simplexdb

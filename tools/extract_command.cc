@@ -1,0 +1,256 @@
+// `simplexdb extract`: selective refinement over any store (query/), and
+// `simplexdb conformity`: the geometric conformity check of a mesh given as
+// leaf codes.
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "query/conformity.h"
+#include "query/criteria.h"
+#include "query/mesh.h"
+#include "query/mesh_io.h"
+#include "query/refine.h"
+#include "query/source.h"
+#include "storage/sparse_store.h"
+#include "tools/cli_util.h"
+#include "tools/commands.h"
+
+namespace simplexdb::tools {
+namespace {
+
+using json = nlohmann::ordered_json;
+
+struct ExtractArgs {
+  std::string store;
+  std::string error;
+  std::string box;
+  std::optional<double> iso;
+  std::optional<double> time;
+  std::string algorithm = "depth-first";
+  std::string format = "json";
+  std::string output = "-";
+  std::string from;
+  uint64_t budget = 0;
+  double time_limit = 0;
+  bool in_memory = false;
+  size_t cache_mb = 256;
+  bool check = false;
+};
+
+// The codes in `path`, "T:bits" per line (blank lines skipped).
+template <int D>
+std::vector<SimplexCode<D>> ReadCodes(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw CommandError(fmt::format("{}: cannot open the file", path));
+  std::vector<SimplexCode<D>> codes;
+  std::string line;
+  for (uint64_t n = 1; std::getline(in, line); ++n) {
+    if (line.empty()) continue;
+    Result<SimplexCode<D>> c = SimplexCode<D>::Parse(line);
+    if (!c.ok()) throw CommandError(fmt::format("{}:{}: {}", path, n, c.status().message()));
+    codes.push_back(*c);
+  }
+  return codes;
+}
+
+// The leaf codes in `path` ("T:bits" per line) as a mesh: every proper
+// ancestor of a leaf is split. The list must be a conforming mesh (checked).
+template <int D>
+Mesh<D> ReadMesh(const std::string& path) {
+  const std::vector<SimplexCode<D>> leaves = ReadCodes<D>(path);
+  const ConformityReport report = CheckConformity<D>(leaves);
+  if (!report.ok) {
+    throw CommandError(fmt::format("--from {}: not a conforming mesh of the domain: {}", path, report.problem));
+  }
+  Mesh<D> mesh;
+  for (SimplexCode<D> c : leaves) {
+    for (int l = c.level() - 1; l >= 0 && mesh.split_set().insert(c.ancestor(l)); --l) {
+    }
+  }
+  return mesh;
+}
+
+template <int D, class Source>
+void Extract(Source& source, const ExtractArgs& a) {
+  const SourceInfo& info = source.info();
+  CriteriaSpec spec;
+  spec.error.value = ParseAmount(a.error, "--error", info.field_range());
+  if (!a.box.empty()) spec.box = ParseNumberList(a.box, "--box", 6, 8);
+  spec.iso = a.iso;
+  spec.time = a.time;
+  Result<Criteria<D>> criteria = MakeCriteria<D>(spec, info.domain_bits, info.field_range());
+  if (!criteria.ok()) throw CommandError(std::string(criteria.status().message()), 2);
+  Result<Algorithm> algorithm = ParseAlgorithm(a.algorithm);
+  if (!algorithm.ok()) throw CommandError(std::string(algorithm.status().message()), 2);
+  if (!a.from.empty() && *algorithm != Algorithm::kIncremental) {
+    throw CommandError("--from gives the previous mesh of --algorithm incremental", 2);
+  }
+  if (a.format != "codes" && a.format != "json" && a.format != "vtu") {
+    throw CommandError(fmt::format("--format {}: expected codes, vtu or json", a.format), 2);
+  }
+  if (a.format == "vtu" && D == 4) {
+    throw CommandError("--format vtu writes tetrahedral meshes: the HP's time-slice output is not built yet", 2);
+  }
+  if (a.format == "vtu" && a.output == "-") throw CommandError("--format vtu needs -o FILE", 2);
+
+  Mesh<D> mesh = a.from.empty() ? Mesh<D>() : ReadMesh<D>(a.from);
+  RefineOptions options;
+  options.algorithm = *algorithm;
+  options.max_simplices = a.budget;
+  options.max_seconds = a.time_limit;
+  Refiner<D, Source> refiner(source, *criteria);
+  QueryStats stats;
+  if (Status s = refiner.Run(options, mesh, stats); !s.ok()) Fail(s);
+
+  std::optional<ConformityReport> check;
+  std::vector<SimplexCode<D>> leaves;
+  if (a.format == "codes" || a.check) leaves = mesh.Leaves();
+  if (a.check) check = CheckConformity<D>(leaves);
+
+  if (a.format == "codes") {
+    if (Status s = WriteCodes<D>(leaves, a.output); !s.ok()) Fail(s);
+  } else if (a.format == "vtu") {
+    if constexpr (D == 3) {
+      Result<TetMeshData> data = CollectTetMesh(mesh, source);
+      if (!data.ok()) Fail(data.status());
+      if (Status s = WriteVtu(*data, a.output); !s.ok()) Fail(s);
+    }
+  }
+  json j;
+  j["store"] = info.path;
+  j["hierarchy"] = D == 3 ? "ht" : "hp";
+  j["algorithm"] = AlgorithmName(*algorithm);
+  j["threshold"] = criteria->threshold;
+  j["simplices"] = stats.simplices;
+  j["full_resolution_simplices"] = static_cast<double>(SimplexCode<D>::kRoots) * std::ldexp(1.0, info.leaf_level());
+  j["splits"] = stats.splits;
+  j["merges"] = stats.merges;
+  j["cluster_computations"] = stats.cluster_computations;
+  j["candidates"] = stats.candidates;
+  j["error_lookups"] = stats.error_lookups;
+  j["field_lookups"] = stats.field_lookups;
+  j["blocks_read"] = stats.blocks_read;
+  j["seconds"] = stats.seconds;
+  if (*algorithm == Algorithm::kSaturated) j["saturation_seconds"] = stats.saturation_seconds;
+  if (*algorithm == Algorithm::kPriority) j["interrupted"] = stats.interrupted;
+  j["splits_per_second"] = stats.seconds > 0 ? stats.splits / stats.seconds : 0.0;
+  if (check) {
+    j["conforming"] = check->ok;
+    if (!check->ok) j["conformity_problem"] = check->problem;
+  }
+  const std::string text = j.dump(2) + "\n";
+  if (a.format == "json" && a.output != "-") {
+    std::ofstream out(a.output);
+    out << text;
+    if (!out.flush()) throw CommandError(fmt::format("{}: cannot write", a.output));
+  } else {
+    // With codes on stdout the statistics go to stderr, out of the way.
+    std::fputs(text.c_str(), a.format == "codes" && a.output == "-" ? stderr : stdout);
+  }
+  if (check && !check->ok) throw CommandError("the extracted mesh is not conforming: " + check->problem, 3);
+}
+
+void RunExtract(const ExtractArgs& a) {
+  if (LooksLikeLmdb(a.store)) {
+    if (a.in_memory) throw CommandError("--in-memory applies to dense stores; the LMDB store is read in place", 2);
+    Result<std::unique_ptr<SparseStore>> store = SparseStore::Open(a.store);
+    if (!store.ok()) Fail(store.status());
+    if ((*store)->header().dimension == 3) {
+      auto source = SparseSource<3>::Create(**store);
+      if (!source.ok()) Fail(source.status());
+      Extract<3>(*source, a);
+    } else {
+      auto source = SparseSource<4>::Create(**store);
+      if (!source.ok()) Fail(source.status());
+      Extract<4>(*source, a);
+    }
+    return;
+  }
+  DenseStore::Options options;
+  options.in_memory = a.in_memory;
+  options.cache_bytes = a.cache_mb << 20;
+  Result<std::unique_ptr<DenseStore>> store = DenseStore::Open(a.store, options);
+  if (!store.ok()) Fail(store.status());
+  if ((*store)->dimension() == 3) {
+    DenseSource<3> source(**store);
+    Extract<3>(source, a);
+  } else {
+    DenseSource<4> source(**store);
+    Extract<4>(source, a);
+  }
+}
+
+template <int D>
+void RunConformity(const std::string& path) {
+  const std::vector<SimplexCode<D>> leaves = ReadCodes<D>(path);
+  const ConformityReport r = CheckConformity<D>(leaves);
+  json j;
+  j["file"] = path;
+  j["simplices"] = r.simplices;
+  j["conforming"] = r.ok;
+  j["interior_faces"] = r.interior_faces;
+  j["boundary_faces"] = r.boundary_faces;
+  if (!r.ok) j["problem"] = r.problem;
+  std::fputs((j.dump(2) + "\n").c_str(), stdout);
+  if (!r.ok) throw CommandError(fmt::format("{}: not a conforming mesh: {}", path, r.problem), 3);
+}
+
+}  // namespace
+
+void RegisterExtractCommand(CLI::App& app) {
+  auto args = std::make_shared<ExtractArgs>();
+  auto* cmd = app.add_subcommand(
+      "extract",
+      "Extract the mesh that meets LOD criteria from a store (selective refinement, seed 3.6 / 4.6).\n"
+      "A simplex is split when its error exceeds --error and every other criterion given applies to it;\n"
+      "the result is the minimal conforming mesh (depth-first and priority agree).");
+  cmd->add_option("store", args->store, "Dense (.sdb) or sparse (LMDB) store")->required();
+  cmd->add_option("--error", args->error, "Error threshold: 7.3 (field units) or 1% (of the field range)")
+      ->required();
+  cmd->add_option("--box", args->box,
+                  "Hold only simplices meeting this closed box to the threshold: x0,y0,z0,x1,y1,z1[,t0,t1] "
+                  "in grid coordinates (an exact test)");
+  cmd->add_option("--iso", args->iso,
+                  "Hold only simplices that may contain this isovalue (vertex range widened by their error)");
+  cmd->add_option("--time", args->time, "HP: hold only pentatopes meeting the time slice t = T (grid units)");
+  cmd->add_option("--algorithm", args->algorithm, "depth-first (default), priority, incremental or saturated");
+  cmd->add_option("--budget", args->budget, "priority: stop before the mesh would pass this many simplices");
+  cmd->add_option("--time-limit", args->time_limit, "priority: stop after this many seconds");
+  cmd->add_option("--from", args->from, "incremental: the previous mesh, as leaf codes (--format codes)");
+  cmd->add_option("--format", args->format,
+                  "codes (leaf codes, one per line), vtu (VTK unstructured grid, HT) or json (statistics; "
+                  "default)");
+  cmd->add_option("-o,--output", args->output, "Output file ('-' for stdout, the default for codes and json)");
+  cmd->add_flag("--in-memory", args->in_memory, "Decode the whole dense store into memory first (in-core)");
+  cmd->add_option("--cache-mb", args->cache_mb, "Block cache budget of a dense store, MiB (out-of-core)")
+      ->capture_default_str();
+  cmd->add_flag("--check", args->check, "Check the result's conformity from geometry (exit 3 if not)");
+  cmd->callback([args] { RunExtract(*args); });
+
+  auto path = std::make_shared<std::string>();
+  auto hierarchy = std::make_shared<std::string>("ht");
+  auto* conf = app.add_subcommand(
+      "conformity",
+      "Check that a list of leaf codes is a conforming mesh of the domain: the simplices tile it and every\n"
+      "interior face is shared by exactly two simplices with the same vertices. Exit 0 if so, 3 if not.");
+  conf->add_option("codes", *path, "File of leaf codes, one per line (as extract --format codes writes)")
+      ->required();
+  conf->add_option("--hierarchy", *hierarchy, "ht or hp")->capture_default_str();
+  conf->callback([path, hierarchy] {
+    if (*hierarchy == "ht") {
+      RunConformity<3>(*path);
+    } else if (*hierarchy == "hp") {
+      RunConformity<4>(*path);
+    } else {
+      throw CommandError(fmt::format("--hierarchy {}: expected ht or hp", *hierarchy), 2);
+    }
+  });
+}
+
+}  // namespace simplexdb::tools
