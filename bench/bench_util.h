@@ -1,0 +1,67 @@
+// Helpers shared by the benchmark suites: a scratch directory, Perlin
+// volumes written once per run (fixed seeds), and running a command.
+#pragma once
+
+#include <stdlib.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "storage/generate.h"
+#include "storage/nrrd_writer.h"
+
+namespace simplexdb {
+
+inline const std::string& WorkDir() {
+  static const std::string dir = [] {
+    std::string t = std::filesystem::temp_directory_path().string() + "/simplexdb_bench_XXXXXX";
+    return std::string(mkdtemp(t.data()));
+  }();
+  return dir;
+}
+
+// A Perlin volume (uint8, like the seed's byte-valued data), written once.
+// With `blob`, only a centred cube of a quarter of the side keeps its noise
+// and every other point is 0: a mostly uniform volume (1/64 of it varies).
+inline std::string PerlinVolume(int dimension, uint32_t side, bool blob = false) {
+  const std::string path = WorkDir() + "/perlin" + std::to_string(dimension) + "d_" +
+                           std::to_string(side) + (blob ? "_blob" : "") + ".nrrd";
+  if (std::filesystem::exists(path)) return path;
+  GenerateOptions g;
+  g.dimension = dimension;
+  g.dims = {side, side, side, dimension == 4 ? side : 1u};
+  const FieldGenerator field(g);
+  uint64_t n = uint64_t{side} * side * side * (dimension == 4 ? side : 1);
+  std::vector<double> values(n);
+  field.Fill(0, n, values.data());
+  for (uint64_t i = 0; i < n; ++i) {
+    values[i] = std::round(values[i]);
+    if (!blob) continue;
+    uint64_t rest = i;
+    for (int c = 0; c < dimension; ++c) {
+      const uint64_t x = rest % side;
+      rest /= side;
+      if (x < 3 * side / 8 || x >= 5 * side / 8) values[i] = 0;
+    }
+  }
+  if (!WriteNrrd(path, dimension, g.dims, VoxelType::kU8, values).ok()) std::abort();
+  return path;
+}
+
+// Runs a command and returns its standard output.
+inline std::string Capture(const std::string& command) {
+  std::string out;
+  FILE* p = popen(command.c_str(), "r");
+  if (p == nullptr) return out;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+  pclose(p);
+  return out;
+}
+
+}  // namespace simplexdb
