@@ -85,6 +85,7 @@ struct QueryStats {
   uint64_t error_lookups = 0;
   uint64_t field_lookups = 0;
   uint64_t blocks_read = 0;
+  uint64_t blocks_skipped = 0;        // answered from per-block maxima, not read
   double seconds = 0;                 // the whole run
   double saturation_seconds = 0;      // kSaturated: computing the saturation
   bool interrupted = false;           // kPriority stopped at its budget or time
@@ -215,6 +216,7 @@ class Refiner {
     stats.error_lookups = after.error_lookups - before.error_lookups;
     stats.field_lookups = after.field_lookups - before.field_lookups;
     stats.blocks_read = after.blocks_read - before.blocks_read;
+    stats.blocks_skipped = after.blocks_skipped - before.blocks_skipped;
     stats.simplices = mesh.leaf_count();
     stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return status;
@@ -222,11 +224,22 @@ class Refiner {
 
   // Whether the leaf `code` fails the criteria (must be split).
   Result<bool> Fails(Code code) {
-    SDB_ASSIGN_OR_RETURN(const double error, source_.Error(code));
+    SDB_ASSIGN_OR_RETURN(const double error, ErrorForThreshold(code));
     return FailsWithError(code, error);
   }
 
  private:
+  // The bound where it exceeds the threshold; a store with per-block maxima
+  // may answer a smaller value without reading the block (the node passes
+  // either way, and FailsWithError only compares a passing value).
+  Result<double> ErrorForThreshold(Code code) {
+    if constexpr (requires { source_.ErrorForThreshold(code, 0.0); }) {
+      return source_.ErrorForThreshold(code, criteria_.threshold);
+    } else {
+      return source_.Error(code);
+    }
+  }
+
   std::vector<Code> Roots() const {
     std::vector<Code> r;
     for (int t = Code::kRoots - 1; t >= 0; --t) r.push_back(Code::Root(t));
@@ -313,7 +326,7 @@ class Refiner {
     };
     std::priority_queue<Entry> heap;
     const auto push = [&](Code c) -> Status {
-      SDB_ASSIGN_OR_RETURN(const double e, source_.Error(c));
+      SDB_ASSIGN_OR_RETURN(const double e, ErrorForThreshold(c));
       if (e > criteria_.threshold) heap.push(Entry{e, c.key()});  // others never fail
       return Status::OK();
     };
@@ -456,7 +469,7 @@ class Refiner {
       const Code c = f.code;
       if (c.level() >= leaf_level) continue;
       source_.Descend(c);
-      SDB_ASSIGN_OR_RETURN(const double error, source_.Error(c));
+      SDB_ASSIGN_OR_RETURN(const double error, ErrorForThreshold(c));
       ++stats_->candidates;
       bool fails = error > criteria_.threshold;
       if (fails && geometry) fails = Applies<D>(criteria_, f.v, &f.values, error);

@@ -6,6 +6,12 @@
 //                                               and below the leaf level,
 //                                               and for a sparse store's
 //                                               absent nodes);
+//   Result<double> ErrorForThreshold(code, t)   optional: a value that is
+//                                               the bound when either
+//                                               exceeds t (the dense source
+//                                               answers from its block
+//                                               index's per-block maxima
+//                                               without decoding a block);
 //   Result<std::optional<double>> Field(point)  the field at a point of the
 //                                               domain grid [0, 2^k]^D, or
 //                                               nullopt where the store has
@@ -72,6 +78,7 @@ struct SourceStats {
   uint64_t error_lookups = 0;
   uint64_t field_lookups = 0;
   uint64_t blocks_read = 0;  // dense: block fetches; LMDB: B-tree searches and range scans
+  uint64_t blocks_skipped = 0;  // dense: blocks whose indexed maximum answered a threshold test
 };
 
 template <int D>
@@ -87,12 +94,17 @@ class DenseSource {
   SourceStats stats() const {
     SourceStats s = stats_;
     s.blocks_read = reader_.block_fetches();
+    s.blocks_skipped = reader_.blocks_skipped();
     return s;
   }
 
   Result<double> Error(SimplexCode<D> code) {
     ++stats_.error_lookups;
     return reader_.ErrorBound(code);
+  }
+  Result<double> ErrorForThreshold(SimplexCode<D> code, double threshold) {
+    ++stats_.error_lookups;
+    return reader_.ErrorBoundForThreshold(code, threshold);
   }
   Result<std::optional<double>> Field(const std::array<int64_t, D>& p) {
     ++stats_.field_lookups;

@@ -335,6 +335,22 @@ Result<uint32_t> DenseStore::Reader<D>::StoredError(SimplexCode<D> code) {
 }
 
 template <int D>
+Result<double> DenseStore::Reader<D>::ErrorBoundForThreshold(SimplexCode<D> code, double threshold) {
+  if (code.level() >= layout_.leaf_level()) return 0.0;
+  const BlockSlot slot = layout_.Locate(code);
+  if (slot.block != error_block_) {
+    // The index records the largest decoded error of the block (rounded up
+    // to float): a bound of every entry.
+    const double block_max = store_.entry(slot.block).error_max;
+    if (block_max <= threshold) {
+      ++blocks_skipped_;
+      return block_max;
+    }
+  }
+  return ErrorBound(code);
+}
+
+template <int D>
 Result<double> DenseStore::Reader<D>::Field(const std::array<int64_t, D>& p) {
   std::array<uint32_t, 4> q = {0, 0, 0, 0};
   const auto& dims = store_.header().dims;

@@ -123,6 +123,11 @@ class DenseStore {
     Result<double> ErrorBound(SimplexCode<D> code);
     // The entry as stored (u16 / u8 codes, f32 bits): what ErrorBound decodes.
     Result<uint32_t> StoredError(SimplexCode<D> code);
+    // For a query that only asks whether the bound exceeds `threshold`: the
+    // bound, or, when the node's block is not the one this reader holds and
+    // the block index records a maximum at most `threshold`, that maximum
+    // (no block is read or decoded: every node in the block passes).
+    Result<double> ErrorBoundForThreshold(SimplexCode<D> code, double threshold);
 
     // The field at grid point p of the domain [0, 2^k]^D; points outside the
     // real grid take the value of the nearest real point (the padding).
@@ -132,6 +137,8 @@ class DenseStore {
     // Blocks this reader switched to (error blocks and field bricks): the
     // blocks a walk read, counting a block again when it comes back to it.
     uint64_t block_fetches() const { return block_fetches_; }
+    // Blocks ErrorBoundForThreshold answered from the index alone.
+    uint64_t blocks_skipped() const { return blocks_skipped_; }
 
    private:
     const DenseStore& store_;
@@ -142,6 +149,7 @@ class DenseStore {
     uint64_t brick_ = ~uint64_t{0};
     BlockHandle brick_handle_;
     uint64_t block_fetches_ = 0;
+    uint64_t blocks_skipped_ = 0;
   };
 
  private:

@@ -136,6 +136,7 @@ void Extract(Source& source, const ExtractArgs& a) {
   j["error_lookups"] = stats.error_lookups;
   j["field_lookups"] = stats.field_lookups;
   j["blocks_read"] = stats.blocks_read;
+  j["blocks_skipped"] = stats.blocks_skipped;
   j["seconds"] = stats.seconds;
   if (*algorithm == Algorithm::kSaturated) j["saturation_seconds"] = stats.saturation_seconds;
   if (*algorithm == Algorithm::kPriority) j["interrupted"] = stats.interrupted;

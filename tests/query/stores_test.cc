@@ -116,6 +116,35 @@ void CheckStoresAgree(uint32_t side) {
 TEST(Stores, SameMeshOverEveryStoreHt) { CheckStoresAgree<3>(33); }
 TEST(Stores, SameMeshOverEveryStoreHp) { CheckStoresAgree<4>(9); }
 
+// Per-block maxima from the dense store's index answer "does it exceed the
+// threshold?" without reading a block, and change no mesh.
+TEST(Stores, BlockMaximaSkipBlocksAndChangeNothing) {
+  TempDir dir;
+  const TestVolume volume = Structured(3, 33);
+  auto in_memory = testing::BuildDense(volume, dir.path(), "z", false, /*in_memory=*/true);
+  DenseStore::Options no_cache;
+  no_cache.cache_bytes = 0;
+  auto cold = *DenseStore::Open(dir.path() + "/z.sdb", no_cache);
+  DenseSource<3> m(*in_memory), c(*cold);
+  const double range = m.info().field_range();
+  uint64_t skipped = 0;
+  for (double pct : {0.0, 3.0, 20.0, 60.0}) {
+    for (Algorithm a : {Algorithm::kDepthFirst, Algorithm::kPriority, Algorithm::kSaturated}) {
+      SCOPED_TRACE(std::to_string(pct) + "% " + AlgorithmName(a));
+      Criteria<3> crit;
+      crit.threshold = range * pct / 100;
+      Refiner<3, DenseSource<3>> rm(m, crit), rc(c, crit);
+      Mesh<3> mm, mc;
+      QueryStats sm, sc;
+      ASSERT_TRUE(rm.Run({a}, mm, sm).ok());
+      ASSERT_TRUE(rc.Run({a}, mc, sc).ok());
+      EXPECT_EQ(testing::Keys(mc.Leaves()), testing::Keys(mm.Leaves()));
+      skipped += sc.blocks_skipped;
+    }
+  }
+  EXPECT_GT(skipped, 0u);
+}
+
 // A lossy LMDB store (tolerance t) drops subtrees whose errors are all
 // within t: a query at threshold e then leaves simplices whose true error
 // bound (the dense store's) is at most max(e, t), and vertex values within
