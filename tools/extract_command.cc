@@ -16,6 +16,7 @@
 #include "query/mesh.h"
 #include "query/mesh_io.h"
 #include "query/refine.h"
+#include "query/slice.h"
 #include "query/source.h"
 #include "storage/sparse_store.h"
 #include "tools/cli_util.h"
@@ -36,6 +37,7 @@ struct ExtractArgs {
   std::string format = "json";
   std::string output = "-";
   std::string from;
+  std::string slices;
   uint64_t budget = 0;
   double time_limit = 0;
   bool in_memory = false;
@@ -76,6 +78,28 @@ Mesh<D> ReadMesh(const std::string& path) {
   return mesh;
 }
 
+// OUTPUT.pvd and one OUTPUT_<i>.vtu per time (grid units) beside it.
+template <class Source>
+void WriteSliceSeries(const Mesh<4>& mesh, Source& source, const std::vector<double>& times,
+                      const std::string& output) {
+  const std::string stem = output.size() > 4 && output.ends_with(".pvd") ? output.substr(0, output.size() - 4) : output;
+  const double scale = std::ldexp(1.0, kCoordBits<4> - source.info().domain_bits);
+  std::string pvd = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n<Collection>\n";
+  for (size_t i = 0; i < times.size(); ++i) {
+    const std::string file = fmt::format("{}_{}.vtu", stem, i);
+    Result<TetMeshData> data = SliceHpMesh(mesh, source, times[i] * scale);
+    if (!data.ok()) Fail(data.status());
+    if (Status st = WriteVtu(*data, file); !st.ok()) Fail(st);
+    const size_t slash = file.find_last_of('/');
+    pvd += fmt::format("<DataSet timestep=\"{}\" part=\"0\" file=\"{}\"/>\n", times[i],
+                       slash == std::string::npos ? file : file.substr(slash + 1));
+  }
+  pvd += "</Collection>\n</VTKFile>\n";
+  std::ofstream out(output);
+  out << pvd;
+  if (!out.flush()) throw CommandError(fmt::format("{}: cannot write", output));
+}
+
 template <int D, class Source>
 void Extract(Source& source, const ExtractArgs& a) {
   const SourceInfo& info = source.info();
@@ -91,13 +115,21 @@ void Extract(Source& source, const ExtractArgs& a) {
   if (!a.from.empty() && *algorithm != Algorithm::kIncremental) {
     throw CommandError("--from gives the previous mesh of --algorithm incremental", 2);
   }
-  if (a.format != "codes" && a.format != "json" && a.format != "vtu") {
-    throw CommandError(fmt::format("--format {}: expected codes, vtu or json", a.format), 2);
+  if (a.format != "codes" && a.format != "json" && a.format != "vtu" && a.format != "pvd") {
+    throw CommandError(fmt::format("--format {}: expected codes, vtu, pvd or json", a.format), 2);
   }
-  if (a.format == "vtu" && D == 4) {
-    throw CommandError("--format vtu writes tetrahedral meshes: the HP's time-slice output is not built yet", 2);
+  if ((a.format == "vtu" || a.format == "pvd") && a.output == "-") {
+    throw CommandError(fmt::format("--format {} needs -o FILE", a.format), 2);
   }
-  if (a.format == "vtu" && a.output == "-") throw CommandError("--format vtu needs -o FILE", 2);
+  if (a.format == "vtu" && D == 4 && !a.time) {
+    throw CommandError("--format vtu of an HP writes the 3D mesh of a time slice: give --time T", 2);
+  }
+  std::vector<double> slices;
+  if (a.format == "pvd") {
+    if (D != 4) throw CommandError("--format pvd writes a series of HP time slices; the HT has no time", 2);
+    if (a.slices.empty()) throw CommandError("--format pvd needs --slices T1,T2,... (times in grid units)", 2);
+    slices = ParseNumberList(a.slices, "--slices", 1, 100000);
+  }
 
   Mesh<D> mesh = a.from.empty() ? Mesh<D>() : ReadMesh<D>(a.from);
   RefineOptions options;
@@ -119,8 +151,14 @@ void Extract(Source& source, const ExtractArgs& a) {
     if constexpr (D == 3) {
       Result<TetMeshData> data = CollectTetMesh(mesh, source);
       if (!data.ok()) Fail(data.status());
-      if (Status s = WriteVtu(*data, a.output); !s.ok()) Fail(s);
+      if (Status st = WriteVtu(*data, a.output); !st.ok()) Fail(st);
+    } else {
+      Result<TetMeshData> data = SliceHpMesh(mesh, source, *criteria->time);
+      if (!data.ok()) Fail(data.status());
+      if (Status st = WriteVtu(*data, a.output); !st.ok()) Fail(st);
     }
+  } else if (a.format == "pvd") {
+    if constexpr (D == 4) WriteSliceSeries(mesh, source, slices, a.output);
   }
   json j;
   j["store"] = info.path;
@@ -225,8 +263,10 @@ void RegisterExtractCommand(CLI::App& app) {
   cmd->add_option("--time-limit", args->time_limit, "priority: stop after this many seconds");
   cmd->add_option("--from", args->from, "incremental: the previous mesh, as leaf codes (--format codes)");
   cmd->add_option("--format", args->format,
-                  "codes (leaf codes, one per line), vtu (VTK unstructured grid, HT) or json (statistics; "
-                  "default)");
+                  "codes (leaf codes, one per line), vtu (VTK unstructured grid: the HT's tetrahedra, or the\n"
+                  "tetrahedra of the HP's time slice --time), pvd (HP: a ParaView series of time slices\n"
+                  "--slices, one .vtu each beside OUTPUT) or json (statistics; the default)");
+  cmd->add_option("--slices", args->slices, "pvd: the times of the slices, T1,T2,... in grid units");
   cmd->add_option("-o,--output", args->output, "Output file ('-' for stdout, the default for codes and json)");
   cmd->add_flag("--in-memory", args->in_memory, "Decode the whole dense store into memory first (in-core)");
   cmd->add_option("--cache-mb", args->cache_mb, "Block cache budget of a dense store, MiB (out-of-core)")

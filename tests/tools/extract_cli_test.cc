@@ -129,6 +129,42 @@ TEST_F(ExtractCli, VtuReadByVtk) {
   }
 }
 
+// Reads `vtu` with VTK (tests/query/vtk_read_vtu.py); skips without VTK.
+nlohmann::json ReadWithVtk(const std::string& python, const std::string& vtu) {
+  FILE* p = popen((python + " " SIMPLEXDB_QUERY_TEST_DIR "/vtk_read_vtu.py " + vtu).c_str(), "r");
+  std::string out;
+  char buf[4096];
+  for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+  EXPECT_EQ(pclose(p), 0) << out;
+  return nlohmann::json::parse(out);
+}
+
+TEST(ExtractCliHp, TimeSlicesReadByVtk) {
+  const std::string python = PythonWithVtk();
+  if (python.empty()) GTEST_SKIP() << "no python3 that can import VTK (Debian: apt-get install python3-vtk9)";
+  const TempDir dir;
+  const std::string nrrd = dir.path() + "/p4.nrrd", store = dir.path() + "/p4.sdb";
+  ASSERT_EQ(RunCli("generate --field perlin --dims 9,9,9,9 --type uint8 --seed 4 -o " + nrrd).exit_code, 0);
+  ASSERT_EQ(RunCli("import " + nrrd + " -o " + store + " -q").exit_code, 0);
+  auto r = RunCli("extract " + store + " --error 5% --time 3.5 --format vtu -o " + dir.path() + "/s.vtu");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto vtk = ReadWithVtk(python, dir.path() + "/s.vtu");
+  EXPECT_EQ(vtk["cell_types"], nlohmann::json::array({10}));
+  EXPECT_NEAR(vtk["volume"].get<double>(), 8.0 * 8 * 8, 1e-9);  // the slice fills the 2^3 cube
+  r = RunCli("extract " + store + " --error 5% --format pvd --slices 0,2.5,8 -o " + dir.path() + "/series.pvd");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string pvd = ReadWholeFile(dir.path() + "/series.pvd");
+  for (int i = 0; i < 3; ++i) {
+    const std::string file = "series_" + std::to_string(i) + ".vtu";
+    EXPECT_NE(pvd.find("file=\"" + file + "\""), std::string::npos) << pvd;
+    vtk = ReadWithVtk(python, dir.path() + "/" + file);
+    EXPECT_NEAR(vtk["volume"].get<double>(), 512.0, 1e-9) << file;
+  }
+  r = RunCli("extract " + store + " --error 5% --format vtu -o " + dir.path() + "/x.vtu");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--time"), std::string::npos) << r.err;
+}
+
 TEST_F(ExtractCli, ClearErrors) {
   auto r = RunCli("extract " + store_ + " --error -1");
   EXPECT_EQ(r.exit_code, 2);
