@@ -30,7 +30,7 @@ class SplitSet {
   // Levels [0, kBitmapLevels) are in the bitmap: 2^kBitmapLevels bits per
   // root, 48 MiB for the HT and 192 MiB for the HP at most (reserved, only
   // touched where nodes are split).
-  static constexpr int kBitmapLevels = D == 3 ? 26 : 26;
+  static constexpr int kBitmapLevels = 26;
 
   SplitSet() = default;
 
