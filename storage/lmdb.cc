@@ -1,14 +1,37 @@
 #include "storage/lmdb.h"
 
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 
 #include <cerrno>
 #include <string>
 
 namespace simplexdb::lmdb {
 
+namespace {
+
+// Bytes free to an unprivileged writer on the file system holding `path`'s
+// directory; -1 when unknown.
+int64_t FreeBytesBeside(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+  struct statvfs fs {};
+  if (statvfs(dir.c_str(), &fs) != 0) return -1;
+  return static_cast<int64_t>(fs.f_bavail) * static_cast<int64_t>(fs.f_frsize);
+}
+
+}  // namespace
+
 Status FromCode(int rc, const std::string& path, std::string_view action) {
   const std::string what = path + ": " + std::string(action) + ": " + mdb_strerror(rc);
+  // LMDB turns a short write into EIO: when the disk is the reason, say so.
+  if (rc == EIO) {
+    const int64_t free_bytes = FreeBytesBeside(path);
+    if (free_bytes >= 0 && free_bytes < (int64_t{1} << 20)) {
+      return Status::ResourceExhausted(what + " (the disk is full: " + std::to_string(free_bytes) +
+                                       " bytes free; nothing was changed)");
+    }
+  }
   switch (rc) {
     case ENOENT:
       return Status::NotFound(what);
