@@ -19,7 +19,6 @@ class Output {
     if (path != "-") {
       SDB_ASSIGN_OR_RETURN(o.file_, AtomicFileWriter::Create(path));
     }
-    o.path_ = path;
     return o;
   }
   Status Write(const void* data, size_t n) {
@@ -51,7 +50,6 @@ class Output {
     return Status::OK();
   }
 
-  std::string path_;
   std::unique_ptr<AtomicFileWriter> file_;
   std::vector<uint8_t> buffer_;
 };

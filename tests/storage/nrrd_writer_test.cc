@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "storage/volume.h"
+#include "tests/util/python_vtk.h"
 
 namespace simplexdb {
 namespace {
@@ -257,18 +258,6 @@ TEST(WriteNrrd, RejectsBadInputNamingFileAndValue) {
 // ---------------------------------------------------------------------------
 // VTK reads what we write.
 
-// The first interpreter that can import VTK: Debian's python3-vtk9 is
-// installed for /usr/bin/python3, which a python3 earlier on PATH (pyenv,
-// a virtualenv) may not see.
-std::string FindPythonWithVtk() {
-  for (const char* python : {"/usr/bin/python3", "python3"}) {
-    const std::string cmd = std::string(python) +
-                            " -c 'import vtkmodules.vtkIOImage' >/dev/null 2>&1";
-    if (std::system(cmd.c_str()) == 0) return python;
-  }
-  return "";
-}
-
 struct VtkView {
   std::array<int, 3> dims{};
   std::array<double, 3> spacing{};
@@ -276,7 +265,7 @@ struct VtkView {
 };
 
 TEST(WriteNrrd, VtkNrrdReaderReadsOurFiles) {
-  const std::string python = FindPythonWithVtk();
+  const std::string python = testing::FindPythonWithVtk("vtkmodules.vtkIOImage");
   if (python.empty()) {
     GTEST_SKIP() << "no python3 that can import VTK (Debian: apt-get install python3-vtk9)";
   }

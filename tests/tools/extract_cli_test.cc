@@ -5,11 +5,13 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
 #include "tests/storage/store_test_util.h"
 #include "tests/tools/cli_runner.h"
+#include "tests/util/python_vtk.h"
 
 namespace simplexdb {
 namespace {
@@ -26,14 +28,17 @@ size_t Lines(const std::string& text) {
   return n;
 }
 
-// Debian's python3-vtk9 is installed for /usr/bin/python3; a python3 earlier
-// on PATH may not have it.
-std::string PythonWithVtk() {
-  for (const char* python : {"/usr/bin/python3", "python3"}) {
-    const std::string cmd = std::string(python) + " -c 'import vtkmodules.vtkIOXML' 2>/dev/null";
-    if (std::system(cmd.c_str()) == 0) return python;
-  }
-  return "";
+std::string PythonWithVtk() { return testing::FindPythonWithVtk("vtkmodules.vtkIOXML"); }
+
+// Reads `vtu` with VTK (tests/query/vtk_read_vtu.py).
+nlohmann::json ReadWithVtk(const std::string& python, const std::string& vtu) {
+  FILE* p = popen((python + " " SIMPLEXDB_QUERY_TEST_DIR "/vtk_read_vtu.py " + vtu).c_str(), "r");
+  if (p == nullptr) throw std::runtime_error("cannot run " + python);
+  std::string out;
+  char buf[4096];
+  for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+  EXPECT_EQ(pclose(p), 0) << out;
+  return nlohmann::json::parse(out);
 }
 
 class ExtractCli : public ::testing::Test {
@@ -109,13 +114,7 @@ TEST_F(ExtractCli, VtuReadByVtk) {
     const auto stats = Json(r);
     r = RunCli("info " + store_ + " --json");
     const auto info = Json(r);
-    FILE* p = popen((python + " " SIMPLEXDB_QUERY_TEST_DIR "/vtk_read_vtu.py " + vtu).c_str(), "r");
-    ASSERT_NE(p, nullptr);
-    std::string out;
-    char buf[4096];
-    for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
-    ASSERT_EQ(pclose(p), 0) << out;
-    const auto vtk = nlohmann::json::parse(out);
+    const auto vtk = ReadWithVtk(python, vtu);
     EXPECT_EQ(vtk["cells"], stats["simplices"]);
     EXPECT_EQ(vtk["cell_types"], nlohmann::json::array({10}));  // VTK_TETRA
     // The tetrahedra tile the 2^5 cube exactly.
@@ -127,16 +126,6 @@ TEST_F(ExtractCli, VtuReadByVtk) {
     for (const char* a : {"error", "level", "code"}) EXPECT_TRUE(vtk["cell_arrays"].contains(a)) << a;
     EXPECT_LE(vtk["cell_arrays"]["level"][1].get<double>(), 15);
   }
-}
-
-// Reads `vtu` with VTK (tests/query/vtk_read_vtu.py); skips without VTK.
-nlohmann::json ReadWithVtk(const std::string& python, const std::string& vtu) {
-  FILE* p = popen((python + " " SIMPLEXDB_QUERY_TEST_DIR "/vtk_read_vtu.py " + vtu).c_str(), "r");
-  std::string out;
-  char buf[4096];
-  for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
-  EXPECT_EQ(pclose(p), 0) << out;
-  return nlohmann::json::parse(out);
 }
 
 TEST(ExtractCliHp, TimeSlicesReadByVtk) {
