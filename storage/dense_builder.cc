@@ -388,15 +388,7 @@ Status Builder<D>::FillRegion(Region& r) {
     }
     // Past the real grid along x: the last real value.
     for (; x <= r.hi[0]; ++x, ++at) r.values[at] = r.values[at - 1];
-    int c = 1;
-    for (; c < D; ++c) {
-      if (p[c] < r.hi[c]) {
-        ++p[c];
-        break;
-      }
-      p[c] = r.lo[c];
-    }
-    if (c == D) break;
+    if (!NextRow<D>(p, r.lo, r.hi)) break;
   }
   return Status::OK();
 }

@@ -114,6 +114,22 @@ inline int64_t CeilDiv(int64_t a, int64_t b) {
 
 }  // namespace internal
 
+// Steps p to the next row of the box [lo, hi] (coordinates 1..D-1, the
+// first fastest; x is left alone). Returns false, with p back at lo's row,
+// after the last row.
+template <int D>
+bool NextRow(std::array<int64_t, D>& p, const std::array<int64_t, D>& lo,
+             const std::array<int64_t, D>& hi) {
+  for (int c = 1; c < D; ++c) {
+    if (p[c] < hi[c]) {
+      ++p[c];
+      return true;
+    }
+    p[c] = lo[c];
+  }
+  return false;
+}
+
 // Field values on a box of grid points, x fastest: rows are contiguous.
 template <int D>
 struct GridView {
@@ -239,15 +255,7 @@ class ScannableSimplex {
         p[0] = xmin;
         row(p, xmax);
       }
-      int c = 1;
-      for (; c < D; ++c) {
-        if (p[c] < hi[c]) {
-          ++p[c];
-          break;
-        }
-        p[c] = lo[c];
-      }
-      if (c == D) return;
+      if (!NextRow<D>(p, lo, hi)) return;
     }
   }
 

@@ -30,6 +30,7 @@ void RegisterInspectCommand(CLI::App& app);
 void RegisterStoreCommands(CLI::App& app);  // import, info, verify, export
 void RegisterGenerateCommand(CLI::App& app);
 void RegisterConvertCommand(CLI::App& app);  // sparse_commands.cc
+void RegisterUpdateCommand(CLI::App& app);   // sparse_commands.cc
 void RegisterExtractCommand(CLI::App& app);  // extract, conformity
 
 }  // namespace simplexdb::tools

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   simplexdb::tools::RegisterGenerateCommand(app);
   simplexdb::tools::RegisterStoreCommands(app);
   simplexdb::tools::RegisterConvertCommand(app);
+  simplexdb::tools::RegisterUpdateCommand(app);
   simplexdb::tools::RegisterExtractCommand(app);
   try {
     app.parse(argc, argv);

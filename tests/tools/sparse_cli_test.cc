@@ -3,11 +3,13 @@
 // what a user sees for wrong input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
 #include <nlohmann/json.hpp>
 
+#include "storage/nrrd_writer.h"
 #include "storage/volume.h"
 #include "tests/storage/store_test_util.h"
 #include "tests/tools/cli_runner.h"
@@ -76,6 +78,50 @@ TEST(SparseCli, WrongInputSaysWhat) {
   expect("info " + dir.path() + "/junk.lmdb", 1, "junk.lmdb");
   EXPECT_FALSE(fs::exists(dir.path() + "/x.lmdb"));
   EXPECT_FALSE(fs::exists(dir.path() + "/x.sdb"));
+}
+
+TEST(SparseCli, UpdateEqualsAFreshImport) {
+  const TempDir dir;
+  const std::string a = dir.path() + "/a.nrrd", b = dir.path() + "/b.nrrd", c = dir.path() + "/c.nrrd";
+  ASSERT_EQ(RunCli("generate --field perlin --dims 17,13,9 --type uint8 --seed 2 -o " + a).exit_code, 0);
+  ASSERT_EQ(RunCli("generate --field perlin --dims 17,13,9 --type uint8 --seed 3 -o " + b).exit_code, 0);
+  // c: a, with b's values (within a's range) in the box x 3..9, y 2..12, z 4..6.
+  const std::vector<double> va = ReadVolumeValues(a), vb = ReadVolumeValues(b);
+  const auto [lo, hi] = std::minmax_element(va.begin(), va.end());
+  std::vector<double> vc = va;
+  for (int z = 4; z <= 6; ++z) {
+    for (int y = 2; y <= 12; ++y) {
+      for (int x = 3; x <= 9; ++x) {
+        const size_t i = x + 17 * (y + 13 * z);
+        vc[i] = std::clamp(vb[i], *lo, *hi);
+      }
+    }
+  }
+  ASSERT_TRUE(WriteNrrd(c, 3, {17, 13, 9, 1}, VoxelType::kU8, vc).ok());
+  ASSERT_EQ(RunCli("import " + a + " --sparse --tolerance 2% -o " + dir.path() + "/s.lmdb -q").exit_code, 0);
+  ASSERT_EQ(RunCli("import " + c + " --sparse --tolerance 2% -o " + dir.path() + "/fresh.lmdb -q").exit_code, 0);
+  auto r = RunCli("update " + dir.path() + "/s.lmdb " + c + " --box 3,2,4,9,12,6 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_GT(Json(r)["nodes_recomputed"].get<uint64_t>(), 0u);
+  const auto got = Json(RunCli("info " + dir.path() + "/s.lmdb --json"));
+  const auto want = Json(RunCli("info " + dir.path() + "/fresh.lmdb --json"));
+  for (const char* key : {"nodes", "vertices", "content_sum"}) EXPECT_EQ(got[key], want[key]) << key;
+  EXPECT_EQ(RunCli("verify " + dir.path() + "/s.lmdb").exit_code, 0);
+
+  // What a user sees for wrong input; nothing changes.
+  const auto expect = [](const std::string& args, int code, const std::string& needle) {
+    SCOPED_TRACE(args);
+    const auto e = RunCli(args);
+    EXPECT_EQ(e.exit_code, code) << e.err;
+    EXPECT_NE(e.err.find(needle), std::string::npos) << e.err;
+  };
+  const std::string s = dir.path() + "/s.lmdb ";
+  expect("update " + s + c + " --box 3,2,4,9,12", 2, "--box");
+  expect("update " + s + c + " --box 3,2.5,4,9,12,6", 2, "2.5");
+  expect("update " + s + c + " --box 3,2,4,9,13,6", 1, "axis y");
+  ASSERT_EQ(RunCli("import " + a + " -o " + dir.path() + "/d.sdb -q").exit_code, 0);
+  expect("update " + dir.path() + "/d.sdb " + c + " --box 3,2,4,9,12,6", 2, "not a sparse store");
+  EXPECT_EQ(Json(RunCli("info " + dir.path() + "/s.lmdb --json"))["content_sum"], got["content_sum"]);
 }
 
 }  // namespace
