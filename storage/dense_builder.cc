@@ -113,7 +113,9 @@ class Builder {
         k_(std::max(1, DomainBitsFor(D, input.dims))),
         layout_(D * k_, options.levels_per_block),
         bricks_(D, input.dims, options.brick_bits > 0 ? options.brick_bits : (D == 3 ? 5 : 4)),
-        exact_(IsIntegerType(input.type)),
+        // A mask turns integers into float32 (NaN marks the masked points).
+        store_type_(options.mask && IsIntegerType(input.type) ? VoxelType::kF32 : input.type),
+        exact_(IsIntegerType(store_type_)),
         start_(Clock::now()) {}
 
   Result<DenseBuildReport> Run();
@@ -121,7 +123,8 @@ class Builder {
  private:
   // Pass 1: the field, one row of bricks (all x) per work item.
   Status WriteBricks();
-  Status WriteBrickRow(uint64_t row, VolumeReader& reader, ZstdCompressor& zstd);
+  Status WriteBrickRow(uint64_t row, VolumeReader& reader, VolumeReader* mask,
+                       ZstdCompressor& zstd);
 
   // Pass 2: errors.
   Status ComputeErrors();
@@ -167,6 +170,7 @@ class Builder {
   int k_;
   ErrorLayout<D> layout_;
   BrickLayout bricks_;
+  VoxelType store_type_;  // the field's type in the store
   bool exact_;  // integer voxels: errors computed exactly
   Clock::time_point start_;
 
@@ -177,6 +181,8 @@ class Builder {
   double field_min_ = std::numeric_limits<double>::infinity();
   double field_max_ = -std::numeric_limits<double>::infinity();
   std::mutex stats_mu_;
+  // The input has NaN voxels: missing values (see ErrorGivenAvailability).
+  bool has_missing_ = false;
   std::unique_ptr<ErrorQuantizer> quantizer_;
   std::atomic<uint64_t> nodes_{0};
 
@@ -184,6 +190,9 @@ class Builder {
   int unit_level_ = 0;
   uint64_t top_per_root_ = 0;  // nodes above the units, per root
   std::vector<std::vector<double>> top_partials_;  // per worker
+  // With missing values: per worker and top node, bit 0 "some point has a
+  // value", bit 1 "some point or vertex has none".
+  std::vector<std::vector<uint8_t>> top_availability_;
   std::vector<double> worker_error_max_;
 };
 
@@ -192,6 +201,17 @@ Result<DenseBuildReport> Builder<D>::Run() {
   if (input_.dimension != D) {
     return Status::InvalidArgument(input_.description + ": a " + std::to_string(input_.dimension) +
                                    "D volume cannot build a " + std::to_string(D) + "D hierarchy");
+  }
+  if (options_.mask) {
+    const VolumeInfo& m = *options_.mask;
+    bool same = m.dimension == input_.dimension;
+    for (int c = 0; c < D && same; ++c) same = m.dims[c] == input_.dims[c];
+    if (!same) {
+      return Status::InvalidArgument("the mask " + m.description + " is " +
+                                     FormatDims(m.dimension, m.dims) + "; the volume " +
+                                     input_.description + " is " +
+                                     FormatDims(input_.dimension, input_.dims));
+    }
   }
   const int max_bits = D == 3 ? 18 : 13;
   if (k_ > max_bits) {
@@ -218,22 +238,27 @@ Status Builder<D>::WriteBricks() {
   // coordinates along the other axes.
   uint64_t rows = 1;
   for (int a = 1; a < D; ++a) rows *= bricks_.bricks_along(a);
-  std::vector<std::unique_ptr<VolumeReader>> readers(threads_);
+  std::vector<std::unique_ptr<VolumeReader>> readers(threads_), masks(threads_);
   std::vector<std::unique_ptr<ZstdCompressor>> zstd(threads_);
   for (int w = 0; w < threads_; ++w) {
     SDB_ASSIGN_OR_RETURN(readers[w], VolumeReader::Open(input_));
+    if (options_.mask) {
+      SDB_ASSIGN_OR_RETURN(masks[w], VolumeReader::Open(*options_.mask));
+    }
     zstd[w] = std::make_unique<ZstdCompressor>(options_.zstd_level);
   }
   SDB_RETURN_IF_ERROR(RunParallel(rows, threads_, "field", start_, options_.progress,
                                   [&](int w, uint64_t row) {
-                                    return WriteBrickRow(row, *readers[w], *zstd[w]);
+                                    return WriteBrickRow(row, *readers[w], masks[w].get(),
+                                                         *zstd[w]);
                                   }));
   if (!(field_min_ <= field_max_)) field_min_ = field_max_ = 0;
   return Status::OK();
 }
 
 template <int D>
-Status Builder<D>::WriteBrickRow(uint64_t row, VolumeReader& reader, ZstdCompressor& zstd) {
+Status Builder<D>::WriteBrickRow(uint64_t row, VolumeReader& reader, VolumeReader* mask,
+                                 ZstdCompressor& zstd) {
   const uint32_t side = bricks_.side();
   const auto& dims = input_.dims;
   // Brick coordinates along axes 1..D-1.
@@ -251,8 +276,9 @@ Status Builder<D>::WriteBrickRow(uint64_t row, VolumeReader& reader, ZstdCompres
     count[a] = std::min(side, dims[a] - lo[a]);
   }
   const uint64_t nrows = uint64_t{count[1]} * count[2] * count[3];
-  std::vector<double> values(nrows * x_size);
+  std::vector<double> values(nrows * x_size), mask_row(mask ? x_size : 0);
   double lmin = std::numeric_limits<double>::infinity(), lmax = -lmin;
+  bool missing = false;
   for (uint64_t i = 0; i < nrows; ++i) {
     const uint32_t y = lo[1] + static_cast<uint32_t>(i % count[1]);
     const uint32_t z = lo[2] + static_cast<uint32_t>((i / count[1]) % count[2]);
@@ -260,14 +286,25 @@ Status Builder<D>::WriteBrickRow(uint64_t row, VolumeReader& reader, ZstdCompres
     const uint64_t first = ((uint64_t{t} * dims[2] + z) * dims[1] + y) * dims[0];
     double* out = values.data() + i * x_size;
     SDB_RETURN_IF_ERROR(reader.Read(first, x_size, out));
+    if (mask) {
+      SDB_RETURN_IF_ERROR(mask->Read(first, x_size, mask_row.data()));
+      for (uint32_t x = 0; x < x_size; ++x) {
+        // 0 or NaN in the mask: not available.
+        if (!(mask_row[x] != 0) || std::isnan(mask_row[x])) {
+          out[x] = std::numeric_limits<double>::quiet_NaN();
+        }
+      }
+    }
     for (uint32_t x = 0; x < x_size; ++x) {
-      if (!std::isfinite(out[x])) {
+      if (std::isinf(out[x])) {
         return Status::InvalidArgument(
             input_.description + ": voxel (" + std::to_string(x) + ", " + std::to_string(y) +
             ", " + std::to_string(z) + (D == 4 ? ", " + std::to_string(t) : std::string()) +
-            ") is " + (std::isnan(out[x]) ? "NaN" : "infinite") +
-            "; a dense store needs a finite value at every grid point");
+            ") is infinite; a store needs finite values (NaN marks a missing one)");
       }
+      // NaN: a missing value. The range and the minima below skip it (a
+      // comparison with NaN is false).
+      missing = missing || std::isnan(out[x]);
       lmin = std::min(lmin, out[x]);
       lmax = std::max(lmax, out[x]);
     }
@@ -276,9 +313,10 @@ Status Builder<D>::WriteBrickRow(uint64_t row, VolumeReader& reader, ZstdCompres
     std::lock_guard<std::mutex> lock(stats_mu_);
     field_min_ = std::min(field_min_, lmin);
     field_max_ = std::max(field_max_, lmax);
+    has_missing_ = has_missing_ || missing;
   }
   // Cut into bricks: each holds its real points only, x fastest.
-  const size_t vsize = VoxelSize(input_.type);
+  const size_t vsize = VoxelSize(store_type_);
   std::vector<double> brick;
   for (uint32_t bx = 0; bx < bricks_.bricks_along(0); ++bx) {
     const std::array<uint32_t, 4> origin = {bx * side, lo[1], lo[2], lo[3]};
@@ -302,7 +340,7 @@ Status Builder<D>::WriteBrickRow(uint64_t row, VolumeReader& reader, ZstdCompres
       }
     }
     std::vector<uint8_t> raw(points * vsize);
-    EncodeVoxels(input_.type, ByteOrder::kLittle, brick.data(), points,
+    EncodeVoxels(store_type_, ByteOrder::kLittle, brick.data(), points,
                  reinterpret_cast<std::byte*>(raw.data()));
     SDB_ASSIGN_OR_RETURN(StoredBlock stored, EncodeBlock(std::move(raw), options_.compression, zstd));
     IndexEntry& entry = index_[layout_.block_count() + id];
@@ -310,6 +348,7 @@ Status Builder<D>::WriteBrickRow(uint64_t row, VolumeReader& reader, ZstdCompres
     entry.raw_size = static_cast<uint32_t>(points * vsize);
     entry.stored_size = static_cast<uint32_t>(stored.bytes.size());
     entry.checksum = Checksum(stored.bytes);
+    if (!(bmin <= bmax)) bmin = bmax = 0;  // every value missing
     entry.field_min = RoundDownToFloat(bmin);
     entry.field_max = RoundUpToFloat(bmax);
     if (!stored.bytes.empty()) {
@@ -347,8 +386,8 @@ Result<double> Builder<D>::FieldValue(const IPoint<D>& p) {
   const BlockSlot slot = bricks_.Locate(q);
   SDB_ASSIGN_OR_RETURN(auto brick, DecodedBrick(slot.block));
   double v;
-  DecodeVoxels(input_.type, ByteOrder::kLittle,
-               reinterpret_cast<const std::byte*>(brick->data()) + slot.entry * VoxelSize(input_.type),
+  DecodeVoxels(store_type_, ByteOrder::kLittle,
+               reinterpret_cast<const std::byte*>(brick->data()) + slot.entry * VoxelSize(store_type_),
                1, &v);
   return v;
 }
@@ -361,7 +400,7 @@ Status Builder<D>::FillRegion(Region& r) {
     total *= r.hi[c] - r.lo[c] + 1;
   }
   r.values.resize(static_cast<size_t>(total));
-  const size_t vsize = VoxelSize(input_.type);
+  const size_t vsize = VoxelSize(store_type_);
   const uint32_t side = bricks_.side();
   // Row by row (all coordinates but x), clamped to the real grid; along x,
   // runs within one brick decoded at once.
@@ -380,7 +419,7 @@ Status Builder<D>::FillRegion(Region& r) {
       const BlockSlot slot = bricks_.Locate(q);
       const int64_t run = std::min<int64_t>(x_real_end - x + 1, side - (x & (side - 1)));
       SDB_ASSIGN_OR_RETURN(auto brick, DecodedBrick(slot.block));
-      DecodeVoxels(input_.type, ByteOrder::kLittle,
+      DecodeVoxels(store_type_, ByteOrder::kLittle,
                    reinterpret_cast<const std::byte*>(brick->data()) + slot.entry * vsize,
                    static_cast<size_t>(run), r.values.data() + at);
       at += static_cast<size_t>(run);
@@ -406,6 +445,10 @@ Status Builder<D>::ComputeErrors() {
   // Memory: half for decoded bricks, half for the workers' units.
   brick_cache_ = std::make_unique<BlockCache>(options_.memory_bytes / 2);
   top_partials_.assign(threads_, std::vector<double>(top_per_root_ * SimplexCode<D>::kRoots, 0));
+  if (has_missing_) {
+    top_availability_.assign(threads_,
+                             std::vector<uint8_t>(top_per_root_ * SimplexCode<D>::kRoots, 0));
+  }
   worker_error_max_.assign(threads_, 0);
   const uint64_t units = (uint64_t{1} << unit_level_) * SimplexCode<D>::kRoots;
   // Unit u is the block of the deepest band whose subtree is u-th in order.
@@ -446,8 +489,12 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
   region.lo = root_simplex.box_lo();
   region.hi = root_simplex.box_hi();
   SDB_RETURN_IF_ERROR(FillRegion(region));
-  const auto [min_it, max_it] = std::minmax_element(region.values.begin(), region.values.end());
-  const double region_min = *min_it, region_max = *max_it;
+  double region_min = std::numeric_limits<double>::infinity(), region_max = -region_min;
+  for (const double v : region.values) {  // NaN (missing) compares false: skipped
+    region_min = std::min(region_min, v);
+    region_max = std::max(region_max, v);
+  }
+  if (!(region_min <= region_max)) region_min = region_max = 0;
   IPoint<D> scan_hi{};
   for (int c = 0; c < D; ++c) scan_hi[c] = std::min(region.hi[c], real_hi[c]);
   const IPoint<D>& scan_lo = region.lo;
@@ -484,6 +531,11 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
       std::array<double, D + 1> f{};
       for (int i = 0; i <= D; ++i) f[i] = view.At(item.grid[i]);
       error = MaxError<D, double>(s, f, step, scan_lo, scan_hi, view).error;
+      if (has_missing_) {
+        Availability a = ScanAvailability<D>(s, scan_lo, scan_hi, view);
+        for (int i = 0; i <= D; ++i) a.any_missing = a.any_missing || std::isnan(f[i]);
+        error = ErrorGivenAvailability(a, error, step);
+      }
     }
     codes[item.entry] = quantizer_->Encode(error);
     block_max = std::max(block_max, error);
@@ -502,6 +554,7 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
   // maxima of their errors.
   if (unit_level_ > 0) {
     std::array<double, 64> partial{};
+    std::array<bool, 64> vertex_missing{};
     const auto interp_over = [&](auto tag) -> Status {
       using T = decltype(tag);
       std::array<Interpolant<D, T>, 64> interps;
@@ -512,6 +565,7 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
         for (int i = 0; i <= D; ++i) {
           SDB_ASSIGN_OR_RETURN(const double v, FieldValue(grid[i]));
           f[i] = static_cast<T>(v);
+          vertex_missing[l] = vertex_missing[l] || std::isnan(v);
         }
         double extent = 0;
         for (int c = 0; c < D; ++c) {
@@ -528,6 +582,15 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
     for (int l = 0; l < unit_level_; ++l) {
       double& slot = tops[TopIndex(root.ancestor(l))];
       slot = std::max(slot, partial[l]);
+    }
+    if (has_missing_) {
+      // The unit's points count for every ancestor; vertices for their own.
+      const Availability a = ScanAvailability<D>(root_simplex, scan_lo, scan_hi, view);
+      std::vector<uint8_t>& avail = top_availability_[worker];
+      for (int l = 0; l < unit_level_; ++l) {
+        avail[TopIndex(root.ancestor(l))] |= static_cast<uint8_t>(
+            (a.any_value ? 1 : 0) | (a.any_missing || vertex_missing[l] ? 2 : 0));
+      }
     }
   }
   worker_error_max_[worker] = std::max(worker_error_max_[worker], block_max);
@@ -557,7 +620,13 @@ Status Builder<D>::WriteTopBlocks() {
       const uint64_t local_path = i - ((uint64_t{1} << local) - 1);
       const SimplexCode<D> node = SimplexCode<D>::FromPath(
           root.top(), root.path() << local | local_path, root.level() + local);
-      const double error = tops[TopIndex(node)];
+      double error = tops[TopIndex(node)];
+      if (has_missing_) {
+        uint8_t bits = 0;
+        for (const auto& avail : top_availability_) bits |= avail[TopIndex(node)];
+        error = ErrorGivenAvailability(Availability{(bits & 1) != 0, (bits & 2) != 0}, error,
+                                       field_max_ - field_min_);
+      }
       codes[i] = quantizer_->Encode(error);
       block_max = std::max(block_max, error);
     }
@@ -607,7 +676,7 @@ Status Builder<D>::Finish(DenseBuildReport& report) {
   DenseHeader h;
   h.dimension = static_cast<uint8_t>(D);
   h.quantization = options_.quantization;
-  h.voxel_type = input_.type;
+  h.voxel_type = store_type_;
   h.domain_bits = static_cast<uint8_t>(k_);
   h.levels_per_block = static_cast<uint8_t>(options_.levels_per_block);
   h.brick_bits = static_cast<uint8_t>(bricks_.brick_bits());

@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "storage/format.h"
@@ -47,6 +48,12 @@ struct DenseBuildOptions {
   int threads = 0;                         // 0: one per core
   int levels_per_block = 14;               // B
   int brick_bits = 0;                      // 0: 5 (32^3) in 3D, 4 (16^4) in 4D
+  // Where the field is available: a volume of the input's grid, 0 (or NaN)
+  // where it is not. Masked points become missing values (NaN; see
+  // docs/format/dense-store.md), so an integer input is stored as float32
+  // (exact for every 8- and 16-bit value). Without a mask, NaN in a float
+  // input marks missing values.
+  std::optional<VolumeInfo> mask;
   // Called from the building thread a few times a second.
   std::function<void(const DenseBuildProgress&)> progress;
 };
@@ -59,9 +66,9 @@ struct DenseBuildReport {
 };
 
 // Builds `out_path` from `input` (3D: HT, 4D: HP). Fails with a message
-// naming the input or the output: NaN or infinite values (a dense store
-// needs a value at every grid point), unreadable or truncated input, a full
-// disk (ResourceExhausted), a volume too large for the 64-bit location code.
+// naming the input or the output: infinite values, a mask of another grid,
+// unreadable or truncated input, a full disk (ResourceExhausted), a volume
+// too large for the 64-bit location code.
 Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,
                                          const DenseBuildOptions& options);
 

@@ -298,6 +298,7 @@ Status DenseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progres
       const uint32_t n = e.raw_size / static_cast<uint32_t>(voxel_size_);
       for (uint32_t i = 0; i < n; ++i) {
         const double v = FieldAt(h.data, i);
+        if (std::isnan(v)) continue;  // a missing value (float fields)
         if (!(v >= e.field_min && v <= e.field_max && v >= header_.field_min &&
               v <= header_.field_max)) {
           return bad("field entry " + std::to_string(i) + " is " + std::to_string(v) +

@@ -394,4 +394,44 @@ ScanResult MaxError(const ScannableSimplex<D>& s, const std::array<T, D + 1>& f,
   return r;
 }
 
+// Missing values. A NaN in a float field marks a point where the field is
+// not available (a masked region). Which of a simplex's real grid points
+// have a value, and whether any has none; a vertex whose (clamped) value is
+// missing counts as missing too, since the interpolant needs it.
+struct Availability {
+  bool any_value = false;
+  bool any_missing = false;
+  void Merge(const Availability& o) {
+    any_value = any_value || o.any_value;
+    any_missing = any_missing || o.any_missing;
+  }
+};
+
+template <int D>
+Availability ScanAvailability(const ScannableSimplex<D>& s, const IPoint<D>& lo,
+                              const IPoint<D>& hi, const GridView<D>& view) {
+  Availability a;
+  s.ForEachRow(lo, hi, [&](const IPoint<D>& p, int64_t x_end) {
+    const double* row = view.Row(p);
+    for (int64_t i = 0; i <= x_end - p[0]; ++i) {
+      if (std::isnan(row[i])) {
+        a.any_missing = true;
+      } else {
+        a.any_value = true;
+      }
+    }
+  });
+  return a;
+}
+
+// The error a node records, given where the field is available: the seed's
+// error where every point and vertex has a value; 0 where no point has one
+// (nothing to approximate: never refined); `range`, the largest error a
+// store records, where only some have (the approximation cannot be checked:
+// refined wherever the threshold is below the field range).
+inline double ErrorGivenAvailability(const Availability& a, double error, double range) {
+  if (!a.any_value) return 0;
+  return a.any_missing ? range : error;
+}
+
 }  // namespace simplexdb

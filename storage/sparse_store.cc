@@ -265,7 +265,7 @@ Status VerifyTyped(const SparseStore& store,
       if (v.mv_size != voxel) return Status::Corruption(name + ": a value of " + std::to_string(v.mv_size) + " bytes");
       double value;
       DecodeVoxels(h.voxel_type, ByteOrder::kLittle, static_cast<const std::byte*>(v.mv_data), 1, &value);
-      if (!(value >= h.field_min && value <= h.field_max)) {
+      if (!std::isnan(value) && !(value >= h.field_min && value <= h.field_max)) {  // NaN: missing
         return Status::Corruption(name + ": value " + std::to_string(value) + " outside the field range");
       }
       sum += SparseEntryHash(kFieldDb, {static_cast<const uint8_t*>(k.mv_data), 8},

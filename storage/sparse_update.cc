@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <string_view>
 #include <unordered_map>
 #include <vector>
@@ -42,10 +44,12 @@ template <int D>
 class Updater {
  public:
   Updater(const SparseHeader& h, const VolumeInfo& volume, VolumeReader& reader,
-          const GridBox& box, const SparseUpdateOptions& options, Clock::time_point start)
+          VolumeReader* mask, const GridBox& box, const SparseUpdateOptions& options,
+          Clock::time_point start)
       : h_(h),
         volume_(volume),
         reader_(reader),
+        mask_(mask),
         options_(options),
         start_(start),
         k_(h.domain_bits),
@@ -114,12 +118,28 @@ class Updater {
 
   Status CheckRange(double v, const IPoint<D>& p) const {
     if (v >= h_.field_min && v <= h_.field_max) return Status::OK();
+    if (std::isnan(v)) return Status::OK();  // a missing value
     std::string at;
     for (int c = 0; c < D; ++c) at += (c ? "," : "") + std::to_string(p[c]);
     return Status::InvalidArgument(fmt::format(
         "{}: value {} at ({}) is outside the store's field range [{}, {}], which fixes its "
         "error quantum; import the volume again",
         volume_.description, v, at, h_.field_min, h_.field_max));
+  }
+
+  // Reads `count` voxels from `first`; masked ones become NaN (as the dense
+  // builder stores them).
+  Status Read(uint64_t first, size_t count, double* out) {
+    SDB_RETURN_IF_ERROR(reader_.Read(first, count, out));
+    if (mask_ == nullptr) return Status::OK();
+    mask_row_.resize(count);
+    SDB_RETURN_IF_ERROR(mask_->Read(first, count, mask_row_.data()));
+    for (size_t i = 0; i < count; ++i) {
+      if (!(mask_row_[i] != 0) || std::isnan(mask_row_[i])) {
+        out[i] = std::numeric_limits<double>::quiet_NaN();
+      }
+    }
+    return Status::OK();
   }
 
   // Reads the region's values, clamped to the real grid, row by row.
@@ -141,9 +161,9 @@ class Updater {
       IPoint<D> first = p;
       first[0] = x0;
       if (real > 0) {
-        SDB_RETURN_IF_ERROR(reader_.Read(VoxelIndex(first), static_cast<size_t>(real), out));
+        SDB_RETURN_IF_ERROR(Read(VoxelIndex(first), static_cast<size_t>(real), out));
       } else {
-        SDB_RETURN_IF_ERROR(reader_.Read(VoxelIndex(first), 1, out));
+        SDB_RETURN_IF_ERROR(Read(VoxelIndex(first), 1, out));
       }
       for (int64_t i = std::max<int64_t>(real, 1); i < width; ++i) out[i] = out[i - 1];
       for (int64_t i = 0; i < std::max<int64_t>(real, 1); ++i) {
@@ -159,17 +179,18 @@ class Updater {
 
   Result<double> FieldAt(const IPoint<D>& p) {
     double v = 0;
-    SDB_RETURN_IF_ERROR(reader_.Read(VoxelIndex(p), 1, &v));
+    SDB_RETURN_IF_ERROR(Read(VoxelIndex(p), 1, &v));
     SDB_RETURN_IF_ERROR(CheckRange(v, p));
     return v;
   }
 
   template <class T>
-  Result<std::array<T, D + 1>> VertexValues(const Grid& g) {
+  Result<std::array<T, D + 1>> VertexValues(const Grid& g, bool* missing) {
     std::array<T, D + 1> f{};
     for (int i = 0; i <= D; ++i) {
       SDB_ASSIGN_OR_RETURN(const double v, FieldAt(g[i]));
       f[i] = static_cast<T>(v);
+      *missing = *missing || std::isnan(v);
     }
     return f;
   }
@@ -198,8 +219,10 @@ class Updater {
     uint64_t done = 0;
     for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
       if (!Meets(GridOf(RootVertices<D>(top)))) continue;
-      // The interpolants of the nodes above the units that meet the box.
+      // The interpolants of the nodes above the units that meet the box,
+      // and (with missing values) where they have values (Availability).
       std::unordered_map<uint64_t, Interpolant<D, T>> above;
+      std::unordered_map<uint64_t, Availability> above_availability;
       for (uint64_t u = 0; u < units_per_root; ++u, ++done) {
         if ((done & 63) == 0) Progress(done, total);
         const SimplexCode<D> unit = SimplexCode<D>::FromPath(top, u, unit_level_);
@@ -220,8 +243,10 @@ class Updater {
             for (int c = 0; c < D; ++c) {
               extent = std::max(extent, static_cast<double>(as.box_hi()[c] - as.box_lo()[c]));
             }
-            SDB_ASSIGN_OR_RETURN(const auto f, VertexValues<T>(ag));
+            bool vertex_missing = false;
+            SDB_ASSIGN_OR_RETURN(const auto f, VertexValues<T>(ag, &vertex_missing));
             it = above.emplace(a.key(), Interpolant<D, T>(as, f, step_, extent)).first;
+            above_availability[a.key()].any_missing = vertex_missing;
           }
           codes[n] = a;
           interps[n++] = it->second;
@@ -235,12 +260,23 @@ class Updater {
         IPoint<D> scan_hi{};
         for (int c = 0; c < D; ++c) scan_hi[c] = std::min(region.hi[c], real_hi_[c]);
         const GridView<D> view = region.view();
+        const bool missing = std::any_of(region.values.begin(), region.values.end(),
+                                         [](double v) { return std::isnan(v); });
         if (n > 0) {
           std::array<double, 64> partial{};
           MaxErrors<D, T>(simplex, interps.data(), n, region.lo, scan_hi, view, partial.data());
           for (int j = 0; j < n; ++j) Raise(codes[j], partial[j]);
+          const Availability a = missing ? ScanAvailability<D>(simplex, region.lo, scan_hi, view)
+                                         : Availability{true, false};
+          for (int j = 0; j < n; ++j) above_availability[codes[j].key()].Merge(a);
         }
-        if (meets) Descend<T>(unit, grid, region.lo, scan_hi, view);
+        if (meets) Descend<T>(unit, grid, region.lo, scan_hi, view, missing);
+      }
+      // As the dense builder: 0 where no point has a value, the field range
+      // where some have none.
+      for (const auto& [key, a] : above_availability) {
+        double& e = errors_.at(key);
+        e = ErrorGivenAvailability(a, e, step_);
       }
     }
     Progress(total, total);
@@ -250,7 +286,7 @@ class Updater {
   // The unit's nodes that meet the box, depth first.
   template <class T>
   void Descend(SimplexCode<D> unit, const Grid& grid, const IPoint<D>& scan_lo,
-               const IPoint<D>& scan_hi, const GridView<D>& view) {
+               const IPoint<D>& scan_hi, const GridView<D>& view, bool missing) {
     struct Item {
       SimplexCode<D> code;
       Grid grid;
@@ -267,7 +303,13 @@ class Updater {
       const ScannableSimplex<D> s(item.grid);
       std::array<T, D + 1> f{};
       for (int i = 0; i <= D; ++i) f[i] = static_cast<T>(view.At(item.grid[i]));
-      Raise(item.code, MaxError<D, T>(s, f, step_, scan_lo, scan_hi, view).error);
+      double error = MaxError<D, T>(s, f, step_, scan_lo, scan_hi, view).error;
+      if (missing) {
+        Availability a = ScanAvailability<D>(s, scan_lo, scan_hi, view);
+        for (int i = 0; i <= D; ++i) a.any_missing = a.any_missing || std::isnan(view.At(item.grid[i]));
+        error = ErrorGivenAvailability(a, error, step_);
+      }
+      Raise(item.code, error);
       if (item.code.level() + 1 >= leaf_) continue;
       const int split = SplitRules<D>::CaseOf(item.code.level(), item.code.path());
       for (int child = 1; child >= 0; --child) {
@@ -477,6 +519,7 @@ class Updater {
   const SparseHeader& h_;
   const VolumeInfo& volume_;
   VolumeReader& reader_;
+  VolumeReader* mask_;  // null: no mask
   const SparseUpdateOptions& options_;
   Clock::time_point start_;
   const int k_, leaf_, unit_level_;
@@ -484,6 +527,7 @@ class Updater {
   const double step_;
   IPoint<D> real_hi_{}, ebox_lo_{}, ebox_hi_{};
   std::unordered_map<uint64_t, double> errors_;  // code key -> recomputed error
+  std::vector<double> mask_row_;
 
   // The transaction being written (Apply).
   lmdb::Txn* txn_ = nullptr;
@@ -552,7 +596,11 @@ Result<SparseUpdateReport> Update(const std::string& path, const SparseHeader& h
                                   const VolumeInfo& volume, const GridBox& box,
                                   const SparseUpdateOptions& options, Clock::time_point start) {
   SDB_ASSIGN_OR_RETURN(auto reader, VolumeReader::Open(volume));
-  Updater<D> updater(h, volume, *reader, box, options, start);
+  std::unique_ptr<VolumeReader> mask;
+  if (options.mask) {
+    SDB_ASSIGN_OR_RETURN(mask, VolumeReader::Open(*options.mask));
+  }
+  Updater<D> updater(h, volume, *reader, mask.get(), box, options, start);
   SDB_RETURN_IF_ERROR(updater.ComputeErrors());
 
   lmdb::Env::Options o;
@@ -599,13 +647,26 @@ Result<SparseUpdateReport> UpdateSparseStore(const std::string& path, const Volu
     h = store->header();
   }
   const int d = h.dimension;
-  bool same = volume.dimension == d && volume.type == h.voxel_type;
+  // A mask stores integers as float32, as the dense builder does.
+  const VoxelType type = options.mask && !IsFloatType(volume.type) ? VoxelType::kF32 : volume.type;
+  bool same = volume.dimension == d && type == h.voxel_type;
   for (int c = 0; c < d && same; ++c) same = volume.dims[c] == h.dims[c];
   if (!same) {
     return Status::InvalidArgument(fmt::format(
-        "{} is {}D {} of {}, but the store {} was built from {}D {} of {}", volume.description,
+        "{} is {}D {} of {}{}, but the store {} holds {}D {} of {}", volume.description,
         volume.dimension, VoxelTypeName(volume.type), FormatDims(volume.dimension, volume.dims),
-        path, d, VoxelTypeName(h.voxel_type), FormatDims(d, h.dims)));
+        options.mask ? " (masked: float32)" : "", path, d, VoxelTypeName(h.voxel_type),
+        FormatDims(d, h.dims)));
+  }
+  if (options.mask) {
+    const VolumeInfo& m = *options.mask;
+    bool same_grid = m.dimension == d;
+    for (int c = 0; c < d && same_grid; ++c) same_grid = m.dims[c] == h.dims[c];
+    if (!same_grid) {
+      return Status::InvalidArgument(fmt::format("the mask {} is {}; the store {} holds {}",
+                                                 m.description, FormatDims(m.dimension, m.dims),
+                                                 path, FormatDims(d, h.dims)));
+    }
   }
   for (int c = 0; c < d; ++c) {
     if (box.lo[c] < 0 || box.lo[c] > box.hi[c] || box.hi[c] >= int64_t{h.dims[c]}) {

@@ -36,6 +36,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "storage/dense_builder.h"
@@ -54,6 +55,9 @@ struct GridBox {
 
 struct SparseUpdateOptions {
   std::function<void(const DenseBuildProgress&)> progress;  // phase "units"
+  // As DenseBuildOptions::mask: 0 or NaN where the field is missing (the
+  // store was imported with a mask; integers are then float32 in it).
+  std::optional<VolumeInfo> mask;
 };
 
 struct SparseUpdateReport {

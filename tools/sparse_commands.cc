@@ -241,7 +241,7 @@ void RegisterConvertCommand(CLI::App& app) {
 }
 
 void RunUpdate(const std::string& store, const std::string& input, const std::string& box_text,
-               bool as_json, bool quiet) {
+               const std::string& mask, bool as_json, bool quiet) {
   if (!IsSparseStorePath(store)) {
     throw CommandError(store + " is not a sparse store: only sparse (LMDB) stores are updated in "
                                    "place; import the volume again for a dense one",
@@ -264,6 +264,11 @@ void RunUpdate(const std::string& store, const std::string& input, const std::st
   ProgressLine line(!quiet && !as_json);
   SparseUpdateOptions options;
   options.progress = ProgressTo(line, store);
+  if (!mask.empty()) {
+    Result<VolumeInfo> m = OpenVolume(mask);
+    if (!m.ok()) Fail(m.status());
+    options.mask = *std::move(m);
+  }
   const Result<SparseUpdateReport> r = UpdateSparseStore(store, *volume, box, options);
   line.Finish();
   if (!r.ok()) Fail(r.status());
@@ -291,7 +296,7 @@ void RunUpdate(const std::string& store, const std::string& input, const std::st
 
 void RegisterUpdateCommand(CLI::App& app) {
   struct Args {
-    std::string store, input, box;
+    std::string store, input, box, mask;
     bool json = false, quiet = false;
   };
   auto a = std::make_shared<Args>();
@@ -310,9 +315,12 @@ void RegisterUpdateCommand(CLI::App& app) {
                   "the grid points that changed, inclusive: x0,y0,z0,x1,y1,z1 (4D: "
                   "x0,y0,z0,t0,x1,y1,z1,t1)")
       ->required();
+  cmd->add_option("--mask", a->mask,
+                  "the mask the store was imported with, updated: 0 where the field is missing")
+      ->check(CLI::ExistingFile);
   cmd->add_flag("--json", a->json, "print the report as JSON");
   cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
-  cmd->callback([a] { RunUpdate(a->store, a->input, a->box, a->json, a->quiet); });
+  cmd->callback([a] { RunUpdate(a->store, a->input, a->box, a->mask, a->json, a->quiet); });
 }
 
 }  // namespace simplexdb::tools

@@ -40,6 +40,7 @@ struct ImportArgs {
   std::string compression = "zstd";
   bool sparse = false;
   std::string tolerance = "0";
+  std::string mask;
   size_t memory_mb = 1024;
   int threads = 0;
   int levels_per_block = 14;
@@ -111,6 +112,11 @@ void RunImport(const ImportArgs& a) {
   options.threads = a.threads;
   options.levels_per_block = a.levels_per_block;
   options.zstd_level = a.zstd_level;
+  if (!a.mask.empty()) {
+    Result<VolumeInfo> mask = OpenVolume(a.mask);
+    if (!mask.ok()) Fail(mask.status());
+    options.mask = *std::move(mask);
+  }
   if (a.sparse) {
     ImportSparse(input, a.output, options, a.tolerance, a.json, a.quiet);
     return;
@@ -341,6 +347,11 @@ void RegisterStoreCommands(CLI::App& app) {
                     "--sparse: drop subtrees whose errors are all within this (7.3, or 1% of the "
                     "field range; 0: lossless)")
         ->capture_default_str();
+    cmd->add_option("--mask", a->mask,
+                    "a volume of the same grid, 0 where the field is not available: those points "
+                    "become missing values (NaN; integer fields are then stored as float32). NaN "
+                    "in a float input is missing too")
+        ->check(CLI::ExistingFile);
     cmd->add_option("--memory-mb", a->memory_mb, "the builder's memory bound")
         ->capture_default_str();
     cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")

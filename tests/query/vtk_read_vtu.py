@@ -2,13 +2,15 @@
 """Reads a .vtu with VTK's own XML reader and prints what VTK sees, as JSON:
 
     {"points", "cells", "cell_types": [...distinct...], "point_arrays": {name: [min, max]},
-     "cell_arrays": {name: [min, max]}, "volume": total cell volume}
+     "cell_arrays": {name: [min, max]}, "volume": total cell volume,
+     "nan_points": points whose "field" is NaN (a missing value)}
 
 Used by tests/tools/extract_cli_test.cc to check the files `simplexdb
 extract --format vtu` writes with an independent reader. Exits 77 when VTK
 cannot be imported (the test then skips).
 """
 import json
+import math
 import sys
 
 try:
@@ -42,6 +44,10 @@ sizes.Update()
 volume = sizes.GetOutput().GetCellData().GetArray("Volume")
 total = sum(abs(volume.GetValue(i)) for i in range(volume.GetNumberOfTuples()))
 types = sorted({grid.GetCellType(i) for i in range(grid.GetNumberOfCells())})
+field = grid.GetPointData().GetArray("field")
+nan_points = 0
+if field is not None:
+    nan_points = sum(1 for i in range(field.GetNumberOfTuples()) if math.isnan(field.GetValue(i)))
 print(json.dumps({
     "points": grid.GetNumberOfPoints(),
     "cells": grid.GetNumberOfCells(),
@@ -49,4 +55,5 @@ print(json.dumps({
     "point_arrays": arrays(grid.GetPointData()),
     "cell_arrays": arrays(grid.GetCellData()),
     "volume": total,
+    "nan_points": nan_points,
 }))

@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <functional>
+#include <limits>
 #include <random>
 
 #include "hierarchy/geometry.h"
@@ -27,6 +29,7 @@ struct Case {
   std::array<uint32_t, 4> dims;
   VoxelType type;
   int levels_per_block;
+  bool missing = false;  // NaN (missing values) in a ball and on the far x face
 };
 
 // Every internal node's stored error bounds its true error from above, by
@@ -40,7 +43,12 @@ void CheckEveryNode(const DenseStore& store, const TestVolume& volume) {
   size_t nodes = 0, nonzero = 0;
   std::function<void(SimplexCode<D>)> visit = [&](SimplexCode<D> c) {
     if (c.level() >= leaf) return;
-    const long double truth = BruteForceError<D>(c, h.domain_bits, volume);
+    // With missing values: 0 where no point has a value, the field range
+    // where some have none (ErrorGivenAvailability), the error otherwise.
+    const auto [any_value, any_missing] = BruteForceAvailability<D>(c, h.domain_bits, volume);
+    const long double truth = !any_value    ? 0
+                              : any_missing ? static_cast<long double>(h.field_max - h.field_min)
+                                            : BruteForceError<D>(c, h.domain_bits, volume);
     const Result<double> stored = reader.ErrorBound(c);
     ASSERT_TRUE(stored.ok()) << stored.status().ToString();
     SCOPED_TRACE(c.ToString());
@@ -67,12 +75,30 @@ void CheckEveryNode(const DenseStore& store, const TestVolume& volume) {
   EXPECT_GT(nonzero, nodes / 20) << "a degenerate test field";
 }
 
+// NaN in a ball around (4, 5, 3[, 4]) of radius 3 and on the far x face.
+void PunchHoles(TestVolume& volume) {
+  for (uint64_t i = 0; i < volume.values.size(); ++i) {
+    uint64_t rest = i;
+    std::array<int64_t, 4> p{};
+    for (int a = 0; a < 4; ++a) {
+      p[a] = static_cast<int64_t>(rest % volume.dims[a]);
+      rest /= volume.dims[a];
+    }
+    int64_t r2 = (p[0] - 4) * (p[0] - 4) + (p[1] - 5) * (p[1] - 5) + (p[2] - 3) * (p[2] - 3);
+    if (volume.dimension == 4) r2 += (p[3] - 4) * (p[3] - 4);
+    if (r2 <= 9 || p[0] == volume.dims[0] - 1) {
+      volume.values[i] = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+}
+
 class DenseErrors : public ::testing::TestWithParam<std::tuple<Case, Quantization>> {};
 
 TEST_P(DenseErrors, EqualBruteForceForEveryNode) {
   const auto& [c, q] = GetParam();
   const TempDir dir;
-  const TestVolume volume = TestVolume::Random(c.dimension, c.dims, c.type, 17);
+  TestVolume volume = TestVolume::Random(c.dimension, c.dims, c.type, 17);
+  if (c.missing) PunchHoles(volume);
   const std::string input = dir.path() + "/in.nrrd";
   ASSERT_TRUE(volume.WriteNrrd(input).ok());
   Result<VolumeInfo> info = OpenVolume(input);
@@ -103,6 +129,9 @@ const Case kCases[] = {
     {"hp9_i16_bands", 4, {9, 9, 9, 9}, VoxelType::kI16, 5},
     {"hp_padded_f64", 4, {6, 5, 4, 3}, VoxelType::kF64, 4},
     {"ht_two_points", 3, {2, 2, 2, 1}, VoxelType::kU8, 14},  // k = 1, padded to 3^3
+    {"ht17_f32_missing", 3, {17, 17, 17, 1}, VoxelType::kF32, 4, true},
+    {"ht_padded_f64_missing", 3, {13, 9, 17, 1}, VoxelType::kF64, 3, true},
+    {"hp9_f32_missing", 4, {9, 9, 9, 9}, VoxelType::kF32, 5, true},
 };
 
 INSTANTIATE_TEST_SUITE_P(
@@ -186,20 +215,64 @@ TEST(DenseStore, RawCompressedAndInMemoryAnswerIdentically) {
   }
 }
 
-TEST(DenseStore, RejectsNonFiniteInput) {
+TEST(DenseStore, RejectsInfiniteInput) {
   const TempDir dir;
   TestVolume volume = TestVolume::Random(3, {5, 5, 5, 1}, VoxelType::kF32, 1);
-  volume.values[42] = std::numeric_limits<double>::quiet_NaN();
+  volume.values[42] = -std::numeric_limits<double>::infinity();  // (2, 3, 1)
   ASSERT_TRUE(volume.WriteNrrd(dir.path() + "/nan.nrrd").ok());
   const Result<DenseBuildReport> r =
       BuildDenseStore(*OpenVolume(dir.path() + "/nan.nrrd"), dir.path() + "/s.sdb", {});
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.status().message().find("NaN"), std::string_view::npos) << r.status().ToString();
+  EXPECT_NE(r.status().message().find("(2, 3, 1) is infinite"), std::string_view::npos)
+      << r.status().ToString();
   EXPECT_FALSE(std::filesystem::exists(dir.path() + "/s.sdb"));
   // Nothing left behind either.
   for (const auto& e : std::filesystem::directory_iterator(dir.path())) {
     EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << e.path();
   }
+}
+
+// A mask is the same as NaN: an integer volume with a mask builds the store
+// a float32 volume with NaN at the masked points builds (whose errors the
+// brute-force test above checks), entry for entry.
+TEST(DenseStore, AMaskEqualsNaNAtTheMaskedPoints) {
+  const TempDir dir;
+  const TestVolume volume = TestVolume::Random(3, {17, 13, 11, 1}, VoxelType::kU8, 4);
+  TestVolume mask = volume, nan = volume;
+  mask.type = VoxelType::kU8;
+  nan.type = VoxelType::kF32;
+  for (size_t i = 0; i < volume.values.size(); ++i) {
+    const bool hidden = (i % 17) > 12 || (i / (17 * 13)) == 4;  // a slab along x, a z plane
+    mask.values[i] = hidden ? 0 : 1 + (i % 7);  // any nonzero value means "available"
+    if (hidden) nan.values[i] = std::numeric_limits<double>::quiet_NaN();
+  }
+  ASSERT_TRUE(volume.WriteNrrd(dir.path() + "/v.nrrd").ok());
+  ASSERT_TRUE(mask.WriteNrrd(dir.path() + "/m.nrrd").ok());
+  ASSERT_TRUE(nan.WriteNrrd(dir.path() + "/n.nrrd").ok());
+  DenseBuildOptions options;
+  options.threads = 1;
+  options.compression = Compression::kNone;
+  ASSERT_TRUE(BuildDenseStore(*OpenVolume(dir.path() + "/n.nrrd"), dir.path() + "/n.sdb", options).ok());
+  options.mask = *OpenVolume(dir.path() + "/m.nrrd");
+  const auto built = BuildDenseStore(*OpenVolume(dir.path() + "/v.nrrd"), dir.path() + "/m.sdb", options);
+  ASSERT_TRUE(built.ok()) << built.status().ToString();
+  EXPECT_EQ(built->header.voxel_type, VoxelType::kF32);
+  std::ifstream a(dir.path() + "/n.sdb", std::ios::binary), b(dir.path() + "/m.sdb", std::ios::binary);
+  const std::string x((std::istreambuf_iterator<char>(a)), {}), y((std::istreambuf_iterator<char>(b)), {});
+  ASSERT_EQ(x.size(), y.size());
+  // Everything after the header (which names the source) is the same.
+  EXPECT_TRUE(x.compare(kHeaderSize, std::string::npos, y, kHeaderSize, std::string::npos) == 0);
+  EXPECT_TRUE((*DenseStore::Open(dir.path() + "/m.sdb"))->Verify().ok());
+
+  // A mask of another grid is refused, naming both.
+  TestVolume other = TestVolume::Random(3, {17, 13, 10, 1}, VoxelType::kU8, 1);
+  ASSERT_TRUE(other.WriteNrrd(dir.path() + "/o.nrrd").ok());
+  options.mask = *OpenVolume(dir.path() + "/o.nrrd");
+  const auto refused = BuildDenseStore(*OpenVolume(dir.path() + "/v.nrrd"), dir.path() + "/x.sdb", options);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("17x13x10"), std::string_view::npos) << refused.status().ToString();
+  EXPECT_NE(refused.status().message().find("17x13x11"), std::string_view::npos) << refused.status().ToString();
+  EXPECT_FALSE(std::filesystem::exists(dir.path() + "/x.sdb"));
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <random>
 #include <set>
 
@@ -39,7 +40,8 @@ struct Case {
   VoxelType type;
   Quantization quantization;
   // "random": noise everywhere; "blob": noise in a small box, one value
-  // elsewhere; "linear": an exactly linear field.
+  // elsewhere; "linear": an exactly linear field; "holes": noise with NaN
+  // (missing values) in a ball and on the far x face.
   const char* field;
 };
 
@@ -55,7 +57,11 @@ TestVolume MakeVolume(const Case& c, uint64_t seed) {
       p[a] = static_cast<int64_t>(rest % c.dims[a]);
       rest /= c.dims[a];
     }
-    if (field == "linear") {
+    if (field == "holes") {
+      int64_t r2 = 0;
+      for (int a = 0; a < c.dimension; ++a) r2 += (p[a] - 3) * (p[a] - 3);
+      if (r2 <= 4 || p[0] == c.dims[0] - 1) v.values[i] = std::numeric_limits<double>::quiet_NaN();
+    } else if (field == "linear") {
       v.values[i] = static_cast<double>(p[0] + 2 * p[1] + 3 * p[2] + 4 * p[3]);
     } else if (p[0] < 3 || p[0] > 5 || p[1] < 2 || p[1] > 4 || p[2] < 2 || p[2] > 5) {
       v.values[i] = 17;  // "blob": the box x 3..5, y 2..4, z 2..5 keeps its noise
@@ -75,6 +81,9 @@ std::unique_ptr<DenseStore> BuildDense(const TestVolume& volume, Quantization q,
   EXPECT_TRUE(built.ok()) << built.status().ToString();
   return *DenseStore::Open(dir + "/dense.sdb");
 }
+
+// Equal, or both NaN (a missing value).
+bool SameValue(double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); }
 
 // The truth about one node, from the dense store alone.
 template <int D>
@@ -136,7 +145,7 @@ void CheckAgainstDense(const DenseStore& dense, const SparseStore& sparse, doubl
     const auto value = *s.Field(p);
     ASSERT_EQ(value.has_value(), needed.count(key) == 1) << key;
     if (value) {
-      ASSERT_EQ(*value, *d.Field(p)) << key;
+      ASSERT_TRUE(SameValue(*value, *d.Field(p))) << key;
     }
   }
   EXPECT_EQ(needed.size(), sparse.header().vertices);
@@ -155,8 +164,8 @@ void CheckRebuiltField(const DenseStore& rebuilt, const TestVolume& volume, doub
       rest /= volume.dims[a];
     }
     const double got = *r.Field(p);
-    if (tolerance == 0) {
-      ASSERT_EQ(got, volume.values[i]) << "grid point " << i;
+    if (std::isnan(volume.values[i]) || tolerance == 0) {
+      ASSERT_TRUE(SameValue(got, volume.values[i])) << "grid point " << i;
     } else {
       ASSERT_LE(std::abs(got - volume.values[i]), slack * (1 + 1e-12)) << "grid point " << i;
     }
@@ -219,6 +228,8 @@ const Case kCases[] = {
     {"hp5_random_u8_u16", 4, {5, 5, 5, 5}, VoxelType::kU8, Quantization::kU16, "random"},
     {"hp9_blob_u8_u16", 4, {9, 9, 9, 9}, VoxelType::kU8, Quantization::kU16, "blob"},
     {"hp_padded_blob_i16_u8", 4, {7, 6, 5, 3}, VoxelType::kI16, Quantization::kU8, "blob"},
+    {"ht17_holes_f32_u16", 3, {17, 17, 17, 1}, VoxelType::kF32, Quantization::kU16, "holes"},
+    {"hp_padded_holes_f64_u8", 4, {7, 6, 5, 3}, VoxelType::kF64, Quantization::kU8, "holes"},
 };
 
 INSTANTIATE_TEST_SUITE_P(
@@ -228,6 +239,43 @@ INSTANTIATE_TEST_SUITE_P(
       return std::string(std::get<0>(param_info.param).name) +
              (relative == 0 ? "_lossless" : relative < 0.1 ? "_t5pct" : "_t30pct");
     });
+
+// Where the field is missing (NaN) nothing is stored: every present node
+// has a value at some point (brute force over its points), and a node with
+// values and holes is present (the field range is its error), so the holes'
+// boundary is resolved to the finest level.
+TEST(SparseStore, MissingRegionsStoreNothing) {
+  const TempDir dir;
+  const Case c{"holes", 3, {17, 17, 17, 1}, VoxelType::kF32, Quantization::kU16, "holes"};
+  const TestVolume volume = MakeVolume(c, 3);
+  const auto dense = BuildDense(volume, Quantization::kU16, dir.path());
+  ASSERT_TRUE(ConvertDenseToSparse(*dense, dir.path() + "/s.lmdb", {}).ok());
+  const auto sparse = *SparseStore::Open(dir.path() + "/s.lmdb");
+  auto reader = *SparseStore::Reader<3>::Create(*sparse);
+  const int k = sparse->header().domain_bits, leaf = sparse->header().leaf_level();
+  uint64_t empty = 0, mixed = 0, present = 0;
+  std::function<void(SimplexCode<3>)> visit = [&](SimplexCode<3> code) {
+    if (code.level() >= leaf) return;
+    const auto [any_value, any_missing] = testing::BruteForceAvailability<3>(code, k, volume);
+    const bool stored = (*reader.FindStored(code)).has_value();
+    present += stored;
+    if (!any_value) {
+      ++empty;
+      ASSERT_FALSE(stored) << code.ToString() << " has no value, yet is stored";
+      return;
+    }
+    if (any_missing) {
+      ++mixed;
+      ASSERT_TRUE(stored) << code.ToString() << " is partly missing, yet absent";
+    }
+    visit(code.child(0));
+    visit(code.child(1));
+  };
+  for (int top = 0; top < 6; ++top) visit(SimplexCode<3>::Root(top));
+  EXPECT_GT(empty, 10u);  // the largest empty nodes (their subtrees are not visited)
+  EXPECT_GT(mixed, 100u);
+  EXPECT_EQ(present, sparse->header().nodes);
+}
 
 // Builds a small sparse store for the tests below.
 std::string BuildSparse(const TempDir& dir, const TestVolume& volume) {

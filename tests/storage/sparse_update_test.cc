@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <random>
 #include <string>
 #include <utility>
@@ -95,11 +96,20 @@ Snapshot ReadPath(const std::string& path) { return Read(**SparseStore::Open(pat
 // range. The volume holds its extremes at its first and last points, which
 // keep them, so the field range (and with it the error quantum) stays the
 // same; the test boxes leave those points out, or take in the whole grid.
+// The smallest and largest value, skipping NaN (missing values).
+std::pair<double, double> Range(const std::vector<double>& values) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const double v : values) {
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  return {lo, hi};
+}
+
 TestVolume Changed(const TestVolume& volume, const GridBox& box, uint64_t seed,
                    const char* how) {
   TestVolume out = volume;
-  const auto [lo_it, hi_it] = std::minmax_element(volume.values.begin(), volume.values.end());
-  const double lo = *lo_it, hi = *hi_it;
+  const auto [lo, hi] = Range(volume.values);
   std::mt19937_64 rng(seed);
   const std::string mode = how;
   for (uint64_t i = 0; i < out.values.size(); ++i) {
@@ -114,6 +124,8 @@ TestVolume Changed(const TestVolume& volume, const GridBox& box, uint64_t seed,
     if (!inside) continue;
     if (mode == "flat") {
       out.values[i] = lo;  // a uniform patch: nodes vanish
+    } else if (mode == "holes" && (i % 3 != 0)) {
+      out.values[i] = std::numeric_limits<double>::quiet_NaN();  // missing values
     } else {
       const double t = static_cast<double>(rng() % 1000) / 999.0;
       out.values[i] = std::round(lo + t * (hi - lo));
@@ -130,8 +142,10 @@ struct Case {
   std::array<uint32_t, 4> dims;
   VoxelType type;
   double tolerance;  // relative to the field range
-  const char* before;  // "random" or "blob" (noise in a corner, 17 elsewhere)
-  const char* change;  // "noise" or "flat"
+  // "random", "blob" (noise in a corner, 17 elsewhere) or "holes" (random,
+  // NaN in the middle)
+  const char* before;
+  const char* change;  // "noise", "flat" or "holes" (NaN at two of three points)
   GridBox box;
 };
 
@@ -148,9 +162,20 @@ TestVolume MakeVolume(const Case& c) {
       if (!corner) v.values[i] = 17;
     }
   }
+  if (std::string(c.before) == "holes") {
+    for (uint64_t i = 0; i < v.values.size(); ++i) {
+      uint64_t rest = i;
+      int64_t r2 = 0;
+      for (int a = 0; a < c.dimension; ++a) {
+        const int64_t x = static_cast<int64_t>(rest % c.dims[a]) - 8;
+        r2 += x * x;
+        rest /= c.dims[a];
+      }
+      if (r2 <= 12) v.values[i] = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
   // The range's extremes at the first and the last point (see Changed).
-  const auto [lo, hi] = std::minmax_element(v.values.begin(), v.values.end());
-  const double min = *lo, max = *hi;
+  const auto [min, max] = Range(v.values);
   v.values.front() = min;
   v.values.back() = max;
   return v;
@@ -180,6 +205,12 @@ const Case kCases[] = {
      "flat", {{11, 3, 12, 0}, {12, 4, 13, 0}}},
     {"ht17_whole_grid", 3, {17, 17, 17, 1}, VoxelType::kU8, 0, "random", "noise",
      {{0, 0, 0, 0}, {16, 16, 16, 0}}},
+    {"ht17_f32_holes_appear", 3, {17, 17, 17, 1}, VoxelType::kF32, 0, "random", "holes",
+     {{2, 3, 4, 0}, {9, 10, 8, 0}}},
+    {"ht17_f32_holes_filled_lossy", 3, {17, 17, 17, 1}, VoxelType::kF32, 0.1, "holes", "noise",
+     {{5, 6, 5, 0}, {11, 10, 12, 0}}},
+    {"hp9_f64_holes_appear", 4, {9, 9, 9, 9}, VoxelType::kF64, 0, "random", "holes",
+     {{1, 2, 3, 2}, {5, 6, 6, 5}}},
     {"hp9_u8_lossless", 4, {9, 9, 9, 9}, VoxelType::kU8, 0, "random", "noise",
      {{2, 3, 1, 4}, {5, 6, 4, 7}}},
     {"hp_padded_flat", 4, {9, 7, 9, 6}, VoxelType::kU8, 0, "random", "flat",
@@ -312,6 +343,57 @@ TEST(SparseUpdate, BadInputIsRefusedWithNothingWritten) {
 
   EXPECT_EQ(ReadPath(store).header.content_sum, sum) << "a refused update wrote something";
   EXPECT_TRUE((*SparseStore::Open(store))->Verify().ok());
+}
+
+// A store imported with a mask, updated with a new volume and a new mask:
+// the same entries as importing both anew.
+TEST(SparseUpdate, WithAMaskEqualsAFreshImport) {
+  const TempDir dir;
+  const GridBox box{{3, 2, 4, 0}, {11, 9, 10, 0}};
+  const TestVolume before = MakeVolume(kCases[0]);
+  const TestVolume after = Changed(before, box, 5, "noise");
+  TestVolume mask_before = before, mask_after = before;
+  for (size_t i = 0; i < before.values.size(); ++i) {
+    const int64_t x = i % 17, y = (i / 17) % 17, z = i / (17 * 17);
+    const bool inside = x >= box.lo[0] && x <= box.hi[0] && y >= box.lo[1] && y <= box.hi[1] &&
+                        z >= box.lo[2] && z <= box.hi[2];
+    mask_before.values[i] = (x + y + z) % 5 == 0 ? 0 : 1;
+    // Inside the box the mask changes too: a slab is hidden, the rest shown.
+    mask_after.values[i] = inside ? (y < 5 ? 0 : 1) : mask_before.values[i];
+  }
+  // The extremes (first and last point) stay available, keeping the range.
+  mask_before.values.front() = mask_before.values.back() = 1;
+  mask_after.values.front() = mask_after.values.back() = 1;
+  const auto build = [&](const TestVolume& v, const TestVolume& m, const std::string& name) {
+    EXPECT_TRUE(v.WriteNrrd(dir.path() + "/" + name + ".nrrd").ok());
+    EXPECT_TRUE(m.WriteNrrd(dir.path() + "/" + name + "-mask.nrrd").ok());
+    DenseBuildOptions options;
+    options.threads = 1;
+    options.mask = *OpenVolume(dir.path() + "/" + name + "-mask.nrrd");
+    EXPECT_TRUE(BuildDenseStore(*OpenVolume(dir.path() + "/" + name + ".nrrd"),
+                                dir.path() + "/" + name + ".sdb", options).ok());
+    const auto dense = *DenseStore::Open(dir.path() + "/" + name + ".sdb");
+    EXPECT_TRUE(ConvertDenseToSparse(*dense, dir.path() + "/" + name + ".lmdb", {}).ok());
+    return dir.path() + "/" + name + ".lmdb";
+  };
+  const std::string store = build(before, mask_before, "before");
+  const std::string fresh = build(after, mask_after, "after");
+  ASSERT_EQ(ReadPath(store).header.voxel_type, VoxelType::kF32);
+  ASSERT_EQ(ReadPath(store).header.quantum, ReadPath(fresh).header.quantum);
+  SparseUpdateOptions options;
+  options.mask = *OpenVolume(dir.path() + "/after-mask.nrrd");
+  const auto r = UpdateSparseStore(store, *OpenVolume(dir.path() + "/after.nrrd"), box, options);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  const Snapshot got = ReadPath(store), want = ReadPath(fresh);
+  EXPECT_EQ(got.errors, want.errors);
+  EXPECT_EQ(got.field, want.field);
+  EXPECT_EQ(got.header.content_sum, want.header.content_sum);
+  EXPECT_TRUE((*SparseStore::Open(store))->Verify().ok());
+  // Without the mask the volume is uint8, the store float32: refused.
+  const auto refused = UpdateSparseStore(store, *OpenVolume(dir.path() + "/after.nrrd"), box);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("float32"), std::string_view::npos)
+      << refused.status().ToString();
 }
 
 }  // namespace

@@ -120,16 +120,16 @@ struct TestVolume {
   }
 };
 
-// The seed's error of node `code` of a domain of side 2^k over `volume`:
-// every real grid point in the node's bounding box is tested for being in
-// the closed simplex by signed volumes, and compared with the barycentric
-// interpolation of the (clamped) vertex values. Exact: test values are
-// multiples of 1/256, so 256 * det * (value - interpolation) is an integer;
-// one division at the end.
-template <int D>
-long double BruteForceError(SimplexCode<D> code, int k, const TestVolume& volume) {
+// Calls fn(p, weights, total) for every real grid point p in the closed
+// simplex of node `code` (a domain of side 2^k): every real point of the
+// node's bounding box is tested by signed volumes; weights[i] is total times
+// p's barycentric coordinate for vertex i (integers). Also gives the grid
+// vertices.
+template <int D, class Fn>
+void ForEachPointInside(SimplexCode<D> code, int k, const TestVolume& volume,
+                        std::array<IPoint<D>, D + 1>* vertices, Fn&& fn) {
   const auto lattice = Vertices(code);
-  std::array<IPoint<D>, D + 1> v{};
+  std::array<IPoint<D>, D + 1>& v = *vertices;
   for (int i = 0; i <= D; ++i) {
     for (int c = 0; c < D; ++c) v[i][c] = lattice[i][c] >> (kCoordBits<D> - k);
   }
@@ -142,10 +142,7 @@ long double BruteForceError(SimplexCode<D> code, int k, const TestVolume& volume
     }
     return Det<D>(m);
   };
-  const auto scaled = [](double value) { return static_cast<Int128>(std::llround(value * 256)); };
   const Int128 total = volume_with(-1, v[0]);
-  std::array<Int128, D + 1> f{};
-  for (int i = 0; i <= D; ++i) f[i] = scaled(volume.ClampedAt<D>(v[i]));
   IPoint<D> lo = v[0], hi = v[0];
   for (const auto& q : v) {
     for (int c = 0; c < D; ++c) {
@@ -155,24 +152,17 @@ long double BruteForceError(SimplexCode<D> code, int k, const TestVolume& volume
   }
   for (int c = 0; c < D; ++c) {
     hi[c] = std::min<int64_t>(hi[c], volume.dims[c] - 1);
-    if (lo[c] > hi[c]) return 0;  // no real point
+    if (lo[c] > hi[c]) return;  // no real point
   }
-  Int128 worst = 0;
   IPoint<D> p = lo;
   while (true) {
     bool inside = true;
-    Int128 interp = 0;  // det * 256 * interpolation
+    std::array<Int128, D + 1> weights{};
     for (int i = 0; i <= D && inside; ++i) {
-      const Int128 part = volume_with(i, p);
-      if (part != 0 && (part > 0) != (total > 0)) inside = false;
-      interp += part * f[i];
+      weights[i] = volume_with(i, p);
+      if (weights[i] != 0 && (weights[i] > 0) != (total > 0)) inside = false;
     }
-    if (inside) {
-      std::array<int64_t, 4> q = {0, 0, 0, 0};
-      for (int c = 0; c < D; ++c) q[c] = p[c];
-      const Int128 num = scaled(volume.At(q)) * total - interp;
-      worst = std::max(worst, num < 0 ? -num : num);
-    }
+    if (inside) fn(p, weights, total);
     int c = 0;
     for (; c < D; ++c) {
       if (p[c] < hi[c]) {
@@ -183,8 +173,50 @@ long double BruteForceError(SimplexCode<D> code, int k, const TestVolume& volume
     }
     if (c == D) break;
   }
-  const Int128 atotal = total < 0 ? -total : total;
-  return static_cast<long double>(worst) / (static_cast<long double>(atotal) * 256);
+}
+
+// The seed's error of node `code` of a domain of side 2^k over `volume`,
+// compared with the barycentric interpolation of the (clamped) vertex
+// values. Exact: test values are multiples of 1/256, so 256 * det * (value -
+// interpolation) is an integer; one division at the end.
+// REQUIRES: no NaN in the node's points or vertex values.
+template <int D>
+long double BruteForceError(SimplexCode<D> code, int k, const TestVolume& volume) {
+  const auto scaled = [](double value) { return static_cast<Int128>(std::llround(value * 256)); };
+  std::array<IPoint<D>, D + 1> v{};
+  Int128 worst = 0, det = 1;
+  bool first = true;
+  std::array<Int128, D + 1> f{};
+  ForEachPointInside<D>(code, k, volume, &v, [&](const IPoint<D>& p, const auto& w, Int128 total) {
+    if (first) {
+      for (int i = 0; i <= D; ++i) f[i] = scaled(volume.ClampedAt<D>(v[i]));
+      det = total;
+      first = false;
+    }
+    Int128 interp = 0;  // det * 256 * interpolation
+    for (int i = 0; i <= D; ++i) interp += w[i] * f[i];
+    std::array<int64_t, 4> q = {0, 0, 0, 0};
+    for (int c = 0; c < D; ++c) q[c] = p[c];
+    const Int128 num = scaled(volume.At(q)) * total - interp;
+    worst = std::max(worst, num < 0 ? -num : num);
+  });
+  const Int128 adet = det < 0 ? -det : det;
+  return static_cast<long double>(worst) / (static_cast<long double>(adet) * 256);
+}
+
+// With NaN as a missing value: whether any real point of the node has a
+// value, and whether any point or vertex has none.
+template <int D>
+std::pair<bool, bool> BruteForceAvailability(SimplexCode<D> code, int k, const TestVolume& volume) {
+  std::array<IPoint<D>, D + 1> v{};
+  bool any_value = false, any_missing = false;
+  ForEachPointInside<D>(code, k, volume, &v, [&](const IPoint<D>& p, const auto&, Int128) {
+    std::array<int64_t, 4> q = {0, 0, 0, 0};
+    for (int c = 0; c < D; ++c) q[c] = p[c];
+    (std::isnan(volume.At(q)) ? any_missing : any_value) = true;
+  });
+  for (int i = 0; i <= D; ++i) any_missing = any_missing || std::isnan(volume.ClampedAt<D>(v[i]));
+  return {any_value, any_missing};
 }
 
 }  // namespace simplexdb::testing

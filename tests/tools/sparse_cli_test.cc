@@ -4,8 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include <nlohmann/json.hpp>
 
@@ -13,6 +15,7 @@
 #include "storage/volume.h"
 #include "tests/storage/store_test_util.h"
 #include "tests/tools/cli_runner.h"
+#include "tests/util/python_vtk.h"
 
 namespace simplexdb {
 namespace {
@@ -122,6 +125,57 @@ TEST(SparseCli, UpdateEqualsAFreshImport) {
   ASSERT_EQ(RunCli("import " + a + " -o " + dir.path() + "/d.sdb -q").exit_code, 0);
   expect("update " + dir.path() + "/d.sdb " + c + " --box 3,2,4,9,12,6", 2, "not a sparse store");
   EXPECT_EQ(Json(RunCli("info " + dir.path() + "/s.lmdb --json"))["content_sum"], got["content_sum"]);
+}
+
+// NaN in a float volume marks missing values: both stores build, verify and
+// give the same mesh, which conforms; VTK reads the NaN field values.
+TEST(SparseCli, MissingValuesEndToEnd) {
+  const TempDir dir;
+  const std::string in = dir.path() + "/holes.nrrd";
+  testing::TestVolume v = testing::TestVolume::Random(3, {33, 30, 33, 1}, VoxelType::kF32, 5);
+  for (size_t i = 0; i < v.values.size(); ++i) {
+    const int64_t x = i % 33, y = (i / 33) % 30, z = i / (33 * 30);
+    if ((x - 10) * (x - 10) + (y - 12) * (y - 12) + (z - 20) * (z - 20) <= 49) {
+      v.values[i] = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+  ASSERT_TRUE(v.WriteNrrd(in).ok());
+  const std::string dense = dir.path() + "/h.sdb", sparse = dir.path() + "/h.lmdb";
+  ASSERT_EQ(RunCli("import " + in + " -o " + dense + " -q").exit_code, 0);
+  ASSERT_EQ(RunCli("import " + in + " --sparse -o " + sparse + " -q").exit_code, 0);
+  EXPECT_EQ(RunCli("verify " + dense).exit_code, 0);
+  EXPECT_EQ(RunCli("verify " + sparse).exit_code, 0);
+  const std::string a = dir.path() + "/a.codes", b = dir.path() + "/b.codes";
+  ASSERT_EQ(RunCli("extract " + dense + " --error 20% --format codes -o " + a).exit_code, 0);
+  ASSERT_EQ(RunCli("extract " + sparse + " --error 20% --format codes -o " + b).exit_code, 0);
+  std::ifstream fa(a), fb(b);
+  const std::string ca((std::istreambuf_iterator<char>(fa)), {}), cb((std::istreambuf_iterator<char>(fb)), {});
+  EXPECT_EQ(ca, cb);
+  EXPECT_EQ(RunCli("conformity " + a + " --hierarchy ht").exit_code, 0);
+  // The same holes as a mask over an integer volume: a float32 store.
+  testing::TestVolume u8 = testing::TestVolume::Random(3, {33, 30, 33, 1}, VoxelType::kU8, 5);
+  testing::TestVolume mask = u8;
+  for (size_t i = 0; i < mask.values.size(); ++i) mask.values[i] = std::isnan(v.values[i]) ? 0 : 1;
+  ASSERT_TRUE(u8.WriteNrrd(dir.path() + "/u8.nrrd").ok());
+  ASSERT_TRUE(mask.WriteNrrd(dir.path() + "/mask.nrrd").ok());
+  auto r = RunCli("import " + dir.path() + "/u8.nrrd --mask " + dir.path() + "/mask.nrrd --sparse -o " +
+                  dir.path() + "/m.lmdb -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(Json(RunCli("info " + dir.path() + "/m.lmdb --json"))["voxel_type"], "float32");
+  EXPECT_EQ(RunCli("verify " + dir.path() + "/m.lmdb").exit_code, 0);
+  const std::string python = testing::FindPythonWithVtk("vtkmodules.vtkIOXML");
+  if (python.empty()) GTEST_SKIP() << "no python3 that can import VTK (Debian: apt-get install python3-vtk9)";
+  const std::string vtu = dir.path() + "/h.vtu";
+  ASSERT_EQ(RunCli("extract " + sparse + " --error 20% --format vtu -o " + vtu).exit_code, 0);
+  FILE* p = popen((python + " " SIMPLEXDB_QUERY_TEST_DIR "/vtk_read_vtu.py " + vtu).c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::string out;
+  char buf[4096];
+  for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+  ASSERT_EQ(pclose(p), 0) << out;
+  const auto vtk = nlohmann::json::parse(out);
+  EXPECT_GT(vtk["nan_points"].get<int>(), 0);
+  EXPECT_NEAR(vtk["volume"].get<double>(), 32.0 * 32 * 32, 1e-6);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <thread>
 
 #include <nlohmann/json.hpp>
@@ -110,14 +111,23 @@ TEST(StoreCli, BadInputSaysWhatAndWhere) {
              "/s.sdb");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("4D"), std::string::npos) << r.err;
-  // NaN in float input.
-  testing::TestVolume nan = testing::TestVolume::Random(3, {4, 4, 4, 1}, VoxelType::kF32, 1);
-  nan.values[7] = std::nan("");
-  ASSERT_TRUE(nan.WriteNrrd(dir.path() + "/nan.nrrd").ok());
-  r = RunCli("import " + dir.path() + "/nan.nrrd -o " + dir.path() + "/n.sdb");
+  // Infinity in float input (NaN is a missing value, and builds).
+  testing::TestVolume inf = testing::TestVolume::Random(3, {4, 4, 4, 1}, VoxelType::kF32, 1);
+  inf.values[7] = std::numeric_limits<double>::infinity();
+  ASSERT_TRUE(inf.WriteNrrd(dir.path() + "/inf.nrrd").ok());
+  r = RunCli("import " + dir.path() + "/inf.nrrd -o " + dir.path() + "/n.sdb");
   EXPECT_EQ(r.exit_code, 1);
-  EXPECT_NE(r.err.find("NaN"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("infinite"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("(3, 1, 0)"), std::string::npos) << r.err;  // voxel 7 of 4x4x4
+  // A mask of another grid.
+  r = RunCli("import " + dir.path() + "/inf.nrrd --mask " + dir.path() + "/g0.nrrd -o " +
+             dir.path() + "/n.sdb");
+  EXPECT_EQ(r.exit_code, 2);  // no such file
+  ASSERT_EQ(RunCli("generate --dims 4,4,5 -o " + dir.path() + "/g0.nrrd").exit_code, 0);
+  r = RunCli("import " + dir.path() + "/inf.nrrd --mask " + dir.path() + "/g0.nrrd -o " +
+             dir.path() + "/n.sdb");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("4x4x5"), std::string::npos) << r.err;
   // Not a store; a damaged store.
   r = RunCli("info " + raw);
   EXPECT_EQ(r.exit_code, 1);
