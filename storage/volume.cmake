@@ -10,7 +10,9 @@ add_library(simplexdb_volume STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/nrrd_writer.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/generate.cc
 )
-target_include_directories(simplexdb_volume PUBLIC ${PROJECT_SOURCE_DIR})
+target_include_directories(simplexdb_volume PUBLIC
+  $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>
+  $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/simplexdb>)
 target_link_libraries(simplexdb_volume
   PUBLIC simplexdb_util
   PRIVATE simplexdb_warnings ZLIB::ZLIB)
