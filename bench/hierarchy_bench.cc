@@ -2,7 +2,7 @@
 // call, the grouped scan (Figs. 38, 53) against the constant-time algorithm
 // (stateless, and with a cursor that keeps the neighbor mask), on random
 // codes and on worst-case codes whose scan climbs into the top group or to
-// the root; vertex and cluster computation.
+// the root; random walks of dependent steps; vertex and cluster computation.
 //
 //   build/release/bench/hierarchy_bench --benchmark_filter='HtNeighbor|HpNeighbor'
 //
@@ -185,6 +185,29 @@ void RegisterNeighborBenchmarks(std::initializer_list<int> levels) {
   }
 }
 
+// A walk: one cursor taking steps across random faces, each step starting
+// from where the last one ended (dependent steps: latency, where the
+// benchmarks above measure independent steps: throughput). Clusters and
+// refinement walk like this.
+template <int D>
+void RegisterWalkBenchmarks(std::initializer_list<int> levels) {
+  for (int level : levels) {
+    benchmark::RegisterBenchmark(
+        (std::string(Api<D>::kName) + "Walk/depth:" + std::to_string(level)).c_str(),
+        [level](benchmark::State& s) {
+          std::mt19937_64 rng(9 + level);
+          std::vector<uint8_t> types(kCodes);
+          for (auto& t : types) t = static_cast<uint8_t>(1 + rng() % (D + 1));
+          NeighborCursor<D> cursor(RandomCode<D>(rng, level));
+          size_t i = 0;
+          for (auto _ : s) {
+            benchmark::DoNotOptimize(cursor.Step(types[i]));
+            i = (i + 1) & (kCodes - 1);
+          }
+        });
+  }
+}
+
 template <int D>
 void RegisterGeometryBenchmarks(std::initializer_list<int> vertex_levels,
                                 std::initializer_list<int> cluster_levels) {
@@ -222,6 +245,8 @@ int main(int argc, char** argv) {
   using namespace simplexdb;
   RegisterNeighborBenchmarks<3>({6, 30, TetCode::kMaxLevel});
   RegisterNeighborBenchmarks<4>({8, 28, PentaCode::kMaxLevel});
+  RegisterWalkBenchmarks<3>({6, 30, TetCode::kMaxLevel});
+  RegisterWalkBenchmarks<4>({8, 28, PentaCode::kMaxLevel});
   RegisterGeometryBenchmarks<3>({6, 30, TetCode::kMaxLevel}, {30, 31, 32, 53, 54, 55});
   RegisterGeometryBenchmarks<4>({8, 28, PentaCode::kMaxLevel}, {28, 29, 30, 31, 52, 53});
   benchmark::Initialize(&argc, argv);
