@@ -78,17 +78,19 @@ constexpr void Split(const std::array<V, D + 1>& parent, int split_case, int chi
 
 }  // namespace internal
 
-// The vertices of child `child` of `parent`, a simplex at level `level` with
-// right-aligned path `path` and vertices `parent_vertices`. O(1): descents
-// carry the parent's vertices and call this per child.
-template <int D>
-constexpr SimplexVertices<D> ChildVertices(
-    SimplexCode<D> parent, const std::type_identity_t<SimplexVertices<D>>& parent_vertices,
-    int child) {
-  SimplexVertices<D> out{};
+// The vertices of child `child` of `parent`, whose vertices are
+// `parent_vertices`: lattice points (SimplexVertices), or grid points of a
+// store (int64 coordinates; split-edge midpoints are grid points above the
+// leaf level). O(1): descents carry the parent's vertices and call this per
+// child.
+template <int D, class V>
+constexpr std::array<V, D + 1> ChildVertices(SimplexCode<D> parent,
+                                             const std::array<V, D + 1>& parent_vertices,
+                                             int child) {
+  std::array<V, D + 1> out{};
   internal::Split<D>(parent_vertices, SplitRules<D>::CaseOf(parent.level(), parent.path()),
-                     child, out, [](const Point<D>& a, const Point<D>& b) {
-                       Point<D> m{};
+                     child, out, [](const V& a, const V& b) {
+                       V m{};
                        for (int i = 0; i < D; ++i) m[i] = (a[i] + b[i]) / 2;
                        return m;
                      });

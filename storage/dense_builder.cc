@@ -26,11 +26,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-bool IsIntegerType(VoxelType t) {
-  return t == VoxelType::kU8 || t == VoxelType::kI8 || t == VoxelType::kU16 ||
-         t == VoxelType::kI16;
-}
-
 // Runs work(worker, item) for items 0..count-1 on `threads` workers; the
 // calling thread reports progress meanwhile. Stops at the first failure.
 Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_point start,
@@ -113,9 +108,8 @@ class Builder {
         k_(std::max(1, DomainBitsFor(D, input.dims))),
         layout_(D * k_, options.levels_per_block),
         bricks_(D, input.dims, options.brick_bits > 0 ? options.brick_bits : (D == 3 ? 5 : 4)),
-        // A mask turns integers into float32 (NaN marks the masked points).
-        store_type_(options.mask && IsIntegerType(input.type) ? VoxelType::kF32 : input.type),
-        exact_(IsIntegerType(store_type_)),
+        store_type_(StoredVoxelType(input.type, options.mask.has_value())),
+        exact_(!IsFloatType(store_type_)),
         start_(Clock::now()) {}
 
   Result<DenseBuildReport> Run();
@@ -203,15 +197,8 @@ Result<DenseBuildReport> Builder<D>::Run() {
                                    "D volume cannot build a " + std::to_string(D) + "D hierarchy");
   }
   if (options_.mask) {
-    const VolumeInfo& m = *options_.mask;
-    bool same = m.dimension == input_.dimension;
-    for (int c = 0; c < D && same; ++c) same = m.dims[c] == input_.dims[c];
-    if (!same) {
-      return Status::InvalidArgument("the mask " + m.description + " is " +
-                                     FormatDims(m.dimension, m.dims) + "; the volume " +
-                                     input_.description + " is " +
-                                     FormatDims(input_.dimension, input_.dims));
-    }
+    SDB_RETURN_IF_ERROR(CheckMaskGrid(*options_.mask, input_.dimension, input_.dims,
+                                      "the volume " + input_.description + " is"));
   }
   const int max_bits = D == 3 ? 18 : 13;
   if (k_ > max_bits) {
@@ -288,12 +275,7 @@ Status Builder<D>::WriteBrickRow(uint64_t row, VolumeReader& reader, VolumeReade
     SDB_RETURN_IF_ERROR(reader.Read(first, x_size, out));
     if (mask) {
       SDB_RETURN_IF_ERROR(mask->Read(first, x_size, mask_row.data()));
-      for (uint32_t x = 0; x < x_size; ++x) {
-        // 0 or NaN in the mask: not available.
-        if (!(mask_row[x] != 0) || std::isnan(mask_row[x])) {
-          out[x] = std::numeric_limits<double>::quiet_NaN();
-        }
-      }
+      ApplyMask(mask_row.data(), x_size, out);
     }
     for (uint32_t x = 0; x < x_size; ++x) {
       if (std::isinf(out[x])) {
@@ -513,11 +495,6 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
     uint32_t entry;
   };
   std::vector<Item> stack = {Item{root, root_grid, 0}};
-  const auto midpoint = [](const IPoint<D>& a, const IPoint<D>& b) {
-    IPoint<D> m{};
-    for (int c = 0; c < D; ++c) m[c] = (a[c] + b[c]) / 2;
-    return m;
-  };
   while (!stack.empty()) {
     const Item item = stack.back();
     stack.pop_back();
@@ -532,19 +509,16 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
       for (int i = 0; i <= D; ++i) f[i] = view.At(item.grid[i]);
       error = MaxError<D, double>(s, f, step, scan_lo, scan_hi, view).error;
       if (has_missing_) {
-        Availability a = ScanAvailability<D>(s, scan_lo, scan_hi, view);
-        for (int i = 0; i <= D; ++i) a.any_missing = a.any_missing || std::isnan(f[i]);
-        error = ErrorGivenAvailability(a, error, step);
+        error = ErrorGivenAvailability(NodeAvailability<D>(s, scan_lo, scan_hi, view), error,
+                                       step);
       }
     }
     codes[item.entry] = quantizer_->Encode(error);
     block_max = std::max(block_max, error);
     if (item.code.level() + 1 < layout_.leaf_level()) {
-      const int split = SplitRules<D>::CaseOf(item.code.level(), item.code.path());
       for (int child = 1; child >= 0; --child) {
-        Item next{item.code.child(child), {}, 2 * item.entry + 1 + static_cast<uint32_t>(child)};
-        internal::Split<D>(item.grid, split, child, next.grid, midpoint);
-        stack.push_back(next);
+        stack.push_back(Item{item.code.child(child), ChildVertices<D>(item.code, item.grid, child),
+                             2 * item.entry + 1 + static_cast<uint32_t>(child)});
       }
     }
   }
@@ -707,6 +681,26 @@ Status Builder<D>::Finish(DenseBuildReport& report) {
 }
 
 }  // namespace
+
+VoxelType StoredVoxelType(VoxelType input, bool masked) {
+  return masked && !IsFloatType(input) ? VoxelType::kF32 : input;
+}
+
+void ApplyMask(const double* mask, size_t count, double* values) {
+  for (size_t i = 0; i < count; ++i) {
+    if (mask[i] == 0 || std::isnan(mask[i])) values[i] = std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
+Status CheckMaskGrid(const VolumeInfo& mask, int dimension, const std::array<uint32_t, 4>& dims,
+                     const std::string& holder) {
+  bool same = mask.dimension == dimension;
+  for (int c = 0; c < dimension && same; ++c) same = mask.dims[c] == dims[c];
+  if (same) return Status::OK();
+  return Status::InvalidArgument("the mask " + mask.description + " is " +
+                                 FormatDims(mask.dimension, mask.dims) + "; " + holder + " " +
+                                 FormatDims(dimension, dims));
+}
 
 Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,
                                          const DenseBuildOptions& options) {

@@ -65,6 +65,17 @@ struct DenseBuildReport {
   uint64_t nodes = 0;        // internal nodes whose error was stored
 };
 
+// Masks: the voxel type a store of `input` keeps (float32 for integers with
+// a mask, so masked points can hold NaN), and the masking itself: values[i]
+// becomes NaN where mask[i] is 0 or NaN.
+VoxelType StoredVoxelType(VoxelType input, bool masked);
+void ApplyMask(const double* mask, size_t count, double* values);
+// OK when `mask` has the grid `dimension`/`dims`; otherwise
+// InvalidArgument "the mask M is AxB; <holder> CxD" (holder: "the volume V
+// is", "the store S holds").
+Status CheckMaskGrid(const VolumeInfo& mask, int dimension, const std::array<uint32_t, 4>& dims,
+                     const std::string& holder);
+
 // Builds `out_path` from `input` (3D: HT, 4D: HP). Fails with a message
 // naming the input or the output: infinite values, a mask of another grid,
 // unreadable or truncated input, a full disk (ResourceExhausted), a volume

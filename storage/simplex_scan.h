@@ -424,6 +424,16 @@ Availability ScanAvailability(const ScannableSimplex<D>& s, const IPoint<D>& lo,
   return a;
 }
 
+// ScanAvailability, with the simplex's vertices' values (read from `view`,
+// which must cover them) counted as missing where they are NaN.
+template <int D>
+Availability NodeAvailability(const ScannableSimplex<D>& s, const IPoint<D>& lo,
+                              const IPoint<D>& hi, const GridView<D>& view) {
+  Availability a = ScanAvailability<D>(s, lo, hi, view);
+  for (const IPoint<D>& v : s.vertices()) a.any_missing = a.any_missing || std::isnan(view.At(v));
+  return a;
+}
+
 // The error a node records, given where the field is available: the seed's
 // error where every point and vertex has a value; 0 where no point has one
 // (nothing to approximate: never refined); `range`, the largest error a

@@ -425,7 +425,7 @@ class FieldRebuilder {
   void Write(const IPoint<D>& p, double value) {
     const uint64_t index = IndexOf(p);
     double v = std::clamp(value, h_.field_min, h_.field_max);
-    if (h_.voxel_type != VoxelType::kF32 && h_.voxel_type != VoxelType::kF64) v = std::round(v);
+    if (!IsFloatType(h_.voxel_type)) v = std::round(v);
     EncodeVoxels(h_.voxel_type, ByteOrder::kLittle, &v, 1, out_ + index * voxel_);
   }
 

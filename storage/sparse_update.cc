@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <string_view>
 #include <unordered_map>
 #include <vector>
@@ -27,8 +26,6 @@ constexpr uint8_t kHeaderKey[] = {'h', 'e', 'a', 'd', 'e', 'r'};
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
-
-bool IsFloatType(VoxelType t) { return t == VoxelType::kF32 || t == VoxelType::kF64; }
 
 // Field values on a box of domain points, clamped to the real grid (the
 // padding repeats the last real value, as the dense builder's regions do).
@@ -134,11 +131,7 @@ class Updater {
     if (mask_ == nullptr) return Status::OK();
     mask_row_.resize(count);
     SDB_RETURN_IF_ERROR(mask_->Read(first, count, mask_row_.data()));
-    for (size_t i = 0; i < count; ++i) {
-      if (!(mask_row_[i] != 0) || std::isnan(mask_row_[i])) {
-        out[i] = std::numeric_limits<double>::quiet_NaN();
-      }
-    }
+    ApplyMask(mask_row_.data(), count, out);
     return Status::OK();
   }
 
@@ -292,11 +285,6 @@ class Updater {
       Grid grid;
     };
     std::vector<Item> stack = {Item{unit, grid}};
-    const auto midpoint = [](const IPoint<D>& a, const IPoint<D>& b) {
-      IPoint<D> m{};
-      for (int c = 0; c < D; ++c) m[c] = (a[c] + b[c]) / 2;
-      return m;
-    };
     while (!stack.empty()) {
       const Item item = stack.back();
       stack.pop_back();
@@ -305,16 +293,13 @@ class Updater {
       for (int i = 0; i <= D; ++i) f[i] = static_cast<T>(view.At(item.grid[i]));
       double error = MaxError<D, T>(s, f, step_, scan_lo, scan_hi, view).error;
       if (missing) {
-        Availability a = ScanAvailability<D>(s, scan_lo, scan_hi, view);
-        for (int i = 0; i <= D; ++i) a.any_missing = a.any_missing || std::isnan(view.At(item.grid[i]));
-        error = ErrorGivenAvailability(a, error, step_);
+        error = ErrorGivenAvailability(NodeAvailability<D>(s, scan_lo, scan_hi, view), error,
+                                       step_);
       }
       Raise(item.code, error);
       if (item.code.level() + 1 >= leaf_) continue;
-      const int split = SplitRules<D>::CaseOf(item.code.level(), item.code.path());
       for (int child = 1; child >= 0; --child) {
-        Item next{item.code.child(child), {}};
-        internal::Split<D>(item.grid, split, child, next.grid, midpoint);
+        Item next{item.code.child(child), ChildVertices<D>(item.code, item.grid, child)};
         if (Meets(next.grid)) stack.push_back(next);
       }
     }
@@ -647,8 +632,7 @@ Result<SparseUpdateReport> UpdateSparseStore(const std::string& path, const Volu
     h = store->header();
   }
   const int d = h.dimension;
-  // A mask stores integers as float32, as the dense builder does.
-  const VoxelType type = options.mask && !IsFloatType(volume.type) ? VoxelType::kF32 : volume.type;
+  const VoxelType type = StoredVoxelType(volume.type, options.mask.has_value());
   bool same = volume.dimension == d && type == h.voxel_type;
   for (int c = 0; c < d && same; ++c) same = volume.dims[c] == h.dims[c];
   if (!same) {
@@ -659,14 +643,7 @@ Result<SparseUpdateReport> UpdateSparseStore(const std::string& path, const Volu
         FormatDims(d, h.dims)));
   }
   if (options.mask) {
-    const VolumeInfo& m = *options.mask;
-    bool same_grid = m.dimension == d;
-    for (int c = 0; c < d && same_grid; ++c) same_grid = m.dims[c] == h.dims[c];
-    if (!same_grid) {
-      return Status::InvalidArgument(fmt::format("the mask {} is {}; the store {} holds {}",
-                                                 m.description, FormatDims(m.dimension, m.dims),
-                                                 path, FormatDims(d, h.dims)));
-    }
+    SDB_RETURN_IF_ERROR(CheckMaskGrid(*options.mask, d, h.dims, "the store " + path + " holds"));
   }
   for (int c = 0; c < d; ++c) {
     if (box.lo[c] < 0 || box.lo[c] > box.hi[c] || box.hi[c] >= int64_t{h.dims[c]}) {

@@ -39,6 +39,12 @@ std::string_view ByteOrderName(ByteOrder order) noexcept;
 // from an integer may be anything).
 bool IsValidVoxelType(VoxelType type) noexcept;
 
+// float32 and float64: the types that hold NaN (a missing value), and whose
+// errors are computed in floating point; the others are integers.
+constexpr bool IsFloatType(VoxelType type) noexcept {
+  return type == VoxelType::kF32 || type == VoxelType::kF64;
+}
+
 // 1, 2, 4 or 8 bytes. REQUIRES: IsValidVoxelType(type).
 size_t VoxelSize(VoxelType type) noexcept;
 
