@@ -70,16 +70,44 @@ double Grad4(int hash, double x, double y, double z, double w) {
 constexpr double kSpread3 = 1.0;
 constexpr double kSpread4 = 1.2;
 
+// C60 (truncated icosahedron, edge 2): the cyclic permutations of
+// (0, +-1, +-3 phi), (+-1, +-(2 + phi), +-2 phi) and (+-phi, +-2, +-(2 phi + 1)):
+// 12 + 24 + 24 = 60 vertices on a sphere of radius sqrt(9 phi + 10).
+constexpr double kPhi = std::numbers::phi;
+constexpr double kBond = 2;                  // the edge length of these coordinates
+const double kCageRadius = std::sqrt(9 * kPhi + 10);
+constexpr double kAtomSigma = 0.225 * kBond;  // bonds show as ridges, atoms stay apart
+
 }  // namespace
+
+std::array<std::array<double, 3>, 60> BuckyballAtoms() {
+  const double base[3][3] = {{0, 1, 3 * kPhi}, {1, 2 + kPhi, 2 * kPhi}, {kPhi, 2, 2 * kPhi + 1}};
+  std::array<std::array<double, 3>, 60> atoms{};
+  size_t n = 0;
+  for (const auto& b : base) {
+    for (int signs = 0; signs < 8; ++signs) {
+      double v[3];
+      for (int i = 0; i < 3; ++i) v[i] = (signs >> i & 1) != 0 ? -b[i] : b[i];
+      // A zero coordinate has one sign only: skip the duplicate.
+      bool duplicate = false;
+      for (int i = 0; i < 3; ++i) duplicate |= b[i] == 0 && (signs >> i & 1) != 0;
+      if (duplicate) continue;
+      for (int r = 0; r < 3; ++r) atoms[n++] = {v[r], v[(r + 1) % 3], v[(r + 2) % 3]};
+    }
+  }
+  assert(n == 60);
+  return atoms;
+}
 
 Result<FieldKind> ParseFieldKind(std::string_view name) {
   for (FieldKind k : {FieldKind::kPerlin, FieldKind::kSphere, FieldKind::kSineProduct,
-                      FieldKind::kMarschnerLobb, FieldKind::kConstant, FieldKind::kRamp}) {
+                      FieldKind::kMarschnerLobb, FieldKind::kConstant, FieldKind::kRamp,
+                      FieldKind::kBuckyball}) {
     if (FieldKindName(k) == name) return k;
   }
   return Status::InvalidArgument("'" + std::string(name) +
                                  "' is not a field; expected perlin, sphere, sines, "
-                                 "marschner-lobb, constant or ramp");
+                                 "marschner-lobb, constant, ramp or buckyball");
 }
 
 std::string_view FieldKindName(FieldKind kind) {
@@ -90,6 +118,7 @@ std::string_view FieldKindName(FieldKind kind) {
     case FieldKind::kMarschnerLobb: return "marschner-lobb";
     case FieldKind::kConstant: return "constant";
     case FieldKind::kRamp: return "ramp";
+    case FieldKind::kBuckyball: return "buckyball";
   }
   return "invalid";
 }
@@ -147,6 +176,39 @@ FieldGenerator::FieldGenerator(const GenerateOptions& options) : options_(option
   for (auto& octave : shift_) {
     for (double& s : octave) s = rng.NextUnit() * 256;
   }
+  if (options_.kind == FieldKind::kBuckyball) {
+    uint32_t shortest = options_.dims[0];
+    for (int i = 1; i < std::min(options_.dimension, 3); ++i) {
+      shortest = std::min(shortest, options_.dims[static_cast<size_t>(i)]);
+    }
+    const double scale = 0.38 * (shortest - 1) / kCageRadius;
+    atoms_ = BuckyballAtoms();
+    for (auto& atom : atoms_) {
+      for (double& c : atom) c *= scale;
+    }
+    atom_sigma_ = kAtomSigma * scale;
+  }
+}
+
+double FieldGenerator::Buckyball(uint32_t x, uint32_t y, uint32_t z, uint32_t t) const {
+  const auto& n = options_.dims;
+  double px = x - (n[0] - 1) / 2.0, py = y - (n[1] - 1) / 2.0;
+  const double pz = z - (n[2] - 1) / 2.0;
+  if (options_.dimension == 4) {
+    // Turn the point the other way instead of turning 60 atoms.
+    const double angle = -std::numbers::pi * t / (n[3] - 1);
+    const double c = std::cos(angle), s = std::sin(angle);
+    const double rx = c * px - s * py;
+    py = s * px + c * py;
+    px = rx;
+  }
+  const double inv = -0.5 / (atom_sigma_ * atom_sigma_);
+  double sum = 0;
+  for (const auto& a : atoms_) {
+    const double dx = px - a[0], dy = py - a[1], dz = pz - a[2];
+    sum += std::exp((dx * dx + dy * dy + dz * dz) * inv);
+  }
+  return 255 * std::min(sum, 1.0);
 }
 
 double FieldGenerator::Noise3(double x, double y, double z) const {
@@ -246,6 +308,8 @@ double FieldGenerator::At(uint32_t x, uint32_t y, uint32_t z, uint32_t t) const 
     }
     case FieldKind::kConstant:
       return options_.constant;
+    case FieldKind::kBuckyball:
+      return Buckyball(x, y, z, t);
     case FieldKind::kRamp: {
       double sum = 0, extent = 0;
       for (int i = 0; i < dim; ++i) {

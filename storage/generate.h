@@ -23,6 +23,16 @@
 //   constant        `constant` everywhere.
 //   ramp            (x + y + z [+ t]) / sum(n_i - 1): 0 at the origin corner,
 //                   1 at the opposite one.
+//   buckyball       a model of the electron density of C60, the molecule of
+//                   the seed's Buckyball data set (sections 3.7, 4.7): a
+//                   Gaussian (sigma 0.225 bond lengths) at each of the 60
+//                   atoms, the vertices of a truncated icosahedron whose
+//                   circumscribed sphere spans 76% of the shortest used axis
+//                   around the grid centre; the sum, clamped to 1, times 255.
+//                   Bonds show as ridges between atoms, the cage is hollow,
+//                   the space around it 0. In 4D the cage turns about the z
+//                   axis (one of its 2-fold axes) by half a turn over the
+//                   time axis, so the last time step equals the first.
 // `octaves` is used by perlin only; `frequency` by perlin and sines; `seed`
 // by perlin only (the analytic fields do not depend on it).
 //
@@ -46,9 +56,18 @@
 
 namespace simplexdb {
 
-enum class FieldKind { kPerlin, kSphere, kSineProduct, kMarschnerLobb, kConstant, kRamp };
+enum class FieldKind {
+  kPerlin,
+  kSphere,
+  kSineProduct,
+  kMarschnerLobb,
+  kConstant,
+  kRamp,
+  kBuckyball
+};
 
-// "perlin", "sphere", "sines", "marschner-lobb", "constant", "ramp";
+// "perlin", "sphere", "sines", "marschner-lobb", "constant", "ramp",
+// "buckyball";
 // InvalidArgument listing them otherwise.
 Result<FieldKind> ParseFieldKind(std::string_view name);
 std::string_view FieldKindName(FieldKind kind);
@@ -68,6 +87,10 @@ struct GenerateOptions {
 // 1..16, a frequency outside (0, 1e6], a constant not finite.
 Status ValidateGenerateOptions(const GenerateOptions& options);
 
+// The 60 atoms of the buckyball field before scaling: the vertices of a
+// truncated icosahedron of edge 2 centred on the origin.
+std::array<std::array<double, 3>, 60> BuckyballAtoms();
+
 // The value at any grid point, so callers can generate any region without
 // holding the whole volume. Construction is O(1) (a 512-entry table).
 class FieldGenerator {
@@ -77,7 +100,7 @@ class FieldGenerator {
 
   // REQUIRES: x < dims[0], y < dims[1], z < dims[2], t < dims[3] (t == 0 in
   // 3D). Cost: O(octaves) noise evaluations (8 gradients each in 3D, 16 in
-  // 4D) for perlin, O(1) otherwise.
+  // 4D) for perlin, 60 Gaussians for buckyball, O(1) otherwise.
   double At(uint32_t x, uint32_t y, uint32_t z, uint32_t t = 0) const;
 
   // out[i] = value of voxel first + i in x-fastest order, for i < count.
@@ -92,6 +115,7 @@ class FieldGenerator {
   double Perlin(uint32_t x, uint32_t y, uint32_t z, uint32_t t) const;
   double Noise3(double x, double y, double z) const;
   double Noise4(double x, double y, double z, double w) const;
+  double Buckyball(uint32_t x, uint32_t y, uint32_t z, uint32_t t) const;
 
   GenerateOptions options_;
   double scale_ = 1;  // noise lattice units per grid step (first octave)
@@ -100,6 +124,9 @@ class FieldGenerator {
   // A shift of each octave's lattice, in [0, 256): decorrelates octaves and
   // keeps grid points off the lattice, where gradient noise is 0.
   std::array<std::array<double, 4>, kMaxOctaves> shift_{};
+  // buckyball: the 60 atoms, centred on the origin, in grid units.
+  std::array<std::array<double, 3>, 60> atoms_{};
+  double atom_sigma_ = 1;
 };
 
 }  // namespace simplexdb

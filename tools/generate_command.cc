@@ -141,7 +141,7 @@ void RegisterGenerateCommand(CLI::App& app) {
       "machine: Perlin noise (3D or 4D; the seed's Plasma64 is 65^3 Perlin noise)\n"
       "and analytic fields. Any size: the volume is streamed to disk.\n"
       "Example: simplexdb generate --field perlin --dims 65,65,65 -o plasma64.nrrd");
-  cmd->add_option("--field", a->field, "perlin|sphere|sines|marschner-lobb|constant|ramp")
+  cmd->add_option("--field", a->field, "perlin|sphere|sines|marschner-lobb|constant|ramp|buckyball (C60, the seed's Buckyball)")
       ->capture_default_str();
   cmd->add_option("--dims", a->dims, "X,Y,Z or X,Y,Z,T")->capture_default_str();
   cmd->add_option("--type", a->type, "uint8|int8|uint16|int16|float32|float64 (integers are "

@@ -37,7 +37,8 @@ bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
 
 TEST(FieldKind, NamesRoundTripAndUnknownNamesFail) {
   for (FieldKind k : {FieldKind::kPerlin, FieldKind::kSphere, FieldKind::kSineProduct,
-                      FieldKind::kMarschnerLobb, FieldKind::kConstant, FieldKind::kRamp}) {
+                      FieldKind::kMarschnerLobb, FieldKind::kConstant, FieldKind::kRamp,
+                      FieldKind::kBuckyball}) {
     auto parsed = ParseFieldKind(FieldKindName(k));
     ASSERT_TRUE(parsed.ok());
     EXPECT_EQ(*parsed, k);
@@ -301,6 +302,72 @@ TEST(FieldGenerator, FillEqualsAtAcrossRowsSlicesAndTimeSteps) {
     g.Fill(first, part.size(), part.data());
     ASSERT_TRUE(SameBits(part, std::vector<double>(all.begin() + static_cast<long>(first), all.end())))
         << "from voxel " << first;
+  }
+}
+
+// The atoms against what defines a truncated icosahedron, not against the
+// formula that made them: 60 distinct points on one sphere, each with exactly
+// three neighbours at the edge length and none closer (90 edges).
+TEST(Buckyball, AtomsAreATruncatedIcosahedron) {
+  const auto atoms = BuckyballAtoms();
+  const double radius = std::sqrt(9 * std::numbers::phi + 10);
+  int edges = 0;
+  for (size_t i = 0; i < atoms.size(); ++i) {
+    SCOPED_TRACE(i);
+    EXPECT_NEAR(std::hypot(atoms[i][0], atoms[i][1], atoms[i][2]), radius, 1e-12);
+    int neighbours = 0;
+    for (size_t j = 0; j < atoms.size(); ++j) {
+      if (j == i) continue;
+      const double d = std::hypot(atoms[i][0] - atoms[j][0], atoms[i][1] - atoms[j][1],
+                                  atoms[i][2] - atoms[j][2]);
+      EXPECT_GT(d, 2 - 1e-9) << "atoms " << i << " and " << j << " are too close";
+      if (d < 2 + 1e-9) ++neighbours;
+    }
+    EXPECT_EQ(neighbours, 3);
+    edges += neighbours;
+  }
+  EXPECT_EQ(edges / 2, 90);
+}
+
+// The field: hollow (0 at the centre and the corners), near 255 on the grid
+// point closest to each atom, and on a cubic grid unchanged by the cyclic
+// permutation of the axes (a symmetry of the atoms) and by x -> -x.
+TEST(Buckyball, FieldIsAHollowSymmetricCage) {
+  GenerateOptions o;
+  o.kind = FieldKind::kBuckyball;
+  o.dims = {33, 33, 33, 1};
+  const FieldGenerator g(o);
+  EXPECT_LT(g.At(16, 16, 16), 1e-6);
+  EXPECT_LT(g.At(0, 0, 0), 1e-6);
+  const double scale = 0.38 * 32 / std::sqrt(9 * std::numbers::phi + 10);
+  for (const auto& a : BuckyballAtoms()) {
+    const auto grid = [&](int i) { return static_cast<uint32_t>(std::lround(16 + a[i] * scale)); };
+    EXPECT_GT(g.At(grid(0), grid(1), grid(2)), 150) << a[0] << "," << a[1] << "," << a[2];
+  }
+  double max = 0;
+  for (uint32_t z = 0; z < 33; ++z) {
+    for (uint32_t y = 0; y < 33; ++y) {
+      for (uint32_t x = 0; x < 33; ++x) {
+        const double v = g.At(x, y, z);
+        max = std::max(max, v);
+        ASSERT_NEAR(v, g.At(y, z, x), 1e-9) << x << "," << y << "," << z;
+        ASSERT_NEAR(v, g.At(32 - x, y, z), 1e-9) << x << "," << y << "," << z;
+      }
+    }
+  }
+  EXPECT_GT(max, 200);
+  EXPECT_LE(max, 255);
+  // 4D: half a turn about z over the time axis brings the cage back.
+  o.dimension = 4;
+  o.dims = {33, 33, 33, 5};
+  const FieldGenerator g4(o);
+  for (uint32_t z = 0; z < 33; z += 4) {
+    for (uint32_t y = 0; y < 33; y += 3) {
+      for (uint32_t x = 0; x < 33; x += 2) {
+        ASSERT_NEAR(g4.At(x, y, z, 0), g4.At(x, y, z, 4), 1e-9);
+        ASSERT_NEAR(g4.At(x, y, z, 0), g.At(x, y, z), 1e-9);
+      }
+    }
   }
 }
 
