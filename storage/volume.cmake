@@ -1,6 +1,7 @@
 # simplexdb_volume: the input side of the dense store. Reads volumes (raw,
 # NRRD raw/gzip, NIfTI-1), writes NRRD, and generates synthetic fields
-# (storage/volume.h, nrrd_writer.h, generate.h). zlib decodes gzip NRRD
+# (storage/volume.h, nrrd_writer.h, generate.h), and makes 4D volumes from 3D
+# ones (subgrid_time.h). zlib decodes gzip NRRD
 # (Debian: zlib1g-dev).
 find_package(ZLIB REQUIRED)
 
@@ -9,6 +10,7 @@ add_library(simplexdb_volume STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/volume.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/nrrd_writer.cc
   ${CMAKE_CURRENT_SOURCE_DIR}/generate.cc
+  ${CMAKE_CURRENT_SOURCE_DIR}/subgrid_time.cc
 )
 target_include_directories(simplexdb_volume PUBLIC
   $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>

@@ -29,6 +29,7 @@ void RegisterCodesCommand(CLI::App& app);
 void RegisterInspectCommand(CLI::App& app);
 void RegisterStoreCommands(CLI::App& app);  // import, info, verify, export
 void RegisterGenerateCommand(CLI::App& app);
+void RegisterTo4dCommand(CLI::App& app);     // generate_command.cc
 void RegisterConvertCommand(CLI::App& app);  // sparse_commands.cc
 void RegisterUpdateCommand(CLI::App& app);   // sparse_commands.cc
 void RegisterExtractCommand(CLI::App& app);  // extract, conformity

@@ -1,5 +1,7 @@
 // `simplexdb generate`: synthetic volumes (storage/generate.h) written as
 // NRRD, streamed in chunks so any size fits in little memory, on every core.
+// `simplexdb to4d`: a 4D volume from a 3D one, subgrids becoming time
+// (storage/subgrid_time.h).
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -14,6 +16,8 @@
 
 #include "storage/file.h"
 #include "storage/generate.h"
+#include "storage/nrrd_writer.h"
+#include "storage/subgrid_time.h"
 #include "storage/volume.h"
 #include "storage/voxel_type.h"
 #include "tools/cli_util.h"
@@ -131,7 +135,62 @@ void RunGenerate(const GenerateArgs& a) {
   }
 }
 
+struct To4dArgs {
+  std::string input, output, dims, type;
+  uint32_t subgrid = 4;
+  uint32_t steps = 0;
+  bool quiet = false;
+};
+
+void RunTo4d(const To4dArgs& a) {
+  Result<VolumeInfo> in = Status::OK();
+  if (a.dims.empty()) {
+    if (!a.type.empty()) throw CommandError("--type describes raw input and needs --dims", 2);
+    in = OpenVolume(a.input);
+  } else {
+    Result<VoxelType> type = ParseVoxelType(a.type.empty() ? "" : a.type);
+    if (!type.ok()) throw CommandError("raw input needs --type: " + std::string(type.status().message()), 2);
+    int dimension = 0;
+    const std::array<uint32_t, 4> dims = ParseDims(a.dims, &dimension);
+    in = OpenRawVolume(a.input, dimension, dims, *type, ByteOrder::kLittle, 0);
+  }
+  if (!in.ok()) Fail(in.status());
+  uint32_t steps = a.steps;
+  if (steps == 0) {  // a 4D cube when the subgrid holds enough points
+    for (int i = 0; i < 3; ++i) steps = std::max(steps, SubgridAxis(in->dims[i], a.subgrid));
+    steps = std::min(steps, a.subgrid * a.subgrid * a.subgrid);
+  }
+  Result<SubgridTimeVolume> out = SubgridsToTime(*in, a.subgrid, steps);
+  if (!out.ok()) throw CommandError(std::string(out.status().message()), 2);
+  if (Status s = WriteNrrd(a.output, 4, out->dims, in->type, out->values); !s.ok()) Fail(s);
+  if (!a.quiet) {
+    fmt::print("{}: {} from {} ({}), {}^3 subgrids as {} time steps\n", a.output,
+               FormatDims(4, out->dims), a.input, FormatDims(3, in->dims), a.subgrid, steps);
+  }
+}
+
 }  // namespace
+
+void RegisterTo4dCommand(CLI::App& app) {
+  auto a = std::make_shared<To4dArgs>();
+  auto* cmd = app.add_subcommand(
+      "to4d",
+      "Make a 4D volume (NRRD) from a 3D one as the seed's section 4.7 made its 4D\n"
+      "Buckyball: the values of each SxSxS subgrid become the time axis of the point\n"
+      "standing for the subgrid: out(i,j,k,t) = in(S i + t%S, S j + (t/S)%S, S k + t/S^2),\n"
+      "clamped to the grid. Each axis of n points gives (n-1)/S + 1.\n"
+      "Example: simplexdb to4d bucky129.nrrd -o bucky4d.nrrd   (33^4, as in the seed)");
+  cmd->add_option("input", a->input, "3D volume: NRRD or NIfTI-1, or raw with --dims and --type")
+      ->required();
+  cmd->add_option("-o,--output", a->output, "the 4D NRRD file to write")->required();
+  cmd->add_option("--subgrid", a->subgrid, "S, the side of a subgrid")->capture_default_str();
+  cmd->add_option("--steps", a->steps,
+                  "time steps, 2..S^3 (default: the longest output axis, at most S^3)");
+  cmd->add_option("--dims", a->dims, "raw input: X,Y,Z (x fastest, little endian)");
+  cmd->add_option("--type", a->type, "raw input: uint8|int8|uint16|int16|float32|float64");
+  cmd->add_flag("-q,--quiet", a->quiet, "no summary");
+  cmd->callback([a] { RunTo4d(*a); });
+}
 
 void RegisterGenerateCommand(CLI::App& app) {
   auto a = std::make_shared<GenerateArgs>();

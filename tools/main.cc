@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   simplexdb::tools::RegisterCodesCommand(app);
   simplexdb::tools::RegisterInspectCommand(app);
   simplexdb::tools::RegisterGenerateCommand(app);
+  simplexdb::tools::RegisterTo4dCommand(app);
   simplexdb::tools::RegisterStoreCommands(app);
   simplexdb::tools::RegisterConvertCommand(app);
   simplexdb::tools::RegisterUpdateCommand(app);

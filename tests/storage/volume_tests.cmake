@@ -9,6 +9,7 @@ add_executable(volume_tests
   storage/volume_test.cc
   storage/nrrd_writer_test.cc
   storage/generate_test.cc
+  storage/subgrid_time_test.cc
 )
 target_link_libraries(volume_tests PRIVATE
   simplexdb_volume simplexdb_warnings GTest::gtest_main ZLIB::ZLIB)
