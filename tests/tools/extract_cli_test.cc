@@ -140,6 +140,18 @@ TEST(ExtractCliHp, TimeSlicesReadByVtk) {
   auto vtk = ReadWithVtk(python, dir.path() + "/s.vtu");
   EXPECT_EQ(vtk["cell_types"], nlohmann::json::array({10}));
   EXPECT_NEAR(vtk["volume"].get<double>(), 8.0 * 8 * 8, 1e-9);  // the slice fills the 2^3 cube
+  // The statistics count the slice VTK reads; at error 0 on noise (no linear
+  // region) a grid time is cut from the full-resolution mesh: 6 tetrahedra
+  // per cube of the 8^3 grid, the count the seed's Fig. 63 gives as 100%.
+  r = RunCli("extract " + store + " --error 5% --time 3.5");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(Json(r)["slice_tetrahedra"], vtk["cells"]);
+  EXPECT_FALSE(Json(r).contains("full_resolution_slice_tetrahedra"));  // not a grid time
+  r = RunCli("extract " + store + " --error 0 --time 3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(Json(r)["slice_tetrahedra"], 6 * 8 * 8 * 8);
+  EXPECT_EQ(Json(r)["full_resolution_slice_tetrahedra"], 6 * 8 * 8 * 8);
+  EXPECT_GT(Json(r)["peak_memory_bytes"].get<uint64_t>(), 0u);
   r = RunCli("extract " + store + " --error 5% --format pvd --slices 0,2.5,8 -o " + dir.path() + "/series.pvd");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string pvd = ReadWholeFile(dir.path() + "/series.pvd");
