@@ -101,7 +101,9 @@ void WriteSliceSeries(const Mesh<4>& mesh, Source& source, const std::vector<dou
 }
 
 template <int D, class Source>
-void Extract(Source& source, const ExtractArgs& a) {
+// `dense`: the store behind `source` when it is a dense one (its cache is
+// reported), null for the sparse store.
+void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nullptr) {
   const SourceInfo& info = source.info();
   CriteriaSpec spec;
   spec.error.value = ParseAmount(a.error, "--error", info.field_range());
@@ -199,6 +201,10 @@ void Extract(Source& source, const ExtractArgs& a) {
   }
   // Of the whole process: the store's cache, the mesh and the query's sets.
   j["peak_memory_bytes"] = PeakResidentBytes();
+  if (dense != nullptr && dense->cache() != nullptr) {
+    // Decoded blocks held at the end (never more than --cache-mb).
+    j["cache_bytes"] = dense->cache()->charge();
+  }
   if (check) {
     j["conforming"] = check->ok;
     if (!check->ok) j["conformity_problem"] = check->problem;
@@ -238,10 +244,10 @@ void RunExtract(const ExtractArgs& a) {
   if (!store.ok()) Fail(store.status());
   if ((*store)->dimension() == 3) {
     DenseSource<3> source(**store);
-    Extract<3>(source, a);
+    Extract<3>(source, a, store->get());
   } else {
     DenseSource<4> source(**store);
-    Extract<4>(source, a);
+    Extract<4>(source, a, store->get());
   }
 }
 

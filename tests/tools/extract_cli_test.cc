@@ -128,6 +128,17 @@ TEST_F(ExtractCli, VtuReadByVtk) {
   }
 }
 
+// The statistics report the decoded blocks the cache holds, within the
+// budget given (the scale runs of bench/experiments.py read them).
+TEST_F(ExtractCli, ReportsTheCacheWithinItsBudget) {
+  auto r = RunCli("extract " + store_ + " --error 0 --cache-mb 1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = Json(r);
+  EXPECT_GT(j["cache_bytes"].get<uint64_t>(), 0u);
+  EXPECT_LE(j["cache_bytes"].get<uint64_t>(), uint64_t{1} << 20);
+  EXPECT_GE(j["peak_memory_bytes"].get<uint64_t>(), j["cache_bytes"].get<uint64_t>());
+}
+
 TEST(ExtractCliHp, TimeSlicesReadByVtk) {
   const std::string python = PythonWithVtk();
   if (python.empty()) GTEST_SKIP() << "no python3 that can import VTK (Debian: apt-get install python3-vtk9)";
