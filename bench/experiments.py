@@ -528,6 +528,35 @@ def rel(path):
     return os.path.relpath(path, os.path.join(ROOT, "bench"))
 
 
+def summary(sets, results, rates, scale):
+    """The run's headline numbers, computed (not typed) for the top of RESULTS.md."""
+    lines = []
+    df = {h: rates.get((h, "in-memory", "depth-first")) for h in ("ht129", "hp33")}
+    if df["ht129"]:
+        lines.append(f"- In core, depth-first refinement splits {df['ht129']['splits/s'] / 1e6:.1f} M "
+                     f"tetrahedra and {df['hp33']['splits/s'] / 1e6:.1f} M pentatopes a second; the "
+                     f"seed measured about 0.28 M tetrahedra a second out of core.")
+        cold = [rates.get((h, "zstd-cold", "depth-first")) for h in ("ht129", "hp33")]
+        if all(cold):
+            lines.append(f"- A compressed store read through a cache that starts empty keeps "
+                         f"{cold[0]['splits/s'] / df['ht129']['splits/s']:.2f} (HT) and "
+                         f"{cold[1]['splits/s'] / df['hp33']['splits/s']:.2f} (HP) of the in-core rate.")
+    for dim, seed in ((3, "+5 %"), (4, "under +1 %")):
+        excess = [100 * (r["saturated"][p]["simplices"] / r["whole"][p]["simplices"] - 1)
+                  for ds in sets if ds.dimension == dim
+                  for r in [results[ds.name]] if r["saturated"][0] is not None
+                  for p in THRESHOLDS if r["whole"][p]["simplices"]]
+        if excess:
+            lines.append(f"- Saturation costs {sum(excess) / len(excess):+.1f} % simplices on average in "
+                         f"{dim}D (at most {max(excess):+.1f} %); the seed found {seed}.")
+    if scale:
+        big = scale[-1]
+        lines.append(f"- The largest store, {big['side']}^3 ({big['info']['logical_bytes'] / 2**30:.1f} GiB "
+                     f"decoded), was queried with {big['query']['cache_bytes'] / 2**20:.0f} MiB of cache "
+                     f"held and {big['query']['peak_memory_bytes'] / 2**20:.0f} MiB peak memory in all.")
+    return "\n".join(lines)
+
+
 def write_results(sets, results, rates, context, scale, plots, pictures, a, seconds):
     command = "bench/experiments.py" + (" --quick" if a.quick else "")
     ds_rows = [[d.name, "HT" if d.dimension == 3 else "HP", "x".join(map(str, d.dims)), d.description,
@@ -542,6 +571,8 @@ building the 1025^3 store) or `bench/experiments.py --quick` (no 1025^3 store, s
 benchmark runs). Volumes and stores go to `--work` (default /tmp/simplexdb-experiments) and
 are reused. Each query is a `simplexdb extract` call whose `--format json` statistics give
 the counts; the throughput table is `build/release/bench/query_bench`.
+
+{summary(sets, results, rates, scale)}
 
 ## Data sets
 
