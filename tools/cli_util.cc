@@ -3,6 +3,8 @@
 #include <sys/resource.h>
 
 #include <charconv>
+#include <fstream>
+#include <limits>
 #include <cmath>
 #include <cstdlib>
 
@@ -78,6 +80,17 @@ uint64_t PeakResidentBytes() {
   rusage r{};
   getrusage(RUSAGE_SELF, &r);
   return static_cast<uint64_t>(r.ru_maxrss) * 1024;  // Linux reports KiB
+}
+
+uint64_t AnonymousResidentBytes() {
+  std::ifstream status("/proc/self/status");
+  std::string key;
+  uint64_t kib = 0;
+  while (status >> key) {
+    if (key == "RssAnon:" && status >> kib) return kib * 1024;
+    status.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
+  }
+  return 0;
 }
 
 void ProgressLine::Update(const std::string& text) {

@@ -43,8 +43,14 @@ std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension);
 // "1.5 GiB", "312 KiB", "17 B".
 std::string HumanBytes(uint64_t bytes);
 
-// Peak resident memory of this process, in bytes (getrusage).
+// Peak resident memory of this process, in bytes (getrusage). Counts the
+// pages of memory-mapped files the process touched, which the kernel may
+// drop at any time.
 uint64_t PeakResidentBytes();
+
+// Anonymous memory resident now (RssAnon of /proc/self/status): what the
+// process allocated, without file pages; 0 where /proc is not readable.
+uint64_t AnonymousResidentBytes();
 
 // A one-line progress display on stderr, redrawn in place, only when stderr
 // is a terminal (scripts see nothing). Throttled to a few updates a second.

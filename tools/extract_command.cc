@@ -199,8 +199,10 @@ void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nul
       j["full_resolution_slice_tetrahedra"] = 6 * std::ldexp(1.0, 3 * (info.leaf_level() / 4));
     }
   }
-  // Of the whole process: the store's cache, the mesh and the query's sets.
+  // Of the whole process: the store's cache, the mesh and the query's sets,
+  // and (peak only) the store's mapped file pages the query touched.
   j["peak_memory_bytes"] = PeakResidentBytes();
+  j["anonymous_memory_bytes"] = AnonymousResidentBytes();  // the mesh is still alive
   if (dense != nullptr && dense->cache() != nullptr) {
     // Decoded blocks held at the end (never more than --cache-mb).
     j["cache_bytes"] = dense->cache()->charge();

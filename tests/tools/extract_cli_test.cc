@@ -137,6 +137,8 @@ TEST_F(ExtractCli, ReportsTheCacheWithinItsBudget) {
   EXPECT_GT(j["cache_bytes"].get<uint64_t>(), 0u);
   EXPECT_LE(j["cache_bytes"].get<uint64_t>(), uint64_t{1} << 20);
   EXPECT_GE(j["peak_memory_bytes"].get<uint64_t>(), j["cache_bytes"].get<uint64_t>());
+  EXPECT_GE(j["anonymous_memory_bytes"].get<uint64_t>(), j["cache_bytes"].get<uint64_t>());
+  EXPECT_LE(j["anonymous_memory_bytes"].get<uint64_t>(), j["peak_memory_bytes"].get<uint64_t>());
 }
 
 TEST(ExtractCliHp, TimeSlicesReadByVtk) {
