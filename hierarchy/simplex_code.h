@@ -51,6 +51,7 @@
 #include <string>
 #include <string_view>
 
+#include "hierarchy/code_text_internal.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -236,43 +237,24 @@ std::string SimplexCode<D>::ToString() const {
 
 template <int D>
 Result<SimplexCode<D>> SimplexCode<D>::Parse(std::string_view text) {
-  const auto fail = [&](std::string_view why) {
-    return Status::InvalidArgument("'" + std::string(text) +
-                                   "' is not a location code: " +
-                                   std::string(why));
-  };
-  const size_t colon = text.find(':');
-  if (colon == std::string_view::npos) {
-    return fail("expected T:bits, e.g. 2:10011");
-  }
-  const std::string_view top_text = text.substr(0, colon);
-  const std::string_view bits = text.substr(colon + 1);
-  const std::string expected_top =
-      "expected a root index 0.." + std::to_string(kRoots - 1) + " before ':'";
-  // Digits only, no leading zero: the text form of a code is unique.
-  if (top_text.empty() || top_text.size() > 2 ||
-      (top_text.size() > 1 && top_text[0] == '0')) {
-    return fail(expected_top);
-  }
-  int top = 0;
-  for (char c : top_text) {
-    if (c < '0' || c > '9') return fail(expected_top);
-    top = top * 10 + (c - '0');
-  }
-  if (top >= kRoots) {
-    return fail("root " + std::to_string(top) + " is out of range 0.." +
-                std::to_string(kRoots - 1));
-  }
+  static constexpr internal::CodeTextWords kWords = {
+      "location code", "expected T:bits, e.g. 2:10011", "a root index", "root"};
+  SDB_ASSIGN_OR_RETURN(const internal::CodeText parsed,
+                       internal::ParseCodeText(text, kRoots, kWords));
+  const std::string_view bits = parsed.bits;
   if (bits.size() > static_cast<size_t>(kMaxLevel)) {
-    return fail("level " + std::to_string(bits.size()) +
-                " exceeds the maximum level " + std::to_string(kMaxLevel));
+    return internal::BadCodeText(text, kWords,
+                                 "level " + std::to_string(bits.size()) +
+                                     " exceeds the maximum level " + std::to_string(kMaxLevel));
   }
   uint64_t path = 0;
   for (char c : bits) {
-    if (c != '0' && c != '1') return fail("path bits must be 0 or 1");
+    if (c != '0' && c != '1') {
+      return internal::BadCodeText(text, kWords, "path bits must be 0 or 1");
+    }
     path = path << 1 | static_cast<uint64_t>(c - '0');
   }
-  return FromPath(top, path, static_cast<int>(bits.size()));
+  return FromPath(parsed.root, path, static_cast<int>(bits.size()));
 }
 
 }  // namespace simplexdb
@@ -280,13 +262,6 @@ Result<SimplexCode<D>> SimplexCode<D>::Parse(std::string_view text) {
 template <int D>
 struct std::hash<simplexdb::SimplexCode<D>> {
   size_t operator()(simplexdb::SimplexCode<D> c) const noexcept {
-    // splitmix64 finalizer: keys differ mostly in high bits.
-    uint64_t x = c.key();
-    x ^= x >> 30;
-    x *= 0xbf58476d1ce4e5b9ULL;
-    x ^= x >> 27;
-    x *= 0x94d049bb133111ebULL;
-    x ^= x >> 31;
-    return static_cast<size_t>(x);
+    return static_cast<size_t>(simplexdb::internal::MixKey(c.key()));
   }
 };
