@@ -15,6 +15,9 @@
 #include "hierarchy/geometry.h"
 #include "hierarchy/neighbors.h"
 #include "hierarchy/simplex_code.h"
+#include "hierarchy/tri_code.h"
+#include "hierarchy/tri_geometry.h"
+#include "hierarchy/tri_neighbors.h"
 #include "tools/commands.h"
 
 namespace simplexdb::tools {
@@ -23,21 +26,42 @@ namespace {
 // Keys in the order the contract lists them.
 using json = nlohmann::ordered_json;
 
-enum class Hierarchy { kHT, kHP };
+enum class Hierarchy { kHT, kHP, kTriIcosahedron, kTriOctahedron, kTriTetrahedron };
 
-const std::map<std::string, Hierarchy> kHierarchyNames = {{"ht", Hierarchy::kHT},
-                                                          {"hp", Hierarchy::kHP}};
+const std::map<std::string, Hierarchy> kHierarchyNames = {
+    {"ht", Hierarchy::kHT},
+    {"hp", Hierarchy::kHP},
+    {"tri-icosahedron", Hierarchy::kTriIcosahedron},
+    {"tri-octahedron", Hierarchy::kTriOctahedron},
+    {"tri-tetrahedron", Hierarchy::kTriTetrahedron}};
 constexpr const char* kHierarchyHelp =
-    "ht: Hierarchy of Tetrahedra (3D); hp: Hierarchy of Pentatopes (4D)";
+    "ht: Hierarchy of Tetrahedra (3D); hp: Hierarchy of Pentatopes (4D);\n"
+    "tri-icosahedron, tri-octahedron, tri-tetrahedron: triangle quadtrees on\n"
+    "the sphere over that solid's faces (codes F:bits, two bits per level)";
 
-template <int D>
-json CodeOrNull(SimplexCode<D> c) {
+template <class Code>
+json CodeOrNull(Code c) {
   return c.is_none() ? json(nullptr) : json(c.ToString());
 }
 
 template <int D>
 double UnitCoordinate(int32_t x) {
   return static_cast<double>(x) / static_cast<double>(kDomainSide<D>);
+}
+
+// The "parent" and "children" of a line: null for a root's parent, and for
+// the children of a code at the maximum level (no deeper level fits in the
+// 64-bit key).
+template <class Code>
+void AddParentAndChildren(json& j, Code code, int children) {
+  j["parent"] = code.level() > 0 ? json(code.parent().ToString()) : json(nullptr);
+  if (code.level() < Code::kMaxLevel) {
+    json list = json::array();
+    for (int i = 0; i < children; ++i) list.push_back(code.child(i).ToString());
+    j["children"] = std::move(list);
+  } else {
+    j["children"] = nullptr;
+  }
 }
 
 // One line of the `codes` contract.
@@ -56,13 +80,7 @@ json DescribeJson(SimplexCode<D> code) {
   json neighbors = json::array();
   for (int k = 1; k <= D + 1; ++k) neighbors.push_back(CodeOrNull(Neighbor(code, k)));
   j["neighbors"] = std::move(neighbors);
-  j["parent"] = code.level() > 0 ? json(code.parent().ToString()) : json(nullptr);
-  // A code at the maximum level has no children in the 64-bit key.
-  if (code.level() < SimplexCode<D>::kMaxLevel) {
-    j["children"] = {code.child(0).ToString(), code.child(1).ToString()};
-  } else {
-    j["children"] = nullptr;
-  }
+  AddParentAndChildren(j, code, 2);
   json cluster = json::array();
   for (const SimplexCode<D> m : Cluster(code)) cluster.push_back(m.ToString());
   j["cluster"] = std::move(cluster);
@@ -75,7 +93,29 @@ std::string_view Trim(std::string_view s) {
   return s;
 }
 
-template <int D>
+// One line of the `codes` contract for a triangle quadtree: vertices
+// (apex, left, right) on the solid inscribed in the unit sphere, neighbors
+// left, right, vertical (a closed surface: never null), four children, no
+// cluster (triangles are not bisected).
+template <Polyhedron P>
+json DescribeJson(TriCode<P> code) {
+  json j;
+  j["code"] = code.ToString();
+  j["level"] = code.level();
+  json vertices = json::array();
+  for (const Vec3& p : PolyhedronVertices(code)) vertices.push_back({p[0], p[1], p[2]});
+  j["vertices"] = std::move(vertices);
+  json neighbors = json::array();
+  for (int d = 0; d < kTriDirections; ++d) {
+    neighbors.push_back(CodeOrNull(TriNeighbor(code, static_cast<TriDirection>(d))));
+  }
+  j["neighbors"] = std::move(neighbors);
+  AddParentAndChildren(j, code, 4);
+  j["cluster"] = json::array();
+  return j;
+}
+
+template <class Code>
 void RunCodes() {
   std::string line;
   size_t line_number = 0;
@@ -84,7 +124,7 @@ void RunCodes() {
     ++line_number;
     const std::string_view text = Trim(line);
     if (text.empty()) continue;
-    const Result<SimplexCode<D>> code = SimplexCode<D>::Parse(text);
+    const Result<Code> code = Code::Parse(text);
     if (!code.ok()) {
       // Keep the output aligned with the input: one object per code line.
       ++bad;
@@ -169,10 +209,37 @@ void Inspect(SimplexCode<D> code) {
   fmt::print("\n");
 }
 
-template <int D>
+template <Polyhedron P>
+void Inspect(TriCode<P> code) {
+  static const char* kSolids[] = {"tetrahedron", "octahedron", "icosahedron"};
+  static const char* kDirections[] = {"left", "right", "vertical"};
+  const bool up = FaceIsTipUp<P>(code.face()) != code.flipped();
+  fmt::print("{}: level {}, tip-{} triangle on face {} of the {}\n", code.ToString(),
+             code.level(), up ? "up" : "down", code.face(), kSolids[static_cast<int>(P)]);
+  const TriPoints poly = PolyhedronVertices(code);
+  static const char* kCorners[] = {"apex ", "left ", "right"};
+  for (int i = 0; i < 3; ++i) {
+    const LatLng ll = PointToLatLng(poly[i]);
+    fmt::print("  {}  ({}, {}, {})  lat {:.9f} lng {:.9f}\n", kCorners[i], poly[i][0],
+               poly[i][1], poly[i][2], ll.lat_degrees, ll.lng_degrees);
+  }
+  fmt::print("  parent    {}\n", code.level() > 0 ? code.parent().ToString() : "none (a base face)");
+  if (code.level() < TriCode<P>::kMaxLevel) {
+    fmt::print("  children  {}  {}  {}  {}\n", code.child(0).ToString(), code.child(1).ToString(),
+               code.child(2).ToString(), code.child(3).ToString());
+  }
+  for (int d = 0; d < kTriDirections; ++d) {
+    const auto dir = static_cast<TriDirection>(d);
+    const TriCode<P> n = TriNeighbor(code, dir);
+    fmt::print("  neighbor {:<8}  {}{}\n", kDirections[d], n.ToString(),
+               n.face() != code.face() ? fmt::format(" (across to face {})", n.face()) : "");
+  }
+}
+
+template <class Code>
 void InspectAll(const std::vector<std::string>& texts) {
   for (const std::string& text : texts) {
-    const Result<SimplexCode<D>> code = SimplexCode<D>::Parse(text);
+    const Result<Code> code = Code::Parse(text);
     if (!code.ok()) throw CommandError(std::string(code.status().message()));
     Inspect(*code);
   }
@@ -199,12 +266,16 @@ std::shared_ptr<std::string> AddHierarchyOption(CLI::App* cmd, bool required) {
   return name;
 }
 
-// Calls fn.template operator()<D>() with the dimension of `h`.
+// Calls fn.template operator()<Code>() with the location code type of the
+// hierarchy named `name`.
 template <class Fn>
-void WithDimension(const std::string& name, Fn&& fn) {
+void WithCodeType(const std::string& name, Fn&& fn) {
   switch (kHierarchyNames.at(name)) {
-    case Hierarchy::kHT: fn.template operator()<3>(); break;
-    case Hierarchy::kHP: fn.template operator()<4>(); break;
+    case Hierarchy::kHT: fn.template operator()<TetCode>(); break;
+    case Hierarchy::kHP: fn.template operator()<PentaCode>(); break;
+    case Hierarchy::kTriIcosahedron: fn.template operator()<IcosaCode>(); break;
+    case Hierarchy::kTriOctahedron: fn.template operator()<OctaCode>(); break;
+    case Hierarchy::kTriTetrahedron: fn.template operator()<TetraCode>(); break;
   }
 }
 
@@ -217,10 +288,14 @@ void RegisterCodesCommand(CLI::App& app) {
       "{\"code\",\"level\",\"vertices\" (unit-cube coordinates, v1 first),\n"
       "\"neighbors\" (face types 1..D+1, null on the domain boundary),\n"
       "\"parent\",\"children\" (null at the deepest level a key holds: HT 55,\n"
-      "HP 53),\"cluster\"}. A line that is not a code gets {\"code\",\"error\"}\n"
-      "and the exit status is 1.");
+      "HP 53),\"cluster\"}. Triangle quadtrees (tri-*): vertices apex, left,\n"
+      "right on the solid inscribed in the unit sphere; neighbors left, right,\n"
+      "vertical; four children (null at level 27 on the icosahedron, 28 on the\n"
+      "others); an empty cluster. A line that is not a code gets\n"
+      "{\"code\",\"error\"} and the exit status is 1.");
   auto hierarchy = AddHierarchyOption(cmd, /*required=*/true);
-  cmd->callback([hierarchy] { WithDimension(*hierarchy, []<int D>() { RunCodes<D>(); }); });
+  cmd->callback(
+      [hierarchy] { WithCodeType(*hierarchy, []<class Code>() { RunCodes<Code>(); }); });
 }
 
 void RegisterInspectCommand(CLI::App& app) {
@@ -229,12 +304,13 @@ void RegisterInspectCommand(CLI::App& app) {
       "Explain location codes for people: shape, vertices, split edge,\n"
       "parent and children, face neighbors and cluster.\n"
       "Examples: simplexdb inspect --hierarchy ht 2:10011\n"
-      "          simplexdb inspect --hierarchy hp 7:10100110101100100011");
+      "          simplexdb inspect --hierarchy hp 7:10100110101100100011\n"
+      "          simplexdb inspect --hierarchy tri-icosahedron 2:010001010001");
   auto hierarchy = AddHierarchyOption(cmd, /*required=*/false);
   auto codes = std::make_shared<std::vector<std::string>>();
-  cmd->add_option("codes", *codes, "location codes T:bits")->required();
+  cmd->add_option("codes", *codes, "location codes T:bits (F:bits for tri-*)")->required();
   cmd->callback([hierarchy, codes] {
-    WithDimension(*hierarchy, [&]<int D>() { InspectAll<D>(*codes); });
+    WithCodeType(*hierarchy, [&]<class Code>() { InspectAll<Code>(*codes); });
   });
 }
 

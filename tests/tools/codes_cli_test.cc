@@ -12,12 +12,15 @@
 #include "hierarchy/geometry.h"
 #include "hierarchy/neighbors.h"
 #include "hierarchy/level_scan.h"
+#include "hierarchy/tri_geometry.h"
+#include "hierarchy/tri_neighbors.h"
 #include "tests/tools/cli_runner.h"
 
 namespace simplexdb {
 namespace {
 
 using json = nlohmann::ordered_json;  // keeps the key order of the output
+using ::testing::Test;
 using testing::RunCli;
 
 std::vector<json> ParseLines(const std::string& out) {
@@ -26,6 +29,30 @@ std::vector<json> ParseLines(const std::string& out) {
   std::string line;
   while (std::getline(in, line)) lines.push_back(json::parse(line));
   return lines;
+}
+
+// Runs `codes` over `codes` and checks what the lines of every hierarchy
+// share: one per code, in order, with the contract's keys in its order, the
+// code and its level.
+template <class Code>
+void RunContract(const char* hierarchy, const std::vector<Code>& codes,
+                 std::vector<json>* lines) {
+  std::string input;
+  for (const Code c : codes) input += c.ToString() + "\n";
+  const auto r = RunCli(std::string("codes --hierarchy ") + hierarchy, input);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  *lines = ParseLines(r.out);
+  ASSERT_EQ(lines->size(), codes.size());
+  for (size_t i = 0; i < codes.size(); ++i) {
+    const json& j = (*lines)[i];
+    SCOPED_TRACE(codes[i].ToString());
+    std::vector<std::string> keys;
+    for (auto it = j.begin(); it != j.end(); ++it) keys.push_back(it.key());
+    ASSERT_EQ(keys, (std::vector<std::string>{"code", "level", "vertices", "neighbors",
+                                              "parent", "children", "cluster"}));
+    ASSERT_EQ(j["code"], codes[i].ToString());
+    ASSERT_EQ(j["level"], codes[i].level());
+  }
 }
 
 // The contract for one hierarchy: every code up to level 4 and random deep
@@ -47,23 +74,13 @@ void CheckContract(const char* hierarchy, uint64_t seed) {
     codes.push_back(Code::FromPath(static_cast<int>(rng() % Code::kRoots),
                                    rng() >> (64 - level), level));
   }
-  std::string input;
-  for (const Code c : codes) input += c.ToString() + "\n";
-  const auto r = RunCli(std::string("codes --hierarchy ") + hierarchy, input);
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const std::vector<json> lines = ParseLines(r.out);
-  ASSERT_EQ(lines.size(), codes.size());
+  std::vector<json> lines;
+  RunContract(hierarchy, codes, &lines);
+  ASSERT_FALSE(Test::HasFatalFailure());
   for (size_t i = 0; i < codes.size(); ++i) {
     const Code c = codes[i];
     const json& j = lines[i];
     SCOPED_TRACE(c.ToString());
-    // Keys in the contract's order.
-    std::vector<std::string> keys;
-    for (auto it = j.begin(); it != j.end(); ++it) keys.push_back(it.key());
-    ASSERT_EQ(keys, (std::vector<std::string>{"code", "level", "vertices", "neighbors",
-                                              "parent", "children", "cluster"}));
-    ASSERT_EQ(j["code"], c.ToString());
-    ASSERT_EQ(j["level"], c.level());
     // Unit-cube coordinates, exactly the lattice vertices scaled.
     const auto v = Vertices(c);
     ASSERT_EQ(j["vertices"].size(), size_t{D + 1});
@@ -104,6 +121,102 @@ void CheckContract(const char* hierarchy, uint64_t seed) {
 
 TEST(CodesCli, HtContract) { CheckContract<3>("ht", 4); }
 TEST(CodesCli, HpContract) { CheckContract<4>("hp", 5); }
+
+// The contract for a triangle quadtree: every code up to level 3, random
+// deep ones and the deepest, each line checked against the library (the
+// neighbors against the nearest-common-ancestor scan, the reference).
+template <Polyhedron P>
+void CheckTriContract(const char* hierarchy, uint64_t seed) {
+  using Code = TriCode<P>;
+  std::vector<Code> codes;
+  for (int f = 0; f < Code::kFaces; ++f) {
+    for (int level = 0; level <= 3; ++level) {
+      for (uint64_t p = 0; p < (uint64_t{1} << (2 * level)); ++p) {
+        codes.push_back(Code::FromPath(f, p, level));
+      }
+    }
+  }
+  std::mt19937_64 rng(seed);
+  for (int i = 0; i < 200; ++i) {
+    const int level = 1 + static_cast<int>(rng() % Code::kMaxLevel);  // 1..max
+    codes.push_back(Code::FromPath(static_cast<int>(rng() % Code::kFaces),
+                                   rng() >> (64 - 2 * level), level));
+  }
+  std::vector<json> lines;
+  RunContract(hierarchy, codes, &lines);
+  ASSERT_FALSE(Test::HasFatalFailure());
+  bool deepest = false;
+  for (size_t i = 0; i < codes.size(); ++i) {
+    const Code c = codes[i];
+    const json& j = lines[i];
+    SCOPED_TRACE(c.ToString());
+    // Apex, left, right on the solid, inscribed in the unit sphere; JSON
+    // numbers round-trip doubles exactly.
+    const TriPoints v = PolyhedronVertices(c);
+    ASSERT_EQ(j["vertices"].size(), 3u);
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_EQ(j["vertices"][k].size(), 3u);
+      for (int a = 0; a < 3; ++a) ASSERT_EQ(j["vertices"][k][a].get<double>(), v[k][a]);
+    }
+    ASSERT_EQ(j["neighbors"].size(), 3u);  // left, right, vertical; never null
+    for (int d = 0; d < 3; ++d) {
+      ASSERT_EQ(j["neighbors"][d], TriNeighborScan(c, static_cast<TriDirection>(d)).ToString());
+    }
+    if (c.level() == 0) {
+      ASSERT_TRUE(j["parent"].is_null());
+    } else {
+      ASSERT_EQ(j["parent"], c.parent().ToString());
+    }
+    if (c.level() == Code::kMaxLevel) {
+      deepest = true;
+      ASSERT_TRUE(j["children"].is_null()) << "no deeper level in a 64-bit key";
+    } else {
+      ASSERT_EQ(j["children"], (json{c.child(0).ToString(), c.child(1).ToString(),
+                                     c.child(2).ToString(), c.child(3).ToString()}));
+    }
+    ASSERT_TRUE(j["cluster"].is_array());
+    ASSERT_TRUE(j["cluster"].empty());
+  }
+  EXPECT_TRUE(deepest || codes.size() < 1000);
+}
+
+TEST(CodesCli, TriIcosahedronContract) {
+  CheckTriContract<Polyhedron::kIcosahedron>("tri-icosahedron", 6);
+}
+TEST(CodesCli, TriOctahedronContract) {
+  CheckTriContract<Polyhedron::kOctahedron>("tri-octahedron", 7);
+}
+TEST(CodesCli, TriTetrahedronContract) {
+  CheckTriContract<Polyhedron::kTetrahedron>("tri-tetrahedron", 8);
+}
+
+// The seed's EXCODE2 (2.3) crosses from face 2 to face 1; bad triangle
+// codes are reported per line, aligned with the input.
+TEST(CodesCli, TriSeedExampleAndBadLines) {
+  const auto r = RunCli("codes --hierarchy tri-icosahedron",
+                        "2:010001010001\n20:\n2:011\n" + std::string("19:") +
+                            std::string(56, '0') + "\n7:\n");
+  EXPECT_EQ(r.exit_code, 1);
+  const std::vector<json> lines = ParseLines(r.out);
+  ASSERT_EQ(lines.size(), 5u);
+  EXPECT_EQ(lines[0]["neighbors"][0], "1:110011110011");
+  EXPECT_NE(lines[1]["error"].get<std::string>().find("out of range"), std::string::npos);
+  EXPECT_NE(lines[2]["error"].get<std::string>().find("odd"), std::string::npos);
+  EXPECT_NE(lines[3]["error"].get<std::string>().find("maximum level 27"), std::string::npos);
+  EXPECT_EQ(lines[4]["neighbors"], (json{"11:", "12:", "2:"}));  // Fig. 7, row 7
+  EXPECT_EQ(RunCli("codes --hierarchy TRI-Octahedron", "7:\n").exit_code, 0);
+}
+
+TEST(InspectCli, ExplainsATriangleCode) {
+  const auto r = RunCli("inspect --hierarchy tri-icosahedron 2:010001010001");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("tip-up triangle on face 2 of the icosahedron"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("1:110011110011 (across to face 1)"), std::string::npos) << r.out;
+  const auto tet = RunCli("inspect --hierarchy tri-tetrahedron 1:10");
+  ASSERT_EQ(tet.exit_code, 0) << tet.err;
+  EXPECT_NE(tet.out.find("tip-up triangle on face 1"), std::string::npos) << tet.out;
+}
 
 TEST(CodesCli, BadLinesKeepAlignmentAndFail) {
   const auto r = RunCli("codes --hierarchy ht", "0:1\nnonsense\n\n7:0\n1:01\n");
