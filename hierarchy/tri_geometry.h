@@ -92,7 +92,7 @@ Vec3 PolyhedronPoint(int face, const TriWeights& w) {
   const auto ids = FaceVertexIds<P>(face);
   Vec3 p{0, 0, 0};
   for (int i = 0; i < 3; ++i) {
-    const Vec3 c = PolyhedronVertex<P>(ids[i]);
+    const Vec3& c = PolyhedronVertex<P>(ids[i]);
     for (int k = 0; k < 3; ++k) p[k] += static_cast<double>(w[i]) * c[k];
   }
   for (double& x : p) x /= kTriScale;
@@ -145,24 +145,31 @@ TriCode<P> PointToCode(const Vec3& p, int level) {
   };
   // The ray from the center meets the face whose center is nearest in
   // angle: all faces are at the same distance from the center.
+  static const auto kFaceCenters = [] {
+    std::array<Vec3, TriCode<P>::kFaces> centers{};
+    for (int f = 0; f < TriCode<P>::kFaces; ++f) {
+      Vec3 c{0, 0, 0};
+      for (uint8_t id : FaceVertexIds<P>(f)) {
+        const Vec3& v = PolyhedronVertex<P>(id);
+        for (int k = 0; k < 3; ++k) c[k] += v[k];
+      }
+      centers[f] = Normalized(c);
+    }
+    return centers;
+  }();
   int face = 0;
   double best = -2;
   for (int f = 0; f < TriCode<P>::kFaces; ++f) {
-    Vec3 c{0, 0, 0};
-    for (uint8_t id : FaceVertexIds<P>(f)) {
-      const Vec3 v = PolyhedronVertex<P>(id);
-      for (int k = 0; k < 3; ++k) c[k] += v[k];
-    }
-    const double dot = (c[0] * p[0] + c[1] * p[1] + c[2] * p[2]) /
-                       std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    const Vec3& c = kFaceCenters[f];
+    const double dot = c[0] * p[0] + c[1] * p[1] + c[2] * p[2];
     if (dot > best) best = dot, face = f;
   }
   // Barycentric coordinates of where the ray meets the face's plane (Cramer's
   // rule: each is the volume spanned by the ray and the opposite edge, over
   // the face's own, which is negative on tip-down faces).
   const auto ids = FaceVertexIds<P>(face);
-  const Vec3 a = PolyhedronVertex<P>(ids[0]), l = PolyhedronVertex<P>(ids[1]),
-             r = PolyhedronVertex<P>(ids[2]);
+  const Vec3 &a = PolyhedronVertex<P>(ids[0]), &l = PolyhedronVertex<P>(ids[1]),
+             &r = PolyhedronVertex<P>(ids[2]);
   const double whole = det(a, l, r);
   double w[3] = {std::max(0.0, det(p, l, r) / whole), std::max(0.0, det(a, p, r) / whole),
                  std::max(0.0, det(a, l, p) / whole)};

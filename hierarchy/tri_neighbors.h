@@ -113,12 +113,11 @@ SDB_ALWAYS_INLINE constexpr TriCode<P> TriNeighbor(TriCode<P> code, TriDirection
   x &= low;
   if (!over) return Code::FromPath(code.face(), x, n);
   const tri::FaceCrossing& c = tri::kCrossings<P>[code.face()][static_cast<int>(dir)];
-  switch (c.kind) {
-    case TriEdgeKind::kPlanar: break;                    // 2.4.5: the result as is
-    case TriEdgeKind::kMirror: x = Reflect(p); break;    // 2.4.5: reflect the input
-    case TriEdgeKind::kReversed: x = Reflect(x); break;  // 2.5.2: reflect the result
-  }
-  return Code::FromPath(c.face, x, n);
+  // kPlanar: the result as is (2.4.5); kMirror: reflect the input (2.4.5);
+  // kReversed: reflect the result (2.5.2). Selects, not branches: on the
+  // icosahedron the kind depends on the face.
+  const uint64_t source = c.kind == TriEdgeKind::kMirror ? p : x;
+  return Code::FromPath(c.face, c.kind == TriEdgeKind::kPlanar ? x : Reflect(source), n);
 }
 
 // The nearest-common-ancestor scan (2.2, EXT_FIND_NEIGHBOR of 2.3): climb

@@ -302,10 +302,16 @@ static_assert([] {
 
 }  // namespace tri
 
-// The polyhedron's vertex `v` on the unit sphere.
+// The polyhedron's vertex `v` on the unit sphere. O(1): a table computed on
+// first use (thread-safe).
 template <Polyhedron P>
-std::array<double, 3> PolyhedronVertex(int v) {
-  return tri::Solid<P>::Vertex(v);
+const std::array<double, 3>& PolyhedronVertex(int v) {
+  static const auto kTable = [] {
+    std::array<std::array<double, 3>, tri::Solid<P>::kVertices> t{};
+    for (int i = 0; i < tri::Solid<P>::kVertices; ++i) t[i] = tri::Solid<P>::Vertex(i);
+    return t;
+  }();
+  return kTable[v];
 }
 
 // Vertex ids of base face `face` as (apex, left, right).
