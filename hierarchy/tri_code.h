@@ -152,7 +152,7 @@ class TriCode {
   constexpr bool flipped() const noexcept {
     const uint64_t p = path();
     // A pair is 10 when its high bit is set and its low bit is clear.
-    return (std::popcount((p >> 1) & ~p & kEvenBits) & 1) != 0;
+    return (std::popcount((p >> 1) & ~p & 0x5555555555555555ULL) & 1) != 0;
   }
 
   // REQUIRES: level() > 0.
@@ -205,11 +205,6 @@ class TriCode {
   friend constexpr std::strong_ordering operator<=>(TriCode a, TriCode b) {
     return a.key_ <=> b.key_;
   }
-
-  // Alternating masks over right-aligned pairs: the low bit of every pair
-  // (the seed's EVENBITMASK) and the high bit (ODDBITMASK).
-  static constexpr uint64_t kEvenBits = 0x5555555555555555ULL;
-  static constexpr uint64_t kOddBits = 0xAAAAAAAAAAAAAAAAULL;
 
  private:
   static constexpr uint64_t kNoneKey = ~uint64_t{0};

@@ -46,28 +46,25 @@ namespace simplexdb {
 
 namespace tri_internal {
 
-template <Polyhedron P>
-constexpr uint64_t LowPairs(int level) {
-  return (uint64_t{1} << (2 * level)) - 1;  // 2 * level <= 56
-}
+// Alternating masks over right-aligned pairs: the low bit of every pair (the
+// seed's EVENBITMASK) and the high bit (ODDBITMASK).
+inline constexpr uint64_t kLowBits = 0x5555555555555555ULL;
+inline constexpr uint64_t kHighBits = 0xAAAAAAAAAAAAAAAAULL;
+
+// The bits of `level` pairs. REQUIRES: level <= 28 (2 * level < 64).
+constexpr uint64_t LowPairs(int level) { return (uint64_t{1} << (2 * level)) - 1; }
 
 // MAKE_IDMASK_00ID11: 11 on every pair that is 00.
 constexpr uint64_t Id00To11(uint64_t p) {
-  const uint64_t t = ~(p | p >> 1) & TriCode<Polyhedron::kIcosahedron>::kEvenBits;
+  const uint64_t t = ~(p | p >> 1) & kLowBits;
   return t | t << 1;
 }
 // MAKE_IDMASK_01ID01: 01 on every pair that is 01.
-constexpr uint64_t Id01To01(uint64_t p) {
-  return (~p & TriCode<Polyhedron::kIcosahedron>::kOddBits) >> 1 & p;
-}
+constexpr uint64_t Id01To01(uint64_t p) { return (~p & kHighBits) >> 1 & p; }
 // MAKE_IDMASK_?0ID10: 10 on every pair whose low bit is 0.
-constexpr uint64_t IdX0To10(uint64_t p) {
-  return (~p & TriCode<Polyhedron::kIcosahedron>::kEvenBits) << 1;
-}
+constexpr uint64_t IdX0To10(uint64_t p) { return (~p & kLowBits) << 1; }
 // CONSTANT_REFLECTION: flips the high bit of every ?1 pair (01 <-> 11).
-constexpr uint64_t Reflect(uint64_t p) {
-  return p ^ (p & TriCode<Polyhedron::kIcosahedron>::kEvenBits) << 1;
-}
+constexpr uint64_t Reflect(uint64_t p) { return p ^ (p & kLowBits) << 1; }
 
 }  // namespace tri_internal
 
@@ -83,7 +80,7 @@ SDB_ALWAYS_INLINE constexpr TriCode<P> TriNeighbor(TriCode<P> code, TriDirection
   using Code = TriCode<P>;
   assert(code.is_valid());
   const int n = code.level();
-  const uint64_t low = LowPairs<P>(n);
+  const uint64_t low = LowPairs(n);
   const uint64_t p = code.path();
   uint64_t x;
   bool over;
@@ -91,7 +88,7 @@ SDB_ALWAYS_INLINE constexpr TriCode<P> TriNeighbor(TriCode<P> code, TriDirection
     case TriDirection::kRight: {  // CONSTANT_RIGHT
       const uint64_t id = Id00To11(p) & low;
       x = ((p ^ id) + 1) ^ id;
-      x &= ~id | Code::kEvenBits;
+      x &= ~id | kLowBits;
       over = (x >> (2 * n)) & 1;
       break;
     }
@@ -157,12 +154,12 @@ constexpr TriDirection TriNeighborEdge(TriCode<P> code, TriDirection dir) {
   // On the base face's edge of this direction exactly when the path has only
   // that edge's two child types: then the neighbor is on the other face.
   const auto ends = tri::kEdgeEndChild[static_cast<int>(dir)];
-  const uint64_t a = ends[0] * (TriCode<P>::kEvenBits & tri_internal::LowPairs<P>(n));
-  const uint64_t b = ends[1] * (TriCode<P>::kEvenBits & tri_internal::LowPairs<P>(n));
+  const uint64_t ones = tri_internal::kLowBits & tri_internal::LowPairs(n);
+  const uint64_t a = ends[0] * ones, b = ends[1] * ones;
   const uint64_t diff_a = p ^ a, diff_b = p ^ b;
   // A pair differs from both ends when it is nonzero in both differences.
-  const uint64_t nz_a = (diff_a | diff_a >> 1) & TriCode<P>::kEvenBits;
-  const uint64_t nz_b = (diff_b | diff_b >> 1) & TriCode<P>::kEvenBits;
+  const uint64_t nz_a = (diff_a | diff_a >> 1) & tri_internal::kLowBits;
+  const uint64_t nz_b = (diff_b | diff_b >> 1) & tri_internal::kLowBits;
   if ((nz_a & nz_b) == 0) return tri::kCrossings<P>[code.face()][static_cast<int>(dir)].edge;
   return dir == TriDirection::kVertical ? dir
          : dir == TriDirection::kLeft   ? TriDirection::kRight

@@ -77,17 +77,17 @@ TEST(TriGeometry, ChildrenAreWhereFigure1PutsThem) {
   EXPECT_LT(SignedArea(center), 0);
 }
 
-// For every level up to 6 (5 on the icosahedron): every edge of the level's
-// mesh is shared by exactly two triangles that run along it in opposite
-// directions, every triangle turns as its orientation says, and the areas of
-// each face's triangles sum to the face's. Together: the level tiles the
-// solid.
+// For every level to 8: every triangle turns as its orientation says and
+// the areas of each face's triangles sum to the face's; to level 6 (5 on
+// the icosahedron, 82k triangles) also: every edge of the level's mesh is
+// shared by exactly two triangles that run along it in opposite directions.
+// Together: the level tiles the solid.
 TYPED_TEST(TriGeometryTest, EveryLevelTilesTheSolid) {
   constexpr Polyhedron P = TestFixture::kSolid;
   using Code = typename TestFixture::CodeType;
-  const int max_level = P == Polyhedron::kIcosahedron ? 5 : 6;
+  const int edge_level = P == Polyhedron::kIcosahedron ? 5 : 6;
   const double face_area = std::abs(SignedArea(PolyhedronVertices(Code::Face(0))));
-  for (int level = 0; level <= max_level; ++level) {
+  for (int level = 0; level <= 8; ++level) {
     SCOPED_TRACE(level);
     std::map<std::pair<SolidPoint, SolidPoint>, int> directed;
     std::vector<double> area(Code::kFaces, 0.0);
@@ -99,7 +99,9 @@ TYPED_TEST(TriGeometryTest, EveryLevelTilesTheSolid) {
       // Counterclockwise seen from outside: (apex, left, right) on tip-up
       // triangles, (apex, right, left) on tip-down ones.
       if (a < 0) std::swap(v[1], v[2]);
-      for (int i = 0; i < 3; ++i) ++directed[{v[i], v[(i + 1) % 3]}];
+      if (level <= edge_level) {
+        for (int i = 0; i < 3; ++i) ++directed[{v[i], v[(i + 1) % 3]}];
+      }
       ASSERT_NEAR(std::abs(a), face_area / std::pow(4.0, level), 1e-12);
       area[c.face()] += std::abs(a);
     }
@@ -107,8 +109,10 @@ TYPED_TEST(TriGeometryTest, EveryLevelTilesTheSolid) {
       ASSERT_EQ(count, 1) << "an edge run twice the same way";
       ASSERT_EQ(directed.count({edge.second, edge.first}), 1u) << "an edge with one side";
     }
-    ASSERT_EQ(directed.size(), 3 * AllCodesAtLevel<P>(level).size());
-    for (int f = 0; f < Code::kFaces; ++f) EXPECT_NEAR(area[f], face_area, 1e-12);
+    if (level <= edge_level) {
+      ASSERT_EQ(directed.size(), 3 * AllCodesAtLevel<P>(level).size());
+    }
+    for (int f = 0; f < Code::kFaces; ++f) EXPECT_NEAR(area[f], face_area, 1e-10);
   }
 }
 
