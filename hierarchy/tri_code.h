@@ -44,8 +44,9 @@
 // Inside algorithms the path is used right-aligned (path()): bits 1..0 are
 // the code's own child type, bits 2i+1..2i the child type of its i-th
 // ancestor. This is the seed's CODE word for the constant-time algorithm
-// (2.4), with the depth-i node's pair at the bottom ("add 2^i" of 2.4.1 is
-// our add 1).
+// (2.4) with the node's own pair at the bottom, so moving right adds 1 at
+// every depth. (2.4.1 says a node at depth i of a code left-aligned to depth
+// n adds "2^i": the lowest bit of its pair is 4^(n-i) = 2^(2(n-i)).)
 //
 // None() is a distinguished invalid code (all key bits set: level 31 is out
 // of range) returned where no triangle is meant.
