@@ -6,6 +6,10 @@
 //
 //   build/release/bench/tri_bench --benchmark_min_time=0.3
 //
+// The IcosaLeafStore benchmarks time the same through the LMDB leaf store
+// (storage/tri_leaf_store.h): a durable refine, and the reads that each
+// take one read transaction and one or two B-tree searches.
+//
 // "worst" codes have only the two child types that lie along the sought
 // edge (left 00/01, right 00/11, vertical 01/11): the scan climbs to the
 // base face, crosses to the next face and rewrites every level; the
@@ -15,13 +19,18 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
 #include <random>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "bench/bench_util.h"
 #include "hierarchy/tri_geometry.h"
 #include "hierarchy/tri_neighbors.h"
+#include "storage/tri_leaf_store.h"
 
 namespace simplexdb {
 namespace {
@@ -170,6 +179,61 @@ void RegisterGreaterOrEqual() {
   });
 }
 
+// The LMDB leaf store: an icosahedron refined at 1000 random level-12
+// triangles (about 27,000 leaves), in the benchmarks' scratch directory.
+void RegisterLeafStore() {
+  using Store = TriLeafStore<Polyhedron::kIcosahedron>;
+  const auto make = [](const char* name) {
+    const std::string path = WorkDir() + "/" + name;
+    std::filesystem::remove(path);
+    std::filesystem::remove(path + "-lock");
+    std::unique_ptr<Store> store = Store::Create(path).value();
+    std::mt19937_64 rng(1);
+    for (int i = 0; i < 1000; ++i) {
+      if (!store->Refine(Codes<Polyhedron::kIcosahedron>(12, 0, false, rng())[0]).ok()) abort();
+    }
+    return store;
+  };
+  const auto cleanup = [](const Store& store) {
+    std::filesystem::remove(store.path());
+    std::filesystem::remove(store.path() + "-lock");
+  };
+  benchmark::RegisterBenchmark("IcosaLeafStore/Refine", [=](benchmark::State& s) {
+    std::unique_ptr<Store> store = make("refine.tri");
+    const auto codes = Codes<Polyhedron::kIcosahedron>(16, 0, false, 8);
+    size_t i = 0;
+    for (auto _ : s) {
+      if (!store->Refine(codes[i]).ok()) s.SkipWithError("refine failed");
+      i = (i + 1) & (kCodes - 1);
+    }
+    s.counters["leaves"] = static_cast<double>(store->LeafCount().value());
+    cleanup(*store);
+  });
+  benchmark::RegisterBenchmark("IcosaLeafStore/Neighbor", [=](benchmark::State& s) {
+    std::unique_ptr<Store> store = make("neighbor.tri");
+    const std::vector<IcosaCode> leaves = store->Leaves().value();
+    std::mt19937_64 rng(2);
+    std::vector<IcosaCode> queries(kCodes);
+    for (auto& q : queries) q = leaves[rng() % leaves.size()];
+    size_t i = 0;
+    for (auto _ : s) {
+      benchmark::DoNotOptimize(store->Neighbor(queries[i], static_cast<TriDirection>(i % 3)));
+      i = (i + 1) & (kCodes - 1);
+    }
+    s.counters["leaves"] = static_cast<double>(leaves.size());
+    cleanup(*store);
+  });
+  benchmark::RegisterBenchmark("IcosaLeafStore/LeafAt", [=](benchmark::State& s) {
+    std::unique_ptr<Store> store = make("leafat.tri");
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> lat(-90, 90), lng(-180, 180);
+    std::vector<LatLng> points(kCodes);
+    for (auto& p : points) p = {lat(rng), lng(rng)};
+    RunOver(s, points, [&](LatLng p) { return store->LeafAt(p); });
+    cleanup(*store);
+  });
+}
+
 }  // namespace
 }  // namespace simplexdb
 
@@ -181,6 +245,7 @@ int main(int argc, char** argv) {
   RegisterWalks<Polyhedron::kIcosahedron>({6, 16, IcosaCode::kMaxLevel});
   RegisterGeometry<Polyhedron::kIcosahedron>({6, 16, IcosaCode::kMaxLevel});
   RegisterGreaterOrEqual();
+  RegisterLeafStore();
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();
