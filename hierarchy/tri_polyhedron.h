@@ -56,7 +56,22 @@
 //               01<->11: NEXTTAB followed by the reflection; the constant-time
 //               algorithm reflects the *result* of CONSTANT_LEFT/RIGHT/
 //               VERTICAL (TET_CONSTANT_RIGHT, 2.5.2). The text has no table
-//               for the scan (2.3) on the tetrahedron: kEdgeMap is it.
+//               for the scan (2.3) on the tetrahedron: FaceCrossing::map is
+//               it.
+//
+// Where chapter 2's text needs care (each settled by the tests named above):
+// - The nets (Figs. 5, 15, 17, 19) are missing; derived as described.
+// - 2.4.5 and 2.5.1 reflect the *input* path on a mirrored edge, 2.5.2
+//   reflects the *result* of CONSTANT_RIGHT/LEFT/VERTICAL on a flipped one.
+//   That difference is right, not a slip: the two gluings differ (apex to
+//   apex against apex to far end).
+// - 2.3 and 2.5 give the scan's cross-face step only for the icosahedron
+//   (REFLTOP); the octahedron's left and right edges are all mirrored
+//   (REFLTOP again), the tetrahedron's flips need the reversed maps.
+// - 2.4.1's "add or subtract 2^i" for a node at depth i is wrong for a
+//   code left-aligned to depth n, where it is 4^(n-i); with the path
+//   right-aligned, as here, it is 1 (hierarchy/tri_code.h).
+// - 2.4.3's example names "RCODE[4]" where LCODE[4] is meant.
 #pragma once
 
 #include <array>
