@@ -569,7 +569,7 @@ def write_results(sets, results, rates, context, scale, plots, pictures, a, seco
 Written by `{command}` on {datetime.date.today().isoformat()} in {seconds / 60:.0f} minutes; every
 figure below comes from that run. Machine: {machine()}.
 
-Rerun: `bench/experiments.py` (all of it; about an hour on this machine, a third of it
+Rerun: `bench/experiments.py` (all of it; about 30 minutes on this machine, most of it
 building the 1025^3 store) or `bench/experiments.py --quick` (no 1025^3 store, shorter
 benchmark runs). Volumes and stores go to `--work` (default /tmp/simplexdb-experiments) and
 are reused. Each query is a `simplexdb extract` call whose `--format json` statistics give
