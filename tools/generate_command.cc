@@ -148,7 +148,7 @@ void RunTo4d(const To4dArgs& a) {
     if (!a.type.empty()) throw CommandError("--type describes raw input and needs --dims", 2);
     in = OpenVolume(a.input);
   } else {
-    Result<VoxelType> type = ParseVoxelType(a.type.empty() ? "" : a.type);
+    Result<VoxelType> type = ParseVoxelType(a.type);
     if (!type.ok()) throw CommandError("raw input needs --type: " + std::string(type.status().message()), 2);
     int dimension = 0;
     const std::array<uint32_t, 4> dims = ParseDims(a.dims, &dimension);

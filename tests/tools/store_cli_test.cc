@@ -63,6 +63,36 @@ TEST(StoreCli, GenerateImportInfoVerifyExport) {
   }
 }
 
+// to4d end to end: the seed's construction of a 4D set (section 4.7) as a
+// NRRD the importer reads as an HP; values checked against the 3D input.
+TEST(StoreCli, To4dLaysSubgridsAlongTime) {
+  const TempDir dir;
+  const std::string in = dir.path() + "/b.nrrd", out = dir.path() + "/b4.nrrd";
+  ASSERT_EQ(RunCli("generate --field perlin --dims 17,17,13 --type uint8 -q -o " + in).exit_code, 0);
+  auto r = RunCli("to4d " + in + " -o " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const VolumeInfo v = *OpenVolume(out);
+  EXPECT_EQ(v.dimension, 4);
+  EXPECT_EQ(v.dims, (std::array<uint32_t, 4>{5, 5, 4, 5}));  // (n - 1) / 4 + 1; steps: the longest axis
+  EXPECT_EQ(v.type, VoxelType::kU8);
+  const std::vector<double> a = ReadVolumeValues(in), b = ReadVolumeValues(out);
+  // Time step 4 of point (1, 2, 3) is input point (4 + 0, 8 + 1, 12 + 0),
+  // time step 3 of point (4, 2, 3) input point (16 + 3, 8, 12) clamped to x = 16.
+  ASSERT_EQ(b.size(), 5u * 5 * 4 * 5);
+  EXPECT_EQ(b.at(((4 * 4 + 3) * 5 + 2) * 5 + 1), a.at((12 * 17 + 9) * 17 + 4));
+  EXPECT_EQ(b.at(((3 * 4 + 3) * 5 + 2) * 5 + 4), a.at((12 * 17 + 8) * 17 + 16));
+  ASSERT_EQ(RunCli("import " + out + " -o " + dir.path() + "/b4.sdb -q").exit_code, 0);
+  r = RunCli("info " + dir.path() + "/b4.sdb --json");
+  EXPECT_EQ(nlohmann::json::parse(r.out)["hierarchy"], "hp");
+  r = RunCli("to4d " + out + " -o " + dir.path() + "/x.nrrd");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("b4.nrrd"), std::string::npos) << r.err;
+  r = RunCli("to4d " + in + " --steps 65 -o " + dir.path() + "/x.nrrd");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("65"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path() + "/x.nrrd"));
+}
+
 TEST(StoreCli, RealVolumesAndTimeSeries) {
   const std::string data = SIMPLEXDB_SHARED_DATA;
   if (!fs::exists(data)) GTEST_SKIP() << "no " << data;
