@@ -143,17 +143,17 @@ struct To4dArgs {
 };
 
 void RunTo4d(const To4dArgs& a) {
-  Result<VolumeInfo> in = Status::OK();
-  if (a.dims.empty()) {
-    if (!a.type.empty()) throw CommandError("--type describes raw input and needs --dims", 2);
-    in = OpenVolume(a.input);
-  } else {
+  const Result<VolumeInfo> in = [&]() -> Result<VolumeInfo> {
+    if (a.dims.empty()) {
+      if (!a.type.empty()) throw CommandError("--type describes raw input and needs --dims", 2);
+      return OpenVolume(a.input);
+    }
     Result<VoxelType> type = ParseVoxelType(a.type);
     if (!type.ok()) throw CommandError("raw input needs --type: " + std::string(type.status().message()), 2);
     int dimension = 0;
     const std::array<uint32_t, 4> dims = ParseDims(a.dims, &dimension);
-    in = OpenRawVolume(a.input, dimension, dims, *type, ByteOrder::kLittle, 0);
-  }
+    return OpenRawVolume(a.input, dimension, dims, *type, ByteOrder::kLittle, 0);
+  }();
   if (!in.ok()) Fail(in.status());
   uint32_t steps = a.steps;
   if (steps == 0) {  // a 4D cube when the subgrid holds enough points
