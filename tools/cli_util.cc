@@ -82,6 +82,55 @@ uint64_t PeakResidentBytes() {
   return static_cast<uint64_t>(r.ru_maxrss) * 1024;  // Linux reports KiB
 }
 
+void AddRawInputOptions(CLI::App* cmd, RawInputOptions* raw, const std::string& dims_help) {
+  cmd->add_option("--dims", raw->dims, dims_help);
+  cmd->add_option("--type", raw->type, "raw input: uint8|int8|uint16|int16|float32|float64");
+  cmd->add_option("--endian", raw->endian, "raw input: little|big")->capture_default_str();
+  cmd->add_option("--offset", raw->offset, "raw input: header bytes to skip")->capture_default_str();
+}
+
+VolumeInfo OpenInputs(const std::vector<std::string>& inputs, const RawInputOptions& raw) {
+  if (raw.dims.empty()) {
+    if (!raw.type.empty() || raw.offset != 0) {
+      throw CommandError("--type and --offset describe raw input and need --dims", 2);
+    }
+    Result<VolumeInfo> v = inputs.size() == 1 ? OpenVolume(inputs[0]) : OpenTimeSeries(inputs);
+    if (!v.ok()) Fail(v.status());
+    return *std::move(v);
+  }
+  if (raw.type.empty()) throw CommandError("raw input needs --type (e.g. --type uint8)", 2);
+  Result<VoxelType> type = ParseVoxelType(raw.type);
+  if (!type.ok()) throw CommandError("--type: " + std::string(type.status().message()), 2);
+  if (raw.endian != "little" && raw.endian != "big") {
+    throw CommandError("--endian: expected little or big, not '" + raw.endian + "'", 2);
+  }
+  const ByteOrder order = raw.endian == "big" ? ByteOrder::kBig : ByteOrder::kLittle;
+  int dimension = 0;
+  const std::array<uint32_t, 4> dims = ParseDims(raw.dims, &dimension);
+  if (inputs.size() == 1) {
+    Result<VolumeInfo> v = OpenRawVolume(inputs[0], dimension, dims, *type, order, raw.offset);
+    if (!v.ok()) Fail(v.status());
+    return *std::move(v);
+  }
+  // A time series of raw 3D volumes: one 4D volume, t in the order given.
+  if (dimension != 3) {
+    throw CommandError("several raw inputs form a time series of 3D volumes: give --dims X,Y,Z",
+                       2);
+  }
+  VolumeInfo series;
+  for (const std::string& path : inputs) {
+    Result<VolumeInfo> v = OpenRawVolume(path, 3, dims, *type, order, raw.offset);
+    if (!v.ok()) Fail(v.status());
+    if (series.files.empty()) series = *v;
+    else series.files.push_back(path);
+  }
+  series.dimension = 4;
+  series.dims[3] = static_cast<uint32_t>(inputs.size());
+  series.description = fmt::format("time series of {} raw volumes ({}, ...)", inputs.size(),
+                                   inputs[0]);
+  return series;
+}
+
 uint64_t AnonymousResidentBytes() {
   std::ifstream status("/proc/self/status");
   std::string key;

@@ -17,6 +17,7 @@
 
 #include "storage/dense_builder.h"
 #include "storage/dense_store.h"
+#include "storage/volume.h"
 #include "tools/commands.h"
 #include "util/status.h"
 
@@ -39,6 +40,24 @@ double ParseAmount(std::string_view text, const char* option, double range);
 
 // Grid dimensions "X,Y,Z[,T]": every entry a whole number >= 2.
 std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension);
+
+// How raw input is laid out (--dims, --type, --endian, --offset); empty
+// dims: the inputs describe themselves (NRRD, NIfTI-1).
+struct RawInputOptions {
+  std::string dims;
+  std::string type;
+  std::string endian = "little";
+  uint64_t offset = 0;
+};
+
+// Adds --dims, --type, --endian and --offset to `cmd`, bound to `raw` (which
+// must outlive the command). `dims_help` says which grids the command takes.
+void AddRawInputOptions(CLI::App* cmd, RawInputOptions* raw, const std::string& dims_help);
+
+// Opens the input volume: one file, or several 3D files forming a time
+// series (t in the order given). Throws CommandError (exit 2) for raw
+// options that do not fit together, Fail()s with the reader's reason.
+VolumeInfo OpenInputs(const std::vector<std::string>& inputs, const RawInputOptions& raw);
 
 // "1.5 GiB", "312 KiB", "17 B".
 std::string HumanBytes(uint64_t bytes);

@@ -100,9 +100,9 @@ void WriteSliceSeries(const Mesh<4>& mesh, Source& source, const std::vector<dou
   if (!out.flush()) throw CommandError(fmt::format("{}: cannot write", output));
 }
 
-template <int D, class Source>
 // `dense`: the store behind `source` when it is a dense one (its cache is
 // reported), null for the sparse store.
+template <int D, class Source>
 void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nullptr) {
   const SourceInfo& info = source.info();
   CriteriaSpec spec;

@@ -136,36 +136,26 @@ void RunGenerate(const GenerateArgs& a) {
 }
 
 struct To4dArgs {
-  std::string input, output, dims, type;
+  std::string input, output;
+  RawInputOptions raw;
   uint32_t subgrid = 4;
   uint32_t steps = 0;
   bool quiet = false;
 };
 
 void RunTo4d(const To4dArgs& a) {
-  const Result<VolumeInfo> in = [&]() -> Result<VolumeInfo> {
-    if (a.dims.empty()) {
-      if (!a.type.empty()) throw CommandError("--type describes raw input and needs --dims", 2);
-      return OpenVolume(a.input);
-    }
-    Result<VoxelType> type = ParseVoxelType(a.type);
-    if (!type.ok()) throw CommandError("raw input needs --type: " + std::string(type.status().message()), 2);
-    int dimension = 0;
-    const std::array<uint32_t, 4> dims = ParseDims(a.dims, &dimension);
-    return OpenRawVolume(a.input, dimension, dims, *type, ByteOrder::kLittle, 0);
-  }();
-  if (!in.ok()) Fail(in.status());
+  const VolumeInfo in = OpenInputs({a.input}, a.raw);
   uint32_t steps = a.steps;
   if (steps == 0) {  // a 4D cube when the subgrid holds enough points
-    for (int i = 0; i < 3; ++i) steps = std::max(steps, SubgridAxis(in->dims[i], a.subgrid));
+    for (int i = 0; i < 3; ++i) steps = std::max(steps, SubgridAxis(in.dims[i], a.subgrid));
     steps = std::min(steps, a.subgrid * a.subgrid * a.subgrid);
   }
-  Result<SubgridTimeVolume> out = SubgridsToTime(*in, a.subgrid, steps);
+  Result<SubgridTimeVolume> out = SubgridsToTime(in, a.subgrid, steps);
   if (!out.ok()) throw CommandError(std::string(out.status().message()), 2);
-  if (Status s = WriteNrrd(a.output, 4, out->dims, in->type, out->values); !s.ok()) Fail(s);
+  if (Status s = WriteNrrd(a.output, 4, out->dims, in.type, out->values); !s.ok()) Fail(s);
   if (!a.quiet) {
     fmt::print("{}: {} from {} ({}), {}^3 subgrids as {} time steps\n", a.output,
-               FormatDims(4, out->dims), a.input, FormatDims(3, in->dims), a.subgrid, steps);
+               FormatDims(4, out->dims), a.input, FormatDims(3, in.dims), a.subgrid, steps);
   }
 }
 
@@ -186,8 +176,7 @@ void RegisterTo4dCommand(CLI::App& app) {
   cmd->add_option("--subgrid", a->subgrid, "S, the side of a subgrid")->capture_default_str();
   cmd->add_option("--steps", a->steps,
                   "time steps, 2..S^3 (default: the longest output axis, at most S^3)");
-  cmd->add_option("--dims", a->dims, "raw input: X,Y,Z (x fastest, little endian)");
-  cmd->add_option("--type", a->type, "raw input: uint8|int8|uint16|int16|float32|float64");
+  AddRawInputOptions(cmd, &a->raw, "raw input: X,Y,Z (x fastest)");
   cmd->add_flag("-q,--quiet", a->quiet, "no summary");
   cmd->callback([a] { RunTo4d(*a); });
 }

@@ -32,10 +32,7 @@ struct ImportArgs {
   std::vector<std::string> inputs;
   std::string output;
   std::string hierarchy;
-  std::string dims;
-  std::string type;
-  std::string endian = "little";
-  uint64_t offset = 0;
+  RawInputOptions raw;
   std::string quantization = "u16";
   std::string compression = "zstd";
   bool sparse = false;
@@ -49,51 +46,9 @@ struct ImportArgs {
   bool quiet = false;
 };
 
-VolumeInfo OpenInputs(const ImportArgs& a) {
-  if (a.dims.empty()) {
-    if (!a.type.empty() || a.offset != 0) {
-      throw CommandError("--type and --offset describe raw input and need --dims", 2);
-    }
-    Result<VolumeInfo> v = a.inputs.size() == 1 ? OpenVolume(a.inputs[0]) : OpenTimeSeries(a.inputs);
-    if (!v.ok()) Fail(v.status());
-    return *std::move(v);
-  }
-  if (a.type.empty()) throw CommandError("raw input needs --type (e.g. --type uint8)", 2);
-  Result<VoxelType> type = ParseVoxelType(a.type);
-  if (!type.ok()) throw CommandError("--type: " + std::string(type.status().message()), 2);
-  if (a.endian != "little" && a.endian != "big") {
-    throw CommandError("--endian: expected little or big, not '" + a.endian + "'", 2);
-  }
-  const ByteOrder order = a.endian == "big" ? ByteOrder::kBig : ByteOrder::kLittle;
-  int dimension = 0;
-  const std::array<uint32_t, 4> dims = ParseDims(a.dims, &dimension);
-  if (a.inputs.size() == 1) {
-    Result<VolumeInfo> v = OpenRawVolume(a.inputs[0], dimension, dims, *type, order, a.offset);
-    if (!v.ok()) Fail(v.status());
-    return *std::move(v);
-  }
-  // A time series of raw 3D volumes: one 4D volume, t in the order given.
-  if (dimension != 3) {
-    throw CommandError("several raw inputs form a time series of 3D volumes: give --dims X,Y,Z",
-                       2);
-  }
-  VolumeInfo series;
-  for (const std::string& path : a.inputs) {
-    Result<VolumeInfo> v = OpenRawVolume(path, 3, dims, *type, order, a.offset);
-    if (!v.ok()) Fail(v.status());
-    if (series.files.empty()) series = *v;
-    else series.files.push_back(path);
-  }
-  series.dimension = 4;
-  series.dims[3] = static_cast<uint32_t>(a.inputs.size());
-  series.description = fmt::format("time series of {} raw volumes ({}, ...)", a.inputs.size(),
-                                   a.inputs[0]);
-  return series;
-}
-
 void RunImport(const ImportArgs& a) {
   if (!a.sparse && a.tolerance != "0") throw CommandError("--tolerance needs --sparse", 2);
-  const VolumeInfo input = OpenInputs(a);
+  const VolumeInfo input = OpenInputs(a.inputs, a.raw);
   const std::string expected = HierarchyName(input.dimension);
   if (!a.hierarchy.empty() && a.hierarchy != expected) {
     throw CommandError(fmt::format("--hierarchy {} needs a {}D volume; {} is {}D ({})", a.hierarchy,
@@ -332,10 +287,7 @@ void RegisterStoreCommands(CLI::App& app) {
     cmd->add_option("-o,--output", a->output, "the store to write")->required();
     cmd->add_option("--hierarchy", a->hierarchy, "ht or hp (checked against the volume)")
         ->check(CLI::IsMember({"ht", "hp"}));
-    cmd->add_option("--dims", a->dims, "raw input: X,Y,Z or X,Y,Z,T (x fastest)");
-    cmd->add_option("--type", a->type, "raw input: uint8|int8|uint16|int16|float32|float64");
-    cmd->add_option("--endian", a->endian, "raw input: little|big")->capture_default_str();
-    cmd->add_option("--offset", a->offset, "raw input: header bytes to skip")->capture_default_str();
+    AddRawInputOptions(cmd, &a->raw, "raw input: X,Y,Z or X,Y,Z,T (x fastest)");
     cmd->add_option("--quantization", a->quantization,
                     "errors as u16 (the seed's 14n bytes), u8 (7n) or f32; always rounded up")
         ->capture_default_str();
