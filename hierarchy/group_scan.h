@@ -84,6 +84,34 @@ constexpr uint64_t GroupBitMask(int j) {
   return m;
 }
 
+// The tail steps (TailSteps<D>) as a cursor reads them: for each r one flat
+// array with a row of kTailRow entries per tail value, so that the row of
+// tail bits `tail` starts at entry tail * kTailRow, and with each flip scaled
+// to the same units: a step that flips tail bit f moves a cursor's row offset
+// by f * kTailRow, an XOR, and the next step reads its entry with one load.
+inline constexpr int kTailRow = 8;
+
+template <int D>
+struct TailRows {
+  static_assert(D + 1 <= kTailRow && (kTailRow << (D - 2)) < 256);  // flips fit a byte
+  using Table = std::array<std::array<TailStep, kTailRow << (D - 1)>, D>;
+
+  static constexpr Table Derive() {
+    Table t{};
+    for (int r = 0; r < D; ++r) {
+      for (int bits = 0; bits < (1 << r); ++bits) {
+        for (int k = 0; k < D + 1; ++k) {
+          const TailStep s = TailSteps<D>::kTable[r][bits][k];
+          t[r][bits * kTailRow + k] = TailStep{static_cast<uint8_t>(s.flip * kTailRow), s.type};
+        }
+      }
+    }
+    return t;
+  }
+
+  static constexpr Table kTable = Derive();
+};
+
 // What a constant-time step needs that depends only on the level, which
 // never changes along a walk: computed once per cursor.
 template <int D>
@@ -94,14 +122,14 @@ struct LevelShape {
         groups((uint64_t{1} << n) - 1),
         pos1(GroupBitMask<D>(1) & groups),
         root_bit(uint64_t{1} << n),
-        tail(&TailSteps<D>::kTable[r]) {}
+        tail(TailRows<D>::kTable[r].data()) {}
 
   int r;            // levels in the tail (below the last full group)
   int n;            // bits in the group word Q = path >> r
   uint64_t groups;    // (1 << n) - 1
   uint64_t pos1;      // bit 1 of every group of Q
   uint64_t root_bit;  // bit n: where the neighbor mask keeps the root's slot
-  const std::array<std::array<TailStep, D + 1>, (1 << (D - 1))>* tail;  // TailSteps<D>::kTable[r]
+  const TailStep* tail;  // TailRows<D>::kTable[r]
 };
 
 }  // namespace simplexdb

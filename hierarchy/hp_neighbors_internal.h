@@ -130,12 +130,17 @@ constexpr uint64_t NeighborMaskOfGroups(uint64_t q, int n) {
 // the position of the stop test of the type k becomes there: bit 2 for type
 // 3, bit 3 for type 4, bit 4 for type 5 (the positions where `stops` in
 // StepInPlace holds the tests). Same information as the seed's 2-bit codes,
-// decoded once instead of on every step.
+// decoded once instead of on every step. The root's slot is kept in lane 15
+// (bits 60-63), whatever the level: no group word reaches it (n <= 52), and
+// a step reads it with a constant shift.
 struct Selectors {
   // of[3], of[4], of[5]: the selectors; of[2] = bit 1 of every group, the
   // stop test of type 2 (4.4.2), which never changes; of[0], of[1] = 0.
   uint64_t of[6];
 };
+
+inline constexpr int kRootSlot = 60;  // the selectors' root lane
+inline constexpr uint64_t kBelowRootSlot = (uint64_t{1} << kRootSlot) - 1;
 
 // From the seed's codes (a 2-bit code per lane at bits 1-2) to selectors.
 constexpr uint64_t SelectorOfCodes(uint64_t codes) {
@@ -151,32 +156,85 @@ constexpr uint64_t CodesOfSelector(uint64_t sel) {
   return (at3 << 2 | at4 << 3) | (at2 | at4 << 2);
 }
 
-constexpr Selectors SelectorsOfMask(uint64_t mask) {
+// The neighbor mask of `n` group bits (root's slot in lane n / 4) as
+// selectors, and back.
+// REQUIRES: n % 4 == 0, n <= 52.
+constexpr Selectors SelectorsOfMask(uint64_t mask, int n) {
+  assert(n % 4 == 0 && n <= 52);
+  const uint64_t groups = (uint64_t{1} << n) - 1;
+  const auto root_to_slot = [&](uint64_t sel) {
+    return (sel & groups) | (sel >> n & 0xF) << kRootSlot;
+  };
   const uint64_t pair1 = mask & kPos12Mask;         // P(3)
   const uint64_t pair2 = (mask & kPos34Mask) << 2;  // P(4), moved to bits 1-2
-  return Selectors{{0, 0, kPos1Mask, SelectorOfCodes(pair1), SelectorOfCodes(pair2),
-                    SelectorOfCodes(pair1 ^ pair2)}};
+  return Selectors{{0, 0, kPos1Mask & groups, root_to_slot(SelectorOfCodes(pair1)),
+                    root_to_slot(SelectorOfCodes(pair2)),
+                    root_to_slot(SelectorOfCodes(pair1 ^ pair2))}};
 }
 
-constexpr uint64_t MaskOfSelectors(const Selectors& s) {
-  return CodesOfSelector(s.of[3]) | CodesOfSelector(s.of[4]) >> 2;
+constexpr uint64_t MaskOfSelectors(const Selectors& s, int n) {
+  const auto slot_to_root = [&](uint64_t sel) {
+    return (sel & kBelowRootSlot) | (sel >> kRootSlot) << n;
+  };
+  return CodesOfSelector(slot_to_root(s.of[3])) | CodesOfSelector(slot_to_root(s.of[4])) >> 2;
 }
 
-// The constant-time algorithm of 4.4 on a code split into its group word `q`
-// and its `tail`. On success updates `top`, `q`, `tail` and `sel` in place
-// and returns true; on the boundary returns false and changes nothing.
+// The cursor keeps the group word as its stop tests (see StepInPlace): the
+// word `stops` has, at each group's bit 1, 2, 3 and 4 position, bit 1, bit 2,
+// bit 1 == bit 3 and bit 2 == bit 4. A flip changes it by a few bits, so a
+// step updates it instead of recomputing it. Bits 1 and 2 are kept as they
+// are, so the map is one-to-one.
+constexpr uint64_t StopsOfGroups(uint64_t q) { return ((~q & kPos12Mask) >> 2) ^ q; }
+constexpr uint64_t GroupsOfStops(uint64_t stops) {
+  const uint64_t bits12 = stops & kPos12Mask;
+  return bits12 | ((stops ^ (~bits12 & kPos12Mask) >> 2) & kPos34Mask);
+}
+
+// Where a step that ran past the top group goes, indexed by the root and the
+// selector's root slot (4, 2 or 1: type 3, 4 or 5 reaches level 0; 0: types
+// 0-2, which never cross): top ^ the root across, or 0 on the boundary (a
+// root's neighbor is never itself). The XOR form lets a step update `top`
+// without a second lookup or a select on the sought type.
+inline constexpr auto kRootCrossings = [] {
+  std::array<std::array<uint8_t, 8>, 24> t{};
+  for (int top = 0; top < 24; ++top) {
+    for (const int slot : {4, 2, 1}) {
+      const int type = slot == 4 ? 3 : slot == 2 ? 4 : 5;
+      const int other = kRootFaceToRoot<4>[top][type - 1];
+      t[top][slot] = static_cast<uint8_t>(other < 0 ? 0 : top ^ other);
+    }
+  }
+  return t;
+}();
+
+// NEIGHBOR_1 (4.4.1) flips bit 4 of group 0 (the sibling of the pentatope at
+// level 4G) whatever the group holds: a constant per sought type.
+inline constexpr uint64_t kSiblingFlip[6] = {0, 1, 0, 0, 0, 0};
+
+// For a sought type k in {3, 4, 5}, the two other types of {3, 4, 5}, one of
+// which trades its selector with k's after a type-3 or type-4 stop (the rows
+// for k < 3 are never used for a trade: see StepInPlace).
+inline constexpr uint8_t kTradePartners[6][2] = {{4, 5}, {4, 5}, {4, 5},
+                                                 {4, 5}, {3, 5}, {3, 4}};
+
+// The constant-time algorithm of 4.4 on a code split into its group word,
+// kept as `stops` = StopsOfGroups(path >> r), and its tail, kept as the
+// offset `row` = tail * kTailRow of its row in shape.tail. On success updates
+// `top`, `stops`, `row` and `sel` in place and returns true; on the boundary
+// returns false and changes nothing.
 // Branch-free, like the HT's: every candidate is computed and the right one
-// selected.
-// `steps` caches TailSteps<4>::kTable[r][tail], refreshed here after a flip
-// in the tail, so finding the sought type is one load.
-// REQUIRES: `sel` is SelectorsOfMask(NeighborMaskOfGroups(q, shape.n));
-//           `shape` is LevelShape<4>(level); `steps` is
-//           (*shape.tail)[tail]; 1 <= type <= 5.
-SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& tail,
-                                             std::array<TailStep, 5>& steps, Selectors& sel,
-                                             const LevelShape<4>& shape, int type) {
+// selected. The per-type choices are table loads rather than compares, and
+// the partner that trades selectors is chosen with masks, not by an index,
+// which would put two more loads on the path from one step to the next (a
+// walk's latency: bench/README.md).
+// REQUIRES: `sel` is SelectorsOfMask(NeighborMaskOfGroups(q, shape.n), shape.n)
+//           for the group word q; `shape` is LevelShape<4>(level);
+//           1 <= type <= 5.
+SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& stops, uint64_t& row,
+                                             Selectors& sel, const LevelShape<4>& shape,
+                                             int type) {
   assert(type >= 1 && type <= 5);
-  const TailStep t = steps[type - 1];
+  const TailStep t = shape.tail[row + type - 1];
   const int k = t.type;  // the type sought at level 4G; 0 after a tail flip
 
   // NEIGHBOR_2 to _5 (4.4.2, 4.4.3; Figs. 54, 55), all stop tests at once:
@@ -185,46 +243,50 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& ta
   // of the type each group sees. The stop flips the bit one above the test:
   // bit 4 of the group above (type 2, as type 1 of the group's top), bit 1,
   // 2 or 3. Past the top, type 2 meets root faces 2 or 1: the boundary.
+  // NEIGHBOR_1 is bit 0, ORed in below the shifted tests. Only the lowest
+  // candidate counts, so the root's slot, above every group, needs no
+  // masking before it is found; `groups` then cuts a flip past the top.
   const uint64_t sk = sel.of[k];  // 0 for types 0 (tail flip) and 1
-  const uint64_t stops = ((~q & kPos12Mask) >> 2) ^ q;
-  const uint64_t test = stops & sk & shape.groups;
-  // NEIGHBOR_1 (4.4.1), the sibling of the pentatope at level 4G, is bit 0:
-  // OR it in below the shifted tests (a table load, not a compare).
-  constexpr uint64_t kSiblingBit[6] = {0, 1, 0, 0, 0, 0};
-  const uint64_t candidates = test << 1 | kSiblingBit[k];
+  const uint64_t candidates = (stops & sk) << 1 | kSiblingFlip[k];
   const uint64_t flip = candidates & (0 - candidates) & shape.groups;
 
-  // 4.4.5: past the top group the root's slot tells the type at level 0.
-  const bool cross = (k >= 3) & (flip == 0);
-  // The root lane of the selector holds 4, 2 or 1 (type 3, 4 or 5 at the
-  // root); for types below 3 it is 0 and the answer unused.
-  const int at_root = static_cast<int>((sk >> shape.n) & 7);
-  const int other_root = kRootFaceToRoot<4>[top][4 - (at_root >> 1)];
-  if (!((k == 0) | (flip != 0) | (cross & (other_root >= 0)))) return false;
+  // 4.4.5: past the top group (flip == 0 for k >= 3) the root's slot tells
+  // the type at level 0. A tail flip, a flip in the groups or a crossing:
+  // anything else is the boundary, where every change below is zero (no
+  // flip, no trade, a crossing of 0), so the step needs no branch.
+  const uint64_t crossing = kRootCrossings[top][sk >> kRootSlot];
+  const bool moved = (t.flip | flip | crossing) != 0;
 
   // UPDATE (4.4.4, Fig. 56). Only a type-3 stop flips bit 1 (its bit 2 is 1:
   // 01 <-> 11, "swap 3 and 5") and only a type-4 stop flips bit 2 (00 <-> 01
   // "swap 4 and 5", 10 <-> 11 "swap 3 and 4"). Either way, above the group
   // the initial types that trade places are k and the one that sees, in
   // that group, type 4 (after a type-3 stop) or type 5 (after a type-4
-  // stop): its selector has the bit at flip >> 2 there. Any other flip
-  // leaves `above` empty and the selectors as they are.
+  // stop): its selector has the bit at flip >> 2 there, and it is one of k's
+  // two partners. Any other flip (every flip for k < 3) leaves `above`
+  // empty and the selectors as they are.
   const uint64_t flip12 = flip & kPos12Mask;
   const uint64_t probe = flip12 >> 2;
-  // The lanes above the group. After a bit-2 flip this also takes in the
-  // group's own bit-1 position, where only the never-traded type-2 selector
-  // has bits.
+  // The lanes above the group, the root's slot included. After a bit-2 flip
+  // this also takes in the group's own bit-1 position, where only the
+  // never-traded type-2 selector has bits.
   const uint64_t above = 0 - (flip12 << 1);
-  const int y = 5 - ((sel.of[4] & probe) != 0) - 2 * ((sel.of[3] & probe) != 0);
-  const uint64_t trade = (sk ^ sel.of[y]) & above;
-  sel.of[k] ^= trade;
-  sel.of[y] ^= trade;
+  const int a = kTradePartners[k][0], b = kTradePartners[k][1];
+  const uint64_t sa = sel.of[a], sb = sel.of[b];
+  // Which one: a mask from the probe bit up (the trade lies above it), or 0.
+  // Masks, not selects: GCC turns the selects into a branch, which random
+  // codes mispredict.
+  const uint64_t a_trades = 0 - (sa & probe);
+  const uint64_t trade_a = (sk ^ sa) & above & a_trades;
+  const uint64_t trade_b = (sk ^ sb) & above & ~a_trades;
+  sel.of[k] ^= trade_a | trade_b;
+  sel.of[a] ^= trade_a;
+  sel.of[b] ^= trade_b;
 
-  tail ^= t.flip;
-  steps = (*shape.tail)[tail];
-  q ^= flip;
-  top = cross ? other_root : top;
-  return true;
+  row ^= t.flip;
+  stops ^= flip ^ probe;  // the flipped bit's test, and for bits 1 and 2 the test two below
+  top ^= flip == 0 ? static_cast<int>(crossing) : 0;
+  return moved;
 }
 
 }  // namespace hp

@@ -77,24 +77,23 @@ constexpr uint64_t NeighborMaskOfGroups(uint64_t q) {
 }
 
 // The constant-time algorithm of 3.3 on a code split into its group word
-// `q` (path >> r) and its `tail` (the last r bits). On success updates `top`,
-// `q`, `tail` and `mask` in place and returns true; on the boundary returns
+// `q` (path >> r) and its tail (the last r bits), kept as the offset `row`
+// = tail * kTailRow of its row in shape.tail. On success updates `top`,
+// `q`, `row` and `mask` in place and returns true; on the boundary returns
 // false and changes nothing.
 //
 // Written without data-dependent branches: the candidate answers (a flip in
 // the tail; NEIGHBOR_1, _2 and _3/_4 in the groups; a crossing to another
 // root) are all computed and the right one is selected at the end, so
 // random codes cost what worst-case codes cost (bench/hierarchy_bench.cc).
-// `steps` caches TailSteps<3>::kTable[r][tail], refreshed here after a flip
-// in the tail, so finding the sought type is one load.
 // REQUIRES: `mask` is NeighborMaskOfGroups(q); `shape` is LevelShape<3>(level);
-//           `steps` is (*shape.tail)[tail]; 1 <= type <= 4.
-SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& tail,
-                                             std::array<TailStep, 4>& steps, uint64_t& mask,
-                                             const LevelShape<3>& shape, int type) {
+//           1 <= type <= 4.
+SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& row,
+                                             uint64_t& mask, const LevelShape<3>& shape,
+                                             int type) {
   assert(type >= 1 && type <= 4);
   // The tail first (for r = 0 its table row continues with `type`).
-  const TailStep t = steps[type - 1];
+  const TailStep t = shape.tail[row + type - 1];
   const int k = t.type;  // the type sought at level 3G; 0 after a tail flip
 
   // NEIGHBOR_1 (3.3.1): the sibling of the tetrahedron at level 3G; none for
@@ -133,8 +132,7 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& ta
   const int other_root = kRootFaceToRoot<3>[top][2 + ((k == 4) ^ swapped)];
   if (!((k == 0) | (flip != 0) | (cross & (other_root >= 0)))) return false;
 
-  tail ^= t.flip;
-  steps = (*shape.tail)[tail];
+  row ^= t.flip;
   q ^= flip;
   top = cross ? other_root : top;
   // UPDATE_MASK (3.3.5): flipping a bit 1 toggles the parity above it.

@@ -37,22 +37,27 @@ namespace simplexdb {
 namespace internal {
 
 // What the cursor keeps of the neighbor mask: the HT's mask word itself; for
-// the HP one selector word per initial type (hp::Selectors).
+// the HP one selector word per initial type (hp::Selectors). And how it keeps
+// the group word: the HT as is, the HP as its stop tests (hp::StopsOfGroups).
 template <int D>
 struct MaskState;
 template <>
 struct MaskState<3> {
   using Type = uint64_t;
   static constexpr Type Of(uint64_t q, int /*n*/) { return ht::NeighborMaskOfGroups(q); }
-  static constexpr uint64_t Mask(const Type& m) { return m; }
+  static constexpr uint64_t Mask(const Type& m, int /*n*/) { return m; }
+  static constexpr uint64_t Word(uint64_t q) { return q; }
+  static constexpr uint64_t Groups(uint64_t word) { return word; }
 };
 template <>
 struct MaskState<4> {
   using Type = hp::Selectors;
   static constexpr Type Of(uint64_t q, int n) {
-    return hp::SelectorsOfMask(hp::NeighborMaskOfGroups(q, n));
+    return hp::SelectorsOfMask(hp::NeighborMaskOfGroups(q, n), n);
   }
-  static constexpr uint64_t Mask(const Type& s) { return hp::MaskOfSelectors(s); }
+  static constexpr uint64_t Mask(const Type& s, int n) { return hp::MaskOfSelectors(s, n); }
+  static constexpr uint64_t Word(uint64_t q) { return hp::StopsOfGroups(q); }
+  static constexpr uint64_t Groups(uint64_t word) { return hp::GroupsOfStops(word); }
 };
 
 }  // namespace internal
@@ -66,37 +71,36 @@ class NeighborCursor {
   explicit constexpr NeighborCursor(SimplexCode<D> code)
       : shape_((assert(code.is_valid()), code.level())),
         top_(code.top()),
-        q_(code.path() >> shape_.r),
-        tail_(code.path() & ((uint64_t{1} << shape_.r) - 1)),
-        steps_((*shape_.tail)[tail_]),
-        mask_(internal::MaskState<D>::Of(q_, shape_.n)) {}
+        word_(internal::MaskState<D>::Word(code.path() >> shape_.r)),
+        row_((code.path() & ((uint64_t{1} << shape_.r) - 1)) * kTailRow),
+        mask_(internal::MaskState<D>::Of(code.path() >> shape_.r, shape_.n)) {}
 
   constexpr SimplexCode<D> code() const {
-    return SimplexCode<D>::FromPath(top_, q_ << shape_.r | tail_, level());
+    const uint64_t q = internal::MaskState<D>::Groups(word_);
+    return SimplexCode<D>::FromPath(top_, q << shape_.r | row_ / kTailRow, level());
   }
   constexpr int level() const { return shape_.n + shape_.r; }
 
   // The neighbor mask in the seed's form, as maintained (tests compare it
   // with NeighborMask(code())).
-  constexpr uint64_t mask() const { return internal::MaskState<D>::Mask(mask_); }
+  constexpr uint64_t mask() const { return internal::MaskState<D>::Mask(mask_, shape_.n); }
 
   // Moves to the neighbor across the face of `type`. Returns false, and
   // stays, when that face is on the domain's boundary. O(1).
   // REQUIRES: 1 <= type <= D + 1.
   SDB_ALWAYS_INLINE constexpr bool Step(int type) {
     if constexpr (D == 3) {
-      return ht::StepInPlace(top_, q_, tail_, steps_, mask_, shape_, type);
+      return ht::StepInPlace(top_, word_, row_, mask_, shape_, type);
     } else {
-      return hp::StepInPlace(top_, q_, tail_, steps_, mask_, shape_, type);
+      return hp::StepInPlace(top_, word_, row_, mask_, shape_, type);
     }
   }
 
  private:
   LevelShape<D> shape_;
   int top_;
-  uint64_t q_;     // the group word: path >> r
-  uint64_t tail_;  // the last r bits of the path
-  std::array<TailStep, D + 1> steps_;  // TailSteps<D>::kTable[r][tail_]
+  uint64_t word_;  // the group word path >> r, as MaskState<D>::Word keeps it
+  uint64_t row_;   // the last r bits of the path, times kTailRow (see TailRows)
   typename internal::MaskState<D>::Type mask_;
 };
 
