@@ -47,55 +47,53 @@ SimplexCode<D> RandomCode(std::mt19937_64& rng, int level) {
                                   level ? rng() >> (64 - level) : 0, level);
 }
 
-// How far up the scan for `type` climbs from `code`: the levels between the
-// code and the highest bit where it differs from its neighbor (the whole
-// level when the neighbor is under another root or absent).
-template <int D>
-int ClimbLength(SimplexCode<D> code, int type) {
-  const SimplexCode<D> n = NeighborScan<D>(code, type);
-  if (n.is_none() || n.top() != code.top()) return code.level();
-  return 63 - __builtin_clzll(n.path() ^ code.path());  // bit i is level - i
-}
-
-// Groups in which most face types continue (the scan climbs through them),
-// read off the figure.
-template <int D>
-std::vector<uint64_t> ContinuingGroups() {
-  std::vector<uint64_t> out;
-  for (int bits = 0; bits < (1 << D); ++bits) {
-    int continuing = 0;
-    for (int k = 2; k <= D + 1; ++k) continuing += !Api<D>::Table()[bits][k - 1].stop;
-    if (continuing >= D - 1) out.push_back(static_cast<uint64_t>(bits));
-  }
-  return out;
-}
-
-// Codes whose scan for `type` climbs into the top group or to the root and
-// that have a neighbor (a valid answer, not the boundary).
-template <int D>
-std::vector<SimplexCode<D>> WorstCaseCodes(int level, int type) {
-  std::mt19937_64 rng(1000 + level * 10 + type);
-  const std::vector<uint64_t> groups = ContinuingGroups<D>();
-  std::vector<SimplexCode<D>> out;
-  const int need = level <= D ? 0 : level - D;
-  while (out.size() < kCodes) {
-    uint64_t path = 0;
-    for (int l = 0; l < level; l += D) path = path << D | groups[rng() % groups.size()];
-    path >>= D * ((level + D - 1) / D) - level;
-    const auto c = SimplexCode<D>::FromPath(
-        static_cast<int>(rng() % SimplexCode<D>::kRoots), path, level);
-    if (type == 1 || (ClimbLength(c, type) >= need && !NeighborScan<D>(c, type).is_none())) {
-      out.push_back(c);
-    }
-  }
-  return out;
-}
-
 template <int D>
 std::vector<SimplexCode<D>> RandomCodes(int level, uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::vector<SimplexCode<D>> out(kCodes);
   for (auto& c : out) c = RandomCode<D>(rng, level);
+  return out;
+}
+
+// Codes whose scan for `type` reads every group and that have a neighbor:
+// built from the bottom, the tail among the bits it climbs out of, then each
+// group below the top among the bits where the type sought there continues,
+// the top group at random; kept when the neighbor exists (found in the top
+// group or under another root). A chain that continues as type 1 stops in
+// the next group (the sibling), so only the group below the top may turn
+// one into type 1 (as type 2's chain must, to have a neighbor). Type 1 never
+// climbs: its codes are random.
+template <int D>
+std::vector<SimplexCode<D>> WorstCaseCodes(int level, int type) {
+  const uint64_t seed = 1000 + level * 10 + type;
+  if (type == 1) return RandomCodes<D>(level, seed);
+  std::mt19937_64 rng(seed);
+  const auto& table = Api<D>::Table();
+  const int r = level % D, groups = level / D;
+  std::vector<SimplexCode<D>> out;
+  while (out.size() < kCodes) {
+    const uint64_t tail = rng() & ((uint64_t{1} << r) - 1);
+    const TailStep t = TailSteps<D>::kTable[r][tail][type - 1];
+    if (t.flip != 0 || (t.type == 1 && groups > 1)) continue;
+    int k = t.type;
+    uint64_t q = 0;
+    for (int m = 0; m < groups; ++m) {
+      std::vector<uint64_t> climbing;
+      for (uint64_t bits = 0; bits < (uint64_t{1} << D); ++bits) {
+        const GroupStep g = table[bits][k - 1];
+        if (!g.stop && (g.value != 1 || m == groups - 2)) climbing.push_back(bits);
+      }
+      const uint64_t bits = m == groups - 1 ? rng() & ((uint64_t{1} << D) - 1)
+                                            : climbing[rng() % climbing.size()];
+      q |= bits << (D * m);
+      const GroupStep g = table[bits][k - 1];
+      if (g.stop) break;
+      k = g.value;
+    }
+    const auto c = SimplexCode<D>::FromPath(static_cast<int>(rng() % SimplexCode<D>::kRoots),
+                                            q << r | tail, level);
+    if (!NeighborScan<D>(c, type).is_none()) out.push_back(c);
+  }
   return out;
 }
 
