@@ -157,26 +157,22 @@ constexpr uint64_t CodesOfSelector(uint64_t sel) {
 }
 
 // The neighbor mask of `n` group bits (root's slot in lane n / 4) as
-// selectors, and back.
+// selectors, and back. The conversions work lane by lane, so the root's
+// slot moves once, in the mask.
 // REQUIRES: n % 4 == 0, n <= 52.
 constexpr Selectors SelectorsOfMask(uint64_t mask, int n) {
   assert(n % 4 == 0 && n <= 52);
   const uint64_t groups = (uint64_t{1} << n) - 1;
-  const auto root_to_slot = [&](uint64_t sel) {
-    return (sel & groups) | (sel >> n & 0xF) << kRootSlot;
-  };
-  const uint64_t pair1 = mask & kPos12Mask;         // P(3)
-  const uint64_t pair2 = (mask & kPos34Mask) << 2;  // P(4), moved to bits 1-2
-  return Selectors{{0, 0, kPos1Mask & groups, root_to_slot(SelectorOfCodes(pair1)),
-                    root_to_slot(SelectorOfCodes(pair2)),
-                    root_to_slot(SelectorOfCodes(pair1 ^ pair2))}};
+  const uint64_t moved = (mask & groups) | (mask >> n) << kRootSlot;
+  const uint64_t pair1 = moved & kPos12Mask;         // P(3)
+  const uint64_t pair2 = (moved & kPos34Mask) << 2;  // P(4), moved to bits 1-2
+  return Selectors{{0, 0, kPos1Mask & groups, SelectorOfCodes(pair1), SelectorOfCodes(pair2),
+                    SelectorOfCodes(pair1 ^ pair2)}};
 }
 
 constexpr uint64_t MaskOfSelectors(const Selectors& s, int n) {
-  const auto slot_to_root = [&](uint64_t sel) {
-    return (sel & kBelowRootSlot) | (sel >> kRootSlot) << n;
-  };
-  return CodesOfSelector(slot_to_root(s.of[3])) | CodesOfSelector(slot_to_root(s.of[4])) >> 2;
+  const uint64_t moved = CodesOfSelector(s.of[3]) | CodesOfSelector(s.of[4]) >> 2;
+  return (moved & kBelowRootSlot) | (moved >> kRootSlot) << n;
 }
 
 // The cursor keeps the group word as its stop tests (see StepInPlace): the
