@@ -186,32 +186,44 @@ constexpr uint64_t GroupsOfStops(uint64_t stops) {
   return bits12 | ((stops ^ (~bits12 & kPos12Mask) >> 2) & kPos34Mask);
 }
 
-// Where a step that ran past the top group goes, indexed by the root and the
-// selector's root slot (4, 2 or 1: type 3, 4 or 5 reaches level 0; 0: types
-// 0-2, which never cross): top ^ the root across, or 0 on the boundary (a
-// root's neighbor is never itself). The XOR form lets a step update `top`
-// without a second lookup or a select on the sought type.
-inline constexpr auto kRootCrossings = [] {
-  std::array<std::array<uint8_t, 8>, 24> t{};
+// The tables a step reads, in one object so that a step needs one base
+// address for all of them.
+struct StepTables {
+  // Per sought type k (0: a tail flip).
+  struct PerType {
+    // NEIGHBOR_1 (4.4.1) flips bit 4 of group 0 (the sibling of the
+    // pentatope at level 4G) whatever the group holds: 1 for k = 1.
+    uint64_t sibling_flip;
+    // For k in {3, 4, 5}, the two other types of {3, 4, 5}, one of which
+    // trades its selector with k's after a type-3 or type-4 stop (unused for
+    // k < 3, which never trade: see StepInPlace).
+    uint8_t partner[2];
+  };
+  PerType of[6];
+  // Where a step that ran past the top group goes, by the root and the
+  // selector's root slot (4, 2 or 1: type 3, 4 or 5 reaches level 0; 0:
+  // types 0-2, which never cross): top ^ the root across, or 0 on the
+  // boundary (a root's neighbor is never itself). The XOR form lets a step
+  // update `top` without a second lookup or a select on the sought type.
+  uint8_t crossing[24][8];
+};
+
+inline constexpr StepTables kStepTables = [] {
+  StepTables t{};
+  for (int k = 0; k < 6; ++k) {
+    t.of[k].sibling_flip = k == 1;
+    t.of[k].partner[0] = k == 3 ? 4 : 3;
+    t.of[k].partner[1] = k == 5 ? 4 : 5;
+  }
   for (int top = 0; top < 24; ++top) {
     for (const int slot : {4, 2, 1}) {
       const int type = slot == 4 ? 3 : slot == 2 ? 4 : 5;
       const int other = kRootFaceToRoot<4>[top][type - 1];
-      t[top][slot] = static_cast<uint8_t>(other < 0 ? 0 : top ^ other);
+      t.crossing[top][slot] = static_cast<uint8_t>(other < 0 ? 0 : top ^ other);
     }
   }
   return t;
 }();
-
-// NEIGHBOR_1 (4.4.1) flips bit 4 of group 0 (the sibling of the pentatope at
-// level 4G) whatever the group holds: a constant per sought type.
-inline constexpr uint64_t kSiblingFlip[6] = {0, 1, 0, 0, 0, 0};
-
-// For a sought type k in {3, 4, 5}, the two other types of {3, 4, 5}, one of
-// which trades its selector with k's after a type-3 or type-4 stop (the rows
-// for k < 3 are never used for a trade: see StepInPlace).
-inline constexpr uint8_t kTradePartners[6][2] = {{4, 5}, {4, 5}, {4, 5},
-                                                 {4, 5}, {3, 5}, {3, 4}};
 
 // The constant-time algorithm of 4.4 on a code split into its group word,
 // kept as `stops` = StopsOfGroups(path >> r), and its tail, kept as the
@@ -232,6 +244,7 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& stops, uint64_t
   assert(type >= 1 && type <= 5);
   const TailStep t = shape.tail[row + type - 1];
   const int k = t.type;  // the type sought at level 4G; 0 after a tail flip
+  row ^= t.flip;
 
   // NEIGHBOR_2 to _5 (4.4.2, 4.4.3; Figs. 54, 55), all stop tests at once:
   // bit 1 at bit 1 (type 2), bit 2 at bit 2 (type 3), bit 1 == bit 3 at bit 3
@@ -243,15 +256,17 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& stops, uint64_t
   // candidate counts, so the root's slot, above every group, needs no
   // masking before it is found; `groups` then cuts a flip past the top.
   const uint64_t sk = sel.of[k];  // 0 for types 0 (tail flip) and 1
-  const uint64_t candidates = (stops & sk) << 1 | kSiblingFlip[k];
+  const StepTables::PerType& per = kStepTables.of[k];
+  const uint64_t candidates = (stops & sk) << 1 | per.sibling_flip;
   const uint64_t flip = candidates & (0 - candidates) & shape.groups;
 
   // 4.4.5: past the top group (flip == 0 for k >= 3) the root's slot tells
   // the type at level 0. A tail flip, a flip in the groups or a crossing:
   // anything else is the boundary, where every change below is zero (no
   // flip, no trade, a crossing of 0), so the step needs no branch.
-  const uint64_t crossing = kRootCrossings[top][sk >> kRootSlot];
+  const uint64_t crossing = kStepTables.crossing[top][sk >> kRootSlot];
   const bool moved = (t.flip | flip | crossing) != 0;
+  top ^= flip == 0 ? static_cast<int>(crossing) : 0;
 
   // UPDATE (4.4.4, Fig. 56). Only a type-3 stop flips bit 1 (its bit 2 is 1:
   // 01 <-> 11, "swap 3 and 5") and only a type-4 stop flips bit 2 (00 <-> 01
@@ -263,11 +278,12 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& stops, uint64_t
   // empty and the selectors as they are.
   const uint64_t flip12 = flip & kPos12Mask;
   const uint64_t probe = flip12 >> 2;
+  stops ^= flip ^ probe;  // the flipped bit's test, and for bits 1 and 2 the test two below
   // The lanes above the group, the root's slot included. After a bit-2 flip
   // this also takes in the group's own bit-1 position, where only the
   // never-traded type-2 selector has bits.
   const uint64_t above = 0 - (flip12 << 1);
-  const int a = kTradePartners[k][0], b = kTradePartners[k][1];
+  const int a = per.partner[0], b = per.partner[1];
   const uint64_t sa = sel.of[a], sb = sel.of[b];
   // Which one: a mask from the probe bit up (the trade lies above it), or 0.
   // Masks, not selects: GCC turns the selects into a branch, which random
@@ -278,10 +294,6 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& stops, uint64_t
   sel.of[k] ^= trade_a | trade_b;
   sel.of[a] ^= trade_a;
   sel.of[b] ^= trade_b;
-
-  row ^= t.flip;
-  stops ^= flip ^ probe;  // the flipped bit's test, and for bits 1 and 2 the test two below
-  top ^= flip == 0 ? static_cast<int>(crossing) : 0;
   return moved;
 }
 

@@ -127,17 +127,18 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& q, uint64_t& ro
 
   // 3.3.6: past the top group the type that reaches the root (k, swapped by
   // the total parity in mask bit n) picks the root across.
-  const bool cross = (k >= 3) & (flip == 0);
+  // On the boundary every change below is zero (no flip, no crossing), so
+  // the step needs no branch.
   const bool swapped = (mask & shape.root_bit) != 0;
   const int other_root = kRootFaceToRoot<3>[top][2 + ((k == 4) ^ swapped)];
-  if (!((k == 0) | (flip != 0) | (cross & (other_root >= 0)))) return false;
+  const bool cross = (k >= 3) & (flip == 0) & (other_root >= 0);
 
   row ^= t.flip;
   q ^= flip;
   top = cross ? other_root : top;
   // UPDATE_MASK (3.3.5): flipping a bit 1 toggles the parity above it.
   mask ^= (0 - (flip & kPos1Mask)) << 1;
-  return true;
+  return (k == 0) | (flip != 0) | cross;
 }
 
 }  // namespace ht
