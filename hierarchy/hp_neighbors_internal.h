@@ -34,6 +34,7 @@
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cassert>
 #include <cstdint>
 #include <string_view>
@@ -135,12 +136,18 @@ constexpr uint64_t NeighborMaskOfGroups(uint64_t q, int n) {
 // a step reads it with a constant shift.
 struct Selectors {
   // of[3], of[4], of[5]: the selectors; of[2] = bit 1 of every group, the
-  // stop test of type 2 (4.4.2), which never changes; of[0], of[1] = 0.
+  // stop test of type 2 (4.4.2), and of[1] = kSiblingTest, the test of
+  // type 1, neither of which ever changes; of[0] = 0 (a flip in the tail).
   uint64_t of[6];
 };
 
 inline constexpr int kRootSlot = 60;  // the selectors' root lane
 inline constexpr uint64_t kBelowRootSlot = (uint64_t{1} << kRootSlot) - 1;
+// NEIGHBOR_1 (4.4.1) flips bit 4 of group 0 (the sibling of the pentatope at
+// level 4G) whatever the group holds. Its test is bit 63, above the root's
+// slot (bits 60-62), set in type 1's selector and always in a cursor's
+// `stops`; the step rotates the tests left by one, which brings it to bit 0.
+inline constexpr uint64_t kSiblingTest = uint64_t{1} << 63;
 
 // From the seed's codes (a 2-bit code per lane at bits 1-2) to selectors.
 constexpr uint64_t SelectorOfCodes(uint64_t codes) {
@@ -166,8 +173,8 @@ constexpr Selectors SelectorsOfMask(uint64_t mask, int n) {
   const uint64_t moved = (mask & groups) | (mask >> n) << kRootSlot;
   const uint64_t pair1 = moved & kPos12Mask;         // P(3)
   const uint64_t pair2 = (moved & kPos34Mask) << 2;  // P(4), moved to bits 1-2
-  return Selectors{{0, 0, kPos1Mask & groups, SelectorOfCodes(pair1), SelectorOfCodes(pair2),
-                    SelectorOfCodes(pair1 ^ pair2)}};
+  return Selectors{{0, kSiblingTest, kPos1Mask & groups, SelectorOfCodes(pair1),
+                    SelectorOfCodes(pair2), SelectorOfCodes(pair1 ^ pair2)}};
 }
 
 constexpr uint64_t MaskOfSelectors(const Selectors& s, int n) {
@@ -180,9 +187,12 @@ constexpr uint64_t MaskOfSelectors(const Selectors& s, int n) {
 // bit 1 == bit 3 and bit 2 == bit 4. A flip changes it by a few bits, so a
 // step updates it instead of recomputing it. Bits 1 and 2 are kept as they
 // are, so the map is one-to-one.
-constexpr uint64_t StopsOfGroups(uint64_t q) { return ((~q & kPos12Mask) >> 2) ^ q; }
+// The sibling's test (kSiblingTest) is set as well.
+constexpr uint64_t StopsOfGroups(uint64_t q) {
+  return (((~q & kPos12Mask) >> 2) ^ q) | kSiblingTest;
+}
 constexpr uint64_t GroupsOfStops(uint64_t stops) {
-  const uint64_t bits12 = stops & kPos12Mask;
+  const uint64_t bits12 = stops & kPos12Mask & ~kSiblingTest;
   return bits12 | ((stops ^ (~bits12 & kPos12Mask) >> 2) & kPos34Mask);
 }
 
@@ -191,9 +201,6 @@ constexpr uint64_t GroupsOfStops(uint64_t stops) {
 struct StepTables {
   // Per sought type k (0: a tail flip).
   struct PerType {
-    // NEIGHBOR_1 (4.4.1) flips bit 4 of group 0 (the sibling of the
-    // pentatope at level 4G) whatever the group holds: 1 for k = 1.
-    uint64_t sibling_flip;
     // For k in {3, 4, 5}, the two other types of {3, 4, 5}, one of which
     // trades its selector with k's after a type-3 or type-4 stop (unused for
     // k < 3, which never trade: see StepInPlace).
@@ -201,17 +208,17 @@ struct StepTables {
   };
   PerType of[6];
   // Where a step that ran past the top group goes, by the root and the
-  // selector's root slot (4, 2 or 1: type 3, 4 or 5 reaches level 0; 0:
-  // types 0-2, which never cross): top ^ the root across, or 0 on the
-  // boundary (a root's neighbor is never itself). The XOR form lets a step
-  // update `top` without a second lookup or a select on the sought type.
-  uint8_t crossing[24][8];
+  // selector's top four bits (4, 2 or 1: type 3, 4 or 5 reaches level 0; 0
+  // or 8, the sibling's test: types 0-2, which never cross): top ^ the root
+  // across, or 0 on the boundary (a root's neighbor is never itself). The XOR
+  // form lets a step update `top` without a second lookup or a select on the
+  // sought type.
+  uint8_t crossing[24][16];
 };
 
 inline constexpr StepTables kStepTables = [] {
   StepTables t{};
   for (int k = 0; k < 6; ++k) {
-    t.of[k].sibling_flip = k == 1;
     t.of[k].partner[0] = k == 3 ? 4 : 3;
     t.of[k].partner[1] = k == 5 ? 4 : 5;
   }
@@ -252,12 +259,11 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& stops, uint64_t
   // of the type each group sees. The stop flips the bit one above the test:
   // bit 4 of the group above (type 2, as type 1 of the group's top), bit 1,
   // 2 or 3. Past the top, type 2 meets root faces 2 or 1: the boundary.
-  // NEIGHBOR_1 is bit 0, ORed in below the shifted tests. Only the lowest
+  // NEIGHBOR_1 is bit 0, the rotated kSiblingTest. Only the lowest
   // candidate counts, so the root's slot, above every group, needs no
   // masking before it is found; `groups` then cuts a flip past the top.
-  const uint64_t sk = sel.of[k];  // 0 for types 0 (tail flip) and 1
-  const StepTables::PerType& per = kStepTables.of[k];
-  const uint64_t candidates = (stops & sk) << 1 | per.sibling_flip;
+  const uint64_t sk = sel.of[k];  // 0 for type 0 (a flip in the tail)
+  const uint64_t candidates = std::rotl(stops & sk, 1);
   const uint64_t flip = candidates & (0 - candidates) & shape.groups;
 
   // 4.4.5: past the top group (flip == 0 for k >= 3) the root's slot tells
@@ -283,7 +289,7 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& stops, uint64_t
   // this also takes in the group's own bit-1 position, where only the
   // never-traded type-2 selector has bits.
   const uint64_t above = 0 - (flip12 << 1);
-  const int a = per.partner[0], b = per.partner[1];
+  const int a = kStepTables.of[k].partner[0], b = kStepTables.of[k].partner[1];
   const uint64_t sa = sel.of[a], sb = sel.of[b];
   // Which one: a mask from the probe bit up (the trade lies above it), or 0.
   // Masks, not selects: GCC turns the selects into a branch, which random
