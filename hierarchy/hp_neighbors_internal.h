@@ -207,14 +207,17 @@ struct StepTables {
     uint8_t partner[2];
   };
   PerType of[6];
-  // Where a step that ran past the top group goes, by the root and the
-  // selector's top four bits (4, 2 or 1: type 3, 4 or 5 reaches level 0; 0
-  // or 8, the sibling's test: types 0-2, which never cross): top ^ the root
-  // across, or 0 on the boundary (a root's neighbor is never itself). The XOR
-  // form lets a step update `top` without a second lookup or a select on the
-  // sought type.
-  uint8_t crossing[24][16];
+  // Where a step that ran past the top group goes, at root * kCrossingRow +
+  // the selector's top four bits (4, 2 or 1: type 3, 4 or 5 reaches level 0;
+  // 0 or 8, the sibling's test: types 0-2, which never cross):
+  // (root ^ the root across) * kCrossingRow, or 0 on the boundary (a root's
+  // neighbor is never itself). A cursor keeps its root times kCrossingRow,
+  // so the root's row needs no multiplication, and the XOR form lets a step
+  // update it without a second lookup or a select on the sought type.
+  uint16_t crossing[24 * 16];
 };
+
+inline constexpr int kCrossingRow = 16;
 
 inline constexpr StepTables kStepTables = [] {
   StepTables t{};
@@ -226,7 +229,8 @@ inline constexpr StepTables kStepTables = [] {
     for (const int slot : {4, 2, 1}) {
       const int type = slot == 4 ? 3 : slot == 2 ? 4 : 5;
       const int other = kRootFaceToRoot<4>[top][type - 1];
-      t.crossing[top][slot] = static_cast<uint8_t>(other < 0 ? 0 : top ^ other);
+      t.crossing[top * kCrossingRow + slot] =
+          static_cast<uint16_t>(other < 0 ? 0 : (top ^ other) * kCrossingRow);
     }
   }
   return t;
@@ -235,8 +239,8 @@ inline constexpr StepTables kStepTables = [] {
 // The constant-time algorithm of 4.4 on a code split into its group word,
 // kept as `stops` = StopsOfGroups(path >> r), and its tail, kept as the
 // offset `row` = tail * kTailRow of its row in shape.tail. On success updates
-// `top`, `stops`, `row` and `sel` in place and returns true; on the boundary
-// returns false and changes nothing.
+// `top` (the root times kCrossingRow), `stops`, `row` and `sel` in place and
+// returns true; on the boundary returns false and changes nothing.
 // Branch-free, like the HT's: every candidate is computed and the right one
 // selected. The per-type choices are table loads rather than compares, and
 // the partner that trades selectors is chosen with masks, not by an index,
@@ -270,7 +274,7 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& stops, uint64_t
   // the type at level 0. A tail flip, a flip in the groups or a crossing:
   // anything else is the boundary, where every change below is zero (no
   // flip, no trade, a crossing of 0), so the step needs no branch.
-  const uint64_t crossing = kStepTables.crossing[top][sk >> kRootSlot];
+  const uint64_t crossing = kStepTables.crossing[top + (sk >> kRootSlot)];
   const bool moved = (t.flip | flip | crossing) != 0;
   top ^= flip == 0 ? static_cast<int>(crossing) : 0;
 

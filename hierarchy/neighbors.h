@@ -48,6 +48,8 @@ struct MaskState<3> {
   static constexpr uint64_t Mask(const Type& m, int /*n*/) { return m; }
   static constexpr uint64_t Word(uint64_t q) { return q; }
   static constexpr uint64_t Groups(uint64_t word) { return word; }
+  static constexpr int TopWord(int top) { return top; }
+  static constexpr int Top(int word) { return word; }
 };
 template <>
 struct MaskState<4> {
@@ -58,6 +60,8 @@ struct MaskState<4> {
   static constexpr uint64_t Mask(const Type& s, int n) { return hp::MaskOfSelectors(s, n); }
   static constexpr uint64_t Word(uint64_t q) { return hp::StopsOfGroups(q); }
   static constexpr uint64_t Groups(uint64_t word) { return hp::GroupsOfStops(word); }
+  static constexpr int TopWord(int top) { return top * hp::kCrossingRow; }
+  static constexpr int Top(int word) { return word / hp::kCrossingRow; }
 };
 
 }  // namespace internal
@@ -70,14 +74,14 @@ class NeighborCursor {
   // REQUIRES: code.is_valid().
   explicit constexpr NeighborCursor(SimplexCode<D> code)
       : shape_((assert(code.is_valid()), code.level())),
-        top_(code.top()),
+        top_(internal::MaskState<D>::TopWord(code.top())),
         word_(internal::MaskState<D>::Word(code.path() >> shape_.r)),
         row_((code.path() & ((uint64_t{1} << shape_.r) - 1)) * kTailRow),
         mask_(internal::MaskState<D>::Of(code.path() >> shape_.r, shape_.n)) {}
 
   constexpr SimplexCode<D> code() const {
     const uint64_t q = internal::MaskState<D>::Groups(word_);
-    return SimplexCode<D>::FromPath(top_, q << shape_.r | row_ / kTailRow, level());
+    return SimplexCode<D>::FromPath(internal::MaskState<D>::Top(top_), q << shape_.r | row_ / kTailRow, level());
   }
   constexpr int level() const { return shape_.n + shape_.r; }
 
@@ -98,7 +102,7 @@ class NeighborCursor {
 
  private:
   LevelShape<D> shape_;
-  int top_;
+  int top_;  // the root, as MaskState<D>::TopWord keeps it
   uint64_t word_;  // the group word path >> r, as MaskState<D>::Word keeps it
   uint64_t row_;   // the last r bits of the path, times kTailRow (see TailRows)
   typename internal::MaskState<D>::Type mask_;
