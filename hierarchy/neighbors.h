@@ -15,7 +15,7 @@
 //
 // All of them agree on every code (tests/hierarchy/*_neighbors_test.cc);
 // bench/README.md has their costs. The constant-time step is branch-free:
-// 6-7.5 ns on this project's machines, whatever the code or depth.
+// 5.5-7.5 ns on this project's machines, whatever the code or depth.
 //
 // Thread safety: values and pure functions; a cursor is not shared between
 // threads without external synchronization.
