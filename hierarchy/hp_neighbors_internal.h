@@ -186,8 +186,8 @@ constexpr uint64_t MaskOfSelectors(const Selectors& s, int n) {
 // word `stops` has, at each group's bit 1, 2, 3 and 4 position, bit 1, bit 2,
 // bit 1 == bit 3 and bit 2 == bit 4. A flip changes it by a few bits, so a
 // step updates it instead of recomputing it. Bits 1 and 2 are kept as they
-// are, so the map is one-to-one.
-// The sibling's test (kSiblingTest) is set as well.
+// are, so the map is one-to-one. Bit 63 holds the sibling's test
+// (kSiblingTest), which always passes.
 constexpr uint64_t StopsOfGroups(uint64_t q) {
   return (((~q & kPos12Mask) >> 2) ^ q) | kSiblingTest;
 }

@@ -38,7 +38,8 @@ namespace internal {
 
 // What the cursor keeps of the neighbor mask: the HT's mask word itself; for
 // the HP one selector word per initial type (hp::Selectors). And how it keeps
-// the group word: the HT as is, the HP as its stop tests (hp::StopsOfGroups).
+// the group word and the root: the HT as they are, the HP as the group
+// word's stop tests (hp::StopsOfGroups) and the root times hp::kCrossingRow.
 template <int D>
 struct MaskState;
 template <>
@@ -81,7 +82,8 @@ class NeighborCursor {
 
   constexpr SimplexCode<D> code() const {
     const uint64_t q = internal::MaskState<D>::Groups(word_);
-    return SimplexCode<D>::FromPath(internal::MaskState<D>::Top(top_), q << shape_.r | row_ / kTailRow, level());
+    return SimplexCode<D>::FromPath(internal::MaskState<D>::Top(top_),
+                                    q << shape_.r | row_ / kTailRow, level());
   }
   constexpr int level() const { return shape_.n + shape_.r; }
 
@@ -102,7 +104,7 @@ class NeighborCursor {
 
  private:
   LevelShape<D> shape_;
-  int top_;  // the root, as MaskState<D>::TopWord keeps it
+  int top_;        // the root, as MaskState<D>::TopWord keeps it
   uint64_t word_;  // the group word path >> r, as MaskState<D>::Word keeps it
   uint64_t row_;   // the last r bits of the path, times kTailRow (see TailRows)
   typename internal::MaskState<D>::Type mask_;
