@@ -196,17 +196,15 @@ constexpr uint64_t GroupsOfStops(uint64_t stops) {
   return bits12 | ((stops ^ (~bits12 & kPos12Mask) >> 2) & kPos34Mask);
 }
 
+inline constexpr int kCrossingRow = 16;
+
 // The tables a step reads, in one object so that a step needs one base
 // address for all of them.
 struct StepTables {
-  // Per sought type k (0: a tail flip).
-  struct PerType {
-    // For k in {3, 4, 5}, the two other types of {3, 4, 5}, one of which
-    // trades its selector with k's after a type-3 or type-4 stop (unused for
-    // k < 3, which never trade: see StepInPlace).
-    uint8_t partner[2];
-  };
-  PerType of[6];
+  // For a sought type k in {3, 4, 5} (0: a tail flip), the two other types
+  // of {3, 4, 5}, one of which trades its selector with k's after a type-3
+  // or type-4 stop (unused for k < 3, which never trade: see StepInPlace).
+  uint8_t partners[6][2];
   // Where a step that ran past the top group goes, at root * kCrossingRow +
   // the selector's top four bits (4, 2 or 1: type 3, 4 or 5 reaches level 0;
   // 0 or 8, the sibling's test: types 0-2, which never cross):
@@ -214,16 +212,14 @@ struct StepTables {
   // neighbor is never itself). A cursor keeps its root times kCrossingRow,
   // so the root's row needs no multiplication, and the XOR form lets a step
   // update it without a second lookup or a select on the sought type.
-  uint16_t crossing[24 * 16];
+  uint16_t crossing[24 * kCrossingRow];
 };
-
-inline constexpr int kCrossingRow = 16;
 
 inline constexpr StepTables kStepTables = [] {
   StepTables t{};
   for (int k = 0; k < 6; ++k) {
-    t.of[k].partner[0] = k == 3 ? 4 : 3;
-    t.of[k].partner[1] = k == 5 ? 4 : 5;
+    t.partners[k][0] = k == 3 ? 4 : 3;
+    t.partners[k][1] = k == 5 ? 4 : 5;
   }
   for (int top = 0; top < 24; ++top) {
     for (const int slot : {4, 2, 1}) {
@@ -293,7 +289,7 @@ SDB_ALWAYS_INLINE constexpr bool StepInPlace(int& top, uint64_t& stops, uint64_t
   // this also takes in the group's own bit-1 position, where only the
   // never-traded type-2 selector has bits.
   const uint64_t above = 0 - (flip12 << 1);
-  const int a = kStepTables.of[k].partner[0], b = kStepTables.of[k].partner[1];
+  const int a = kStepTables.partners[k][0], b = kStepTables.partners[k][1];
   const uint64_t sa = sel.of[a], sb = sel.of[b];
   // Which one: a mask from the probe bit up (the trade lies above it), or 0.
   // Masks, not selects: GCC turns the selects into a branch, which random
