@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "storage/generate.h"
-#include "storage/nrrd_writer.h"
+#include "storage/volume/generate.h"
+#include "storage/volume/nrrd_writer.h"
 
 namespace simplexdb {
 

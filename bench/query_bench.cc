@@ -24,11 +24,11 @@
 #include "query/mesh.h"
 #include "query/refine.h"
 #include "query/source.h"
-#include "storage/dense_builder.h"
-#include "storage/dense_store.h"
-#include "storage/sparse_builder.h"
-#include "storage/sparse_store.h"
-#include "storage/volume.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
+#include "storage/volume/volume.h"
 
 namespace simplexdb {
 namespace {

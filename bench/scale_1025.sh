@@ -4,7 +4,7 @@
 # builder's memory bounded to 4 GiB. Prints the build report (time, peak
 # memory) and the store's info (size), and fails if the peak resident memory
 # exceeds the bound. Then a reader does a million random lookups with a 64
-# MiB cache (tests/storage/memory_probe.cc) and prints its anonymous memory;
+# MiB cache (tests/storage/dense/memory_probe.cc) and prints its anonymous memory;
 # fails if it grew by more than the budget plus 16 MiB.
 #
 #   bench/scale_1025.sh [WORK_DIR]     (needs ~10 GB of disk; ~20 min on 2 cores)

@@ -32,13 +32,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "storage/dense_builder.h"
-#include "storage/dense_store.h"
-#include "storage/generate.h"
-#include "storage/nrrd_writer.h"
-#include "storage/sparse_builder.h"
-#include "storage/sparse_store.h"
-#include "storage/volume.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/volume/generate.h"
+#include "storage/volume/nrrd_writer.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
+#include "storage/volume/volume.h"
 #include "bench/bench_util.h"
 
 namespace simplexdb {

@@ -7,7 +7,7 @@
 //   build/release/bench/tri_bench --benchmark_min_time=0.3
 //
 // The IcosaLeafStore benchmarks time the same through the LMDB leaf store
-// (storage/tri_leaf_store.h): a durable refine, and the reads that each
+// (storage/tri/tri_leaf_store.h): a durable refine, and the reads that each
 // take one read transaction and one or two B-tree searches.
 //
 // "worst" codes have only the two child types that lie along the sought
@@ -30,7 +30,7 @@
 #include "bench/bench_util.h"
 #include "hierarchy/tri_geometry.h"
 #include "hierarchy/tri_neighbors.h"
-#include "storage/tri_leaf_store.h"
+#include "storage/tri/tri_leaf_store.h"
 
 namespace simplexdb {
 namespace {

@@ -11,8 +11,8 @@
 #include "query/mesh.h"
 #include "query/refine.h"
 #include "query/source.h"
-#include "storage/dense_store.h"
-#include "storage/sparse_store.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_store.h"
 
 namespace {
 

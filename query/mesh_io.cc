@@ -5,7 +5,7 @@
 #include <cstring>
 #include <memory>
 
-#include "storage/file.h"
+#include "storage/io/file.h"
 
 namespace simplexdb {
 namespace {

@@ -2,7 +2,7 @@
 // grids (.vtu) any VTK reader opens.
 //
 // Files are written under a temporary name and renamed when complete
-// (storage/file.h), so a failed or interrupted write never leaves a partial
+// (storage/io/file.h), so a failed or interrupted write never leaves a partial
 // file under the real name. "-" means standard output for text.
 //
 // Thread safety: free functions; the walk uses the caller's source.

@@ -39,8 +39,8 @@
 #include <string>
 
 #include "hierarchy/simplex_code.h"
-#include "storage/dense_store.h"
-#include "storage/sparse_store.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_store.h"
 #include "util/status.h"
 
 namespace simplexdb {

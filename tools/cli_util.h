@@ -15,9 +15,9 @@
 
 #include <fmt/format.h>
 
-#include "storage/dense_builder.h"
-#include "storage/dense_store.h"
-#include "storage/volume.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/volume/volume.h"
 #include "tools/commands.h"
 #include "util/status.h"
 

@@ -18,7 +18,7 @@
 #include "query/refine.h"
 #include "query/slice.h"
 #include "query/source.h"
-#include "storage/sparse_store.h"
+#include "storage/sparse/sparse_store.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 

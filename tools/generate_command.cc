@@ -1,7 +1,7 @@
-// `simplexdb generate`: synthetic volumes (storage/generate.h) written as
+// `simplexdb generate`: synthetic volumes (storage/volume/generate.h) written as
 // NRRD, streamed in chunks so any size fits in little memory, on every core.
 // `simplexdb to4d`: a 4D volume from a 3D one, subgrids becoming time
-// (storage/subgrid_time.h).
+// (storage/volume/subgrid_time.h).
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -14,12 +14,12 @@
 
 #include <fmt/format.h>
 
-#include "storage/file.h"
-#include "storage/generate.h"
-#include "storage/nrrd_writer.h"
-#include "storage/subgrid_time.h"
-#include "storage/volume.h"
-#include "storage/voxel_type.h"
+#include "storage/io/file.h"
+#include "storage/volume/generate.h"
+#include "storage/volume/nrrd_writer.h"
+#include "storage/volume/subgrid_time.h"
+#include "storage/volume/volume.h"
+#include "storage/volume/voxel_type.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 

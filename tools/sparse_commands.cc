@@ -9,10 +9,10 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "storage/file.h"
-#include "storage/sparse_builder.h"
-#include "storage/sparse_store.h"
-#include "storage/sparse_update.h"
+#include "storage/io/file.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
+#include "storage/sparse/sparse_update.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 

@@ -4,8 +4,8 @@
 
 #include <string>
 
-#include "storage/dense_builder.h"
-#include "storage/volume.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/volume/volume.h"
 
 namespace simplexdb::tools {
 

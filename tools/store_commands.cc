@@ -10,10 +10,10 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "storage/dense_builder.h"
-#include "storage/dense_store.h"
-#include "storage/nrrd_writer.h"
-#include "storage/volume.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/volume/nrrd_writer.h"
+#include "storage/volume/volume.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 #include "tools/sparse_commands.h"

@@ -1,5 +1,5 @@
 // libFuzzer target for the dense store reader: header, index and block
-// decoding (storage/dense_store.cc, storage/format.cc).
+// decoding (storage/dense/dense_store.cc, storage/dense/format.cc).
 //
 // Each input is a store file. It is opened as given, and again with every
 // checksum repaired (blocks, index, header), so that mutations get past the
@@ -22,8 +22,8 @@
 #include <string>
 #include <vector>
 
-#include "storage/dense_store.h"
-#include "storage/format.h"
+#include "storage/dense/dense_store.h"
+#include "storage/dense/format.h"
 #include "util/little_endian.h"
 
 namespace simplexdb {

@@ -14,11 +14,11 @@
 
 #include "hierarchy/geometry.h"
 #include "query/refine.h"
-#include "storage/dense_builder.h"
-#include "storage/dense_store.h"
-#include "storage/sparse_builder.h"
-#include "storage/sparse_store.h"
-#include "storage/volume.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
+#include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 
 namespace simplexdb::testing {

@@ -15,10 +15,10 @@
 
 #include "hierarchy/geometry.h"
 #include "hierarchy/simplex_code.h"
-#include "storage/nrrd_writer.h"
-#include "storage/simplex_scan.h"
-#include "storage/volume.h"
-#include "storage/voxel_type.h"
+#include "storage/volume/nrrd_writer.h"
+#include "storage/error/simplex_scan.h"
+#include "storage/volume/volume.h"
+#include "storage/volume/voxel_type.h"
 
 namespace simplexdb::testing {
 

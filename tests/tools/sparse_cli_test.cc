@@ -11,8 +11,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "storage/nrrd_writer.h"
-#include "storage/volume.h"
+#include "storage/volume/nrrd_writer.h"
+#include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 #include "tests/tools/cli_runner.h"
 #include "tests/util/python_vtk.h"

@@ -14,8 +14,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "storage/dense_store.h"
-#include "storage/volume.h"
+#include "storage/dense/dense_store.h"
+#include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 #include "tests/tools/cli_runner.h"
 

@@ -1,0 +1,232 @@
+#include "storage/io/lmdb.h"
+
+#include <sys/stat.h>
+#include <sys/statvfs.h>
+
+#include <cerrno>
+#include <string>
+
+namespace simplexdb::lmdb {
+
+namespace {
+
+// Bytes free to an unprivileged writer on the file system holding `path`'s
+// directory; -1 when unknown.
+int64_t FreeBytesBeside(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+  struct statvfs fs {};
+  if (statvfs(dir.c_str(), &fs) != 0) return -1;
+  return static_cast<int64_t>(fs.f_bavail) * static_cast<int64_t>(fs.f_frsize);
+}
+
+}  // namespace
+
+Status FromCode(int rc, const std::string& path, std::string_view action) {
+  const std::string what = path + ": " + std::string(action) + ": " + mdb_strerror(rc);
+  // LMDB turns a short write into EIO: when the disk is the reason, say so.
+  if (rc == EIO) {
+    const int64_t free_bytes = FreeBytesBeside(path);
+    if (free_bytes >= 0 && free_bytes < (int64_t{1} << 20)) {
+      return Status::ResourceExhausted(what + " (the disk is full: " + std::to_string(free_bytes) +
+                                       " bytes free; nothing was changed)");
+    }
+  }
+  switch (rc) {
+    case ENOENT:
+      return Status::NotFound(what);
+    case ENOSPC:
+    case EDQUOT:
+      return Status::ResourceExhausted(what + " (the disk is full; nothing was changed)");
+    case MDB_INVALID:
+    case MDB_VERSION_MISMATCH:
+      return Status::InvalidArgument(what + " (not an LMDB file this LMDB version reads)");
+    case MDB_CORRUPTED:
+    case MDB_PAGE_NOTFOUND:
+    case MDB_BAD_VALSIZE:
+      return Status::Corruption(what);
+    case MDB_READERS_FULL:
+    case MDB_MAP_FULL:
+    case MDB_TXN_FULL:
+    case MDB_DBS_FULL:
+      return Status::ResourceExhausted(what);
+    default:
+      return Status::IOError(what);
+  }
+}
+
+Result<std::unique_ptr<Env>> Env::Open(const std::string& path, const Options& options) {
+  MDB_env* raw = nullptr;
+  int rc = mdb_env_create(&raw);
+  if (rc != MDB_SUCCESS) return lmdb::FromCode(rc, path, "creating an LMDB environment");
+  std::unique_ptr<Env> env(new Env(raw, path));
+  rc = mdb_env_set_maxdbs(raw, options.max_dbs);
+  if (rc == MDB_SUCCESS) rc = mdb_env_set_maxreaders(raw, options.max_readers);
+  if (rc == MDB_SUCCESS && options.map_bytes > 0) {
+    rc = mdb_env_set_mapsize(raw, options.map_bytes);
+  }
+  if (rc != MDB_SUCCESS) return env->FromCode(rc, "configuring the environment");
+  // Builders sync once, explicitly, when they are done (MDB_NOSYNC): a crash
+  // before that leaves a temporary file, never a store under its real name.
+  unsigned flags = MDB_NOSUBDIR | MDB_NOTLS;
+  if (options.read_only) {
+    flags |= MDB_RDONLY;
+  } else if (!options.sync_commits) {
+    flags |= MDB_NOSYNC;
+  }
+  rc = mdb_env_open(raw, path.c_str(), flags, 0644);
+  if (rc != MDB_SUCCESS) return env->FromCode(rc, options.read_only ? "opening" : "creating");
+  // LMDB reads pages through its map and trusts the file to hold every page
+  // its meta page counts: a truncated file would fault (SIGBUS) on first
+  // touch. Check the size first.
+  MDB_envinfo info;
+  MDB_stat stat_info;
+  mdb_env_info(raw, &info);
+  mdb_env_stat(raw, &stat_info);
+  const uint64_t needed = (static_cast<uint64_t>(info.me_last_pgno) + 1) * stat_info.ms_psize;
+  struct stat now;
+  if (stat(path.c_str(), &now) != 0) return lmdb::FromCode(errno, path, "opening");
+  if (static_cast<uint64_t>(now.st_size) < needed) {
+    return Status::Corruption(path + ": truncated: " + std::to_string(now.st_size) +
+                              " bytes, but its pages need " + std::to_string(needed));
+  }
+  int dead = 0;
+  rc = mdb_reader_check(raw, &dead);
+  if (rc != MDB_SUCCESS) return env->FromCode(rc, "clearing stale readers");
+  return env;
+}
+
+Env::~Env() { mdb_env_close(env_); }
+
+uint64_t Env::map_bytes() const {
+  MDB_envinfo info;
+  mdb_env_info(env_, &info);
+  return info.me_mapsize;
+}
+
+Status Env::SetMapBytes(uint64_t bytes) {
+  const int rc = mdb_env_set_mapsize(env_, bytes);
+  return rc == MDB_SUCCESS ? Status::OK() : FromCode(rc, "growing the map");
+}
+
+Status Env::Sync() {
+  const int rc = mdb_env_sync(env_, 1);
+  return rc == MDB_SUCCESS ? Status::OK() : FromCode(rc, "syncing to disk");
+}
+
+Result<Txn> Txn::Begin(Env& env, bool read_only) {
+  MDB_txn* txn = nullptr;
+  int rc = mdb_txn_begin(env.get(), nullptr, read_only ? MDB_RDONLY : 0, &txn);
+  if (rc == MDB_MAP_RESIZED) {
+    // Another process grew the map: adopt its size and try again.
+    rc = mdb_env_set_mapsize(env.get(), 0);
+    if (rc == MDB_SUCCESS) rc = mdb_txn_begin(env.get(), nullptr, read_only ? MDB_RDONLY : 0, &txn);
+  }
+  if (rc != MDB_SUCCESS) return env.FromCode(rc, "beginning a transaction");
+  return Txn(&env, txn);
+}
+
+Txn& Txn::operator=(Txn&& other) noexcept {
+  if (this != &other) {
+    Abort();
+    env_ = other.env_;
+    txn_ = other.txn_;
+    other.txn_ = nullptr;
+  }
+  return *this;
+}
+
+Status Txn::Commit() {
+  const int rc = CommitCode();
+  return rc == MDB_SUCCESS ? Status::OK() : env_->FromCode(rc, "committing");
+}
+
+int Txn::CommitCode() {
+  MDB_txn* txn = txn_;
+  txn_ = nullptr;
+  return mdb_txn_commit(txn);  // frees the transaction either way
+}
+
+void Txn::Abort() {
+  if (txn_ != nullptr) mdb_txn_abort(txn_);
+  txn_ = nullptr;
+}
+
+Result<MDB_dbi> Txn::OpenDb(const char* name, bool create) {
+  MDB_dbi dbi = 0;
+  const int rc = mdb_dbi_open(txn_, name, create ? MDB_CREATE : 0, &dbi);
+  if (rc == MDB_NOTFOUND) {
+    return Status::InvalidArgument(env_->path() + ": no database '" + name + "' in this LMDB file");
+  }
+  if (rc != MDB_SUCCESS) {
+    return env_->FromCode(rc, std::string("opening database '") + name + "'");
+  }
+  return dbi;
+}
+
+Result<std::span<const uint8_t>> Txn::Get(MDB_dbi dbi, std::span<const uint8_t> key,
+                                          bool* found) {
+  MDB_val k = Val(key.data(), key.size()), v;
+  const int rc = mdb_get(txn_, dbi, &k, &v);
+  *found = rc == MDB_SUCCESS;
+  if (rc == MDB_NOTFOUND) return std::span<const uint8_t>();
+  if (rc != MDB_SUCCESS) return env_->FromCode(rc, "reading");
+  return std::span<const uint8_t>(static_cast<const uint8_t*>(v.mv_data), v.mv_size);
+}
+
+Status Txn::Put(MDB_dbi dbi, std::span<const uint8_t> key, std::span<const uint8_t> value,
+                unsigned flags) {
+  MDB_val k = Val(key.data(), key.size()), v = Val(value.data(), value.size());
+  const int rc = mdb_put(txn_, dbi, &k, &v, flags);
+  return rc == MDB_SUCCESS ? Status::OK() : env_->FromCode(rc, "writing");
+}
+
+Result<Cursor> Cursor::Open(Txn& txn, MDB_dbi dbi) {
+  MDB_cursor* c = nullptr;
+  const int rc = mdb_cursor_open(txn.get(), dbi, &c);
+  if (rc != MDB_SUCCESS) return txn.env().FromCode(rc, "opening a cursor");
+  return Cursor(c);
+}
+
+Status BatchWriter::Put(MDB_dbi dbi, std::span<const uint8_t> key,
+                        std::span<const uint8_t> value, bool append) {
+  entries_.push_back(Entry{dbi, static_cast<uint32_t>(key.size()),
+                           static_cast<uint32_t>(value.size()), append});
+  bytes_.insert(bytes_.end(), key.begin(), key.end());
+  bytes_.insert(bytes_.end(), value.begin(), value.end());
+  if (bytes_.size() + entries_.size() * 16 >= batch_bytes_) return Flush();
+  return Status::OK();
+}
+
+Status BatchWriter::TryCommit(int* rc) {
+  *rc = MDB_SUCCESS;
+  SDB_ASSIGN_OR_RETURN(Txn txn, Txn::Begin(env_, /*read_only=*/false));
+  const uint8_t* p = bytes_.data();
+  for (const Entry& e : entries_) {
+    MDB_val k = Val(p, e.key_size), v = Val(p + e.key_size, e.value_size);
+    p += e.key_size + e.value_size;
+    *rc = mdb_put(txn.get(), e.dbi, &k, &v, e.append ? MDB_APPEND : 0);
+    if (*rc == MDB_MAP_FULL) return Status::OK();  // the transaction aborts here
+    if (*rc != MDB_SUCCESS) return env_.FromCode(*rc, "writing");
+  }
+  *rc = txn.CommitCode();
+  if (*rc != MDB_SUCCESS && *rc != MDB_MAP_FULL) return env_.FromCode(*rc, "committing");
+  return Status::OK();
+}
+
+Status BatchWriter::Flush() {
+  if (entries_.empty()) return Status::OK();
+  while (true) {
+    int rc;
+    SDB_RETURN_IF_ERROR(TryCommit(&rc));
+    if (rc == MDB_SUCCESS) break;
+    // MDB_MAP_FULL: nothing of this batch was kept; double the map, replay.
+    SDB_RETURN_IF_ERROR(env_.SetMapBytes(env_.map_bytes() * 2));
+    ++growths_;
+  }
+  entries_.clear();
+  bytes_.clear();
+  return Status::OK();
+}
+
+}  // namespace simplexdb::lmdb

@@ -1,0 +1,58 @@
+// Writing volumes as NRRD, for `simplexdb generate` and `simplexdb export`.
+//
+// Output is always NRRD0004, encoding raw, little endian, with "spacings:"
+// (so OpenNrrd, teem, VTK, ITK and 3D Slicer read it). Files appear
+// atomically: the bytes go to a temporary file in the same directory
+// (<path>.tmp-XXXXXX), which is fsynced and renamed over `path`, and the
+// directory is fsynced. A crash or error leaves either the old file or the
+// complete new one under `path`, never a half-written one; on error the
+// temporary file is removed.
+//
+// Errors (every message names the file):
+//   InvalidArgument    bad dims, values.size() not the voxel count, a value
+//                      not representable as `type` (the first one is named
+//                      with its voxel index), a non-positive spacing.
+//   ResourceExhausted  the disk or quota is full.
+//   IOError            any other operating-system failure.
+//
+// Thread safety: reentrant; concurrent writes to the same path leave one of
+// the complete files.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "storage/volume/voxel_type.h"
+#include "util/status.h"
+
+namespace simplexdb {
+
+// Writes `values` (x fastest, then y, z, t) converted to `type` as one NRRD
+// file with an attached header.
+//
+// Every value must be representable as `type` (IsRepresentable: integers in
+// range for the integer types; float32 rounds to nearest): the check is a
+// cheap pass before anything is written, so a caller's mistake is an
+// InvalidArgument rather than undefined behaviour or silent wrapping. Round
+// or clamp before calling.
+// REQUIRES nothing else: dims are validated (each used axis >= 1, unused
+// axes 1, dimension 3 or 4). O(voxels): one pass to check, one to write.
+Status WriteNrrd(const std::string& path, int dimension,
+                 std::array<uint32_t, 4> dims, VoxelType type,
+                 std::span<const double> values,
+                 std::array<double, 4> spacing = {1, 1, 1, 1});
+
+// The detached form: the voxels as a headerless file `raw_path` and a NRRD
+// header `nhdr_path` whose "data file:" names it (relative to the header's
+// directory when the raw file is in it or below, absolute otherwise). The
+// raw file is written (atomically) before the header, so a header never
+// names a missing or half-written raw file. Same checks and errors as
+// WriteNrrd.
+Status WriteRawWithNhdr(const std::string& raw_path, const std::string& nhdr_path,
+                        int dimension, std::array<uint32_t, 4> dims,
+                        VoxelType type, std::span<const double> values,
+                        std::array<double, 4> spacing = {1, 1, 1, 1});
+
+}  // namespace simplexdb

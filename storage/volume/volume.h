@@ -1,0 +1,200 @@
+// Input volumes: where a scalar field on a regular 3D or 4D grid is stored on
+// disk, and a reader that streams its voxels as doubles.
+//
+// Formats:
+//   raw      headerless voxels; the caller gives dims, type, byte order and
+//            the byte offset (OpenRawVolume).
+//   NRRD     attached (.nrrd) and detached (.nhdr + "data file:") headers,
+//            encodings raw and gzip, either byte order (OpenNrrd).
+//   NIfTI-1  single-file .nii (magic "n+1"), either byte order (OpenNifti).
+//   time series  several 3D volumes of any of these formats read as one 4D
+//            volume (OpenTimeSeries).
+//
+// The Open* functions read only headers and file sizes: they return a
+// VolumeInfo describing the grid and where its bytes are, and check
+// everything they can without reading the voxels. VolumeReader then reads
+// voxels. Grid rules shared by every format:
+//   - 3D or 4D; every used axis has at least 2 samples (the hierarchies need
+//     an edge in every direction); unused axes (t of a 3D volume) are 1.
+//   - A 4D volume with a single time step (NIfTI dim[0] = 4 with dim[4] = 1,
+//     NRRD sizes "... 1", raw dims with t = 1) is read as 3D: a 4D hierarchy
+//     needs at least two time steps, and such files are common.
+//   - x varies fastest, then y, z, t.
+//
+// Errors (Status codes) returned by the Open* functions; every message
+// starts with the file name:
+//   NotFound         a named file does not exist.
+//   IOError          a file exists but cannot be read (permissions, ...).
+//   InvalidArgument  malformed input: bad magic or header field, bad dims, a
+//                    raw file too short for the dims the caller gave.
+//   Corruption       a header is well formed but its data file is shorter
+//                    than the header says, or not gzip data when it should be.
+//   NotSupported     well-formed input outside what SimplexDB reads: other
+//                    voxel types (int32, RGB, ...), NRRD text/hex/bzip2
+//                    encodings, NIfTI-2, 2D or 5D grids.
+//
+// Thread safety: the Open* functions are reentrant. A VolumeReader is not
+// thread-safe; open one per thread.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "storage/volume/voxel_type.h"
+#include "util/status.h"
+
+namespace simplexdb {
+
+namespace volume_internal {
+class ByteSource;  // one open data file, raw or gzip (volume.cc)
+}  // namespace volume_internal
+
+// A volume on disk: its grid and where and how its voxels are stored.
+//
+// Invariants (established by the Open* functions):
+//   - dimension is 3 or 4; dims[i] >= 2 for i < dimension, dims[i] == 1 above.
+//   - `files` is not empty; each file holds voxel_count() / files.size()
+//     consecutive voxels (one file, or one per time step, or one per z slice
+//     as NRRD "data file: LIST" allows), x fastest within each.
+//   - file_offsets is empty (every file's voxels start at `offset`) or has
+//     one entry per file (a time series of files with different headers).
+struct VolumeInfo {
+  enum class Encoding : uint8_t { kRaw, kGzip };
+
+  int dimension = 3;                          // 3 or 4
+  std::array<uint32_t, 4> dims = {1, 1, 1, 1};  // x fastest, then y, z, t; unused = 1
+  VoxelType type = VoxelType::kU8;
+  ByteOrder order = ByteOrder::kLittle;
+  // kGzip: each data file holds, from its offset on, one gzip stream whose
+  // decompressed bytes are the voxels.
+  Encoding encoding = Encoding::kRaw;
+  std::vector<std::string> files;
+  // Bytes to skip at the start of each data file (a header). For gzip, the
+  // offset of the compressed stream.
+  uint64_t offset = 0;
+  // Per-file offsets, replacing `offset` when not empty (OpenTimeSeries of
+  // files whose headers differ in length). Use offset_of().
+  std::vector<uint64_t> file_offsets;
+  std::array<double, 4> spacing = {1, 1, 1, 1};  // metadata only
+  std::string description;  // e.g. "NIfTI-1 file example4d.nii", for messages
+
+  // Product of the dims. O(1).
+  uint64_t voxel_count() const;
+  // Voxels in each data file: voxel_count() / files.size().
+  // REQUIRES: !files.empty().
+  uint64_t voxels_per_file() const;
+  // Where the voxels of files[i] start. REQUIRES: i < files.size().
+  uint64_t offset_of(size_t i) const;
+};
+
+// "128x96x24x2" (the used axes only).
+std::string FormatDims(int dimension, const std::array<uint32_t, 4>& dims);
+
+// Checks the grid rules above for a volume named `what` (prefixed to the
+// message): InvalidArgument for dims of 0 or 1 in a used axis, unused axes
+// other than 1, or a dimension other than 3 or 4.
+Status ValidateGrid(const std::string& what, int dimension,
+                    const std::array<uint32_t, 4>& dims);
+
+// A headerless file of dims[0] * ... * dims[3] voxels of `type` in `order`,
+// starting `offset` bytes into the file. A file longer than that is accepted:
+// the extra bytes are trailing (after the voxels) and ignored, since headers
+// are skipped with `offset`. A file shorter than that is InvalidArgument
+// naming the file, the bytes expected and the bytes found (the file is
+// truncated, or the dims or type given are wrong). O(1): stats the file.
+Result<VolumeInfo> OpenRawVolume(const std::string& path, int dimension,
+                                 std::array<uint32_t, 4> dims, VoxelType type,
+                                 ByteOrder order, uint64_t offset);
+
+// A NRRD file: attached header (.nrrd, data after the first blank line) or
+// detached (.nhdr, any extension really, with "data file:" naming one file,
+// "LIST" of files, or a "%d" format with min max step; relative names are
+// relative to the header's directory). Encodings raw and gzip (bzip2, text,
+// hex: NotSupported). "type:" in any spelling of the NRRD specification.
+// "endian:" is required for multi-byte types. "line skip:" and "byte skip:"
+// are honoured ("byte skip: -1", data at the end of the file, for raw only;
+// a non-zero byte skip with gzip is NotSupported). "kinds:" other than
+// domain/space/time/list/none (e.g. "3-vector", "RGB-color") are
+// NotSupported: SimplexDB reads scalar fields. Spacing comes from "spacings:"
+// or the lengths of "space directions:". Other fields and key/value pairs
+// are ignored, as the specification asks of readers that do not use them.
+// For gzip, the gzip trailer (size mod 2^32) is checked against the
+// expected size; the stream itself is only checked when read.
+// O(header size + lines skipped).
+Result<VolumeInfo> OpenNrrd(const std::string& path);
+
+// A single-file NIfTI-1 volume (.nii, magic "n+1"). The byte order is the
+// one in which sizeof_hdr reads 348. Datatypes: 2 uint8, 4 int16, 16 float32,
+// 64 float64, 256 int8, 512 uint16; others (int32, RGB, complex, ...) are
+// NotSupported naming the code. dim[0] must be 3 or 4 (higher with trailing
+// dims of 1). Voxels start at vox_offset (>= 352). scl_slope and scl_inter
+// are ignored: values are returned as stored in the file, unscaled. The
+// orientation (qform/sform) is ignored; spacing is |pixdim[1..4]|.
+// .nii.gz is not read (NotSupported from OpenVolume: gunzip it first).
+// O(1): reads the 348-byte header.
+Result<VolumeInfo> OpenNifti(const std::string& path);
+
+// Several 3D volumes (each opened with OpenVolume, any mix of formats) of
+// equal dims, type, byte order and encoding, as one 4D volume whose time
+// axis is their order in `paths`. Spacing is the first volume's (t = 1).
+// Fails with InvalidArgument naming the first mismatching file, the value
+// found and the value expected, or if fewer than 2 paths are given.
+Result<VolumeInfo> OpenTimeSeries(const std::vector<std::string>& paths);
+
+// By extension (case-insensitive): .nrrd/.nhdr -> OpenNrrd, .nii ->
+// OpenNifti. .nii.gz and .hdr/.img pairs: NotSupported saying what to do.
+// Anything else: InvalidArgument saying that raw input needs --dims and
+// --type.
+Result<VolumeInfo> OpenVolume(const std::string& path);
+
+// Streams voxels as doubles (lossless for all six types).
+//
+// Sequential reads are the fast path: raw files are read through a 1 MiB
+// read-ahead buffer (so reading x-rows one by one costs about one system
+// call per MiB), gzip streams are decompressed once front to back. Random
+// access works too: a raw read outside the buffer costs one pread; a gzip
+// read behind the current position rewinds and decompresses again from the
+// start of the stream (O(position)), ahead of it decompresses the gap.
+// One data file is open at a time; reads alternating between the files of
+// a multi-file volume reopen them each time.
+//
+// Not thread-safe; open one per thread.
+class VolumeReader {
+ public:
+  // Checks the invariants of `info` (InvalidArgument otherwise) and opens
+  // its first data file (NotFound / IOError / Corruption for gzip data that
+  // is not gzip). The reader keeps its own copy of `info`.
+  static Result<std::unique_ptr<VolumeReader>> Open(const VolumeInfo& info);
+
+  ~VolumeReader();
+  VolumeReader(const VolumeReader&) = delete;
+  VolumeReader& operator=(const VolumeReader&) = delete;
+
+  // Reads `count` voxels starting at linear index `first` (x fastest, then
+  // y, z, t) into out[0 .. count). Fails with Corruption naming the file on
+  // a short read (the file shrank since it was opened, a truncated gzip
+  // stream) or a gzip error, IOError on an operating-system error, and
+  // InvalidArgument if [first, first + count) is not inside the volume.
+  // After a failure `out` holds unspecified values and the reader can be
+  // used again. REQUIRES: `out` holds count doubles.
+  Status Read(uint64_t first, size_t count, double* out);
+
+  const VolumeInfo& info() const { return info_; }
+
+ private:
+  explicit VolumeReader(VolumeInfo info);
+  // Makes files[file] the open source.
+  Status OpenFile(size_t file);
+
+  VolumeInfo info_;
+  uint64_t per_file_ = 0;  // voxels per data file
+  size_t current_file_ = 0;
+  std::unique_ptr<volume_internal::ByteSource> source_;  // null: none open
+  std::vector<std::byte> bytes_;        // voxel bytes of one chunk
+};
+
+}  // namespace simplexdb

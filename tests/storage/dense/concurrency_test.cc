@@ -1,0 +1,134 @@
+// Stores are read by many threads and processes at once; the block cache
+// stays within its budget.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <functional>
+#include <random>
+#include <thread>
+
+#include "storage/dense/block_cache.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/volume/generate.h"
+#include "storage/volume/nrrd_writer.h"
+#include "storage/volume/volume.h"
+#include "tests/storage/store_test_util.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::TempDir;
+
+struct Fixture {
+  TempDir dir;
+  std::string path;
+  std::vector<TetCode> codes;
+  std::vector<double> expected;
+
+  Fixture() {
+    // A smooth field, so blocks compress and readers decode them.
+    GenerateOptions g;
+    g.dims = {33, 33, 33, 1};
+    const FieldGenerator field(g);
+    std::vector<double> values(33 * 33 * 33);
+    field.Fill(0, values.size(), values.data());
+    for (double& v : values) v = std::round(v);
+    EXPECT_TRUE(WriteNrrd(dir.path() + "/in.nrrd", 3, g.dims, VoxelType::kU8, values).ok());
+    DenseBuildOptions options;
+    options.levels_per_block = 9;  // 1 KiB blocks that compress
+    path = dir.path() + "/s.sdb";
+    EXPECT_TRUE(BuildDenseStore(*OpenVolume(dir.path() + "/in.nrrd"), path, options).ok());
+    auto store = *DenseStore::Open(path);
+    DenseStore::Reader<3> reader(*store);
+    std::function<void(TetCode)> visit = [&](TetCode c) {
+      if (c.level() >= store->header().leaf_level()) return;
+      codes.push_back(c);
+      expected.push_back(*reader.ErrorBound(c));
+      visit(c.child(0));
+      visit(c.child(1));
+    };
+    for (int top = 0; top < 6; ++top) visit(TetCode::Root(top));
+  }
+};
+
+TEST(Concurrency, ThreadsShareAStoreAndASmallCache) {
+  const Fixture f;
+  DenseStore::Options options;
+  options.cache_bytes = 16 << 10;  // far smaller than the store: constant eviction
+  auto store = *DenseStore::Open(f.path, options);
+  std::vector<std::thread> threads;
+  std::atomic<int> mismatches{0};
+  for (int t = 0; t < 8; ++t) {
+    threads.emplace_back([&, t] {
+      DenseStore::Reader<3> reader(*store);
+      std::mt19937_64 rng(t);
+      for (int i = 0; i < 20000; ++i) {
+        const size_t k = rng() % f.codes.size();
+        const Result<double> e = reader.ErrorBound(f.codes[k]);
+        if (!e.ok() || *e != f.expected[k]) ++mismatches;
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(mismatches.load(), 0);
+  EXPECT_GT(store->stats().blocks_decoded, 100u);
+  EXPECT_LE(store->cache()->charge(), options.cache_bytes + 4 * 1024)
+      << "the cache exceeds its budget by more than a few blocks";
+}
+
+TEST(Concurrency, ProcessesOpenTheSameStore) {
+  const Fixture f;
+  std::vector<pid_t> children;
+  for (int p = 0; p < 4; ++p) {
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      // In the child: no gtest assertions, just an exit status.
+      auto store = DenseStore::Open(f.path);
+      if (!store.ok()) _exit(2);
+      DenseStore::Reader<3> reader(**store);
+      for (size_t k = 0; k < f.codes.size(); ++k) {
+        const Result<double> e = reader.ErrorBound(f.codes[k]);
+        if (!e.ok() || *e != f.expected[k]) _exit(1);
+      }
+      _exit((*store)->Verify().ok() ? 0 : 3);
+    }
+    children.push_back(pid);
+  }
+  for (pid_t pid : children) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+  }
+}
+
+TEST(BlockCache, EvictsLeastRecentlyUsedWithinBudget) {
+  BlockCache cache(10 * 100, /*shards=*/1);
+  const auto block = [](uint8_t v) { return std::make_shared<const BlockCache::Block>(100, v); };
+  for (uint64_t k = 0; k < 10; ++k) cache.Insert(k, block(static_cast<uint8_t>(k)));
+  EXPECT_EQ(cache.charge(), 1000u);
+  ASSERT_NE(cache.Lookup(0), nullptr);  // 0 is now the most recent
+  cache.Insert(10, block(10));          // evicts 1, the least recent
+  EXPECT_EQ(cache.Lookup(1), nullptr);
+  EXPECT_NE(cache.Lookup(0), nullptr);
+  EXPECT_EQ(cache.charge(), 1000u);
+  // A block held by a reader survives its eviction.
+  std::shared_ptr<const BlockCache::Block> held = cache.Lookup(2);
+  for (uint64_t k = 100; k < 120; ++k) cache.Insert(k, block(1));
+  EXPECT_EQ(cache.Lookup(2), nullptr);
+  EXPECT_EQ((*held)[0], 2);
+  // Inserting a key twice keeps the first block.
+  auto first = cache.Insert(500, block(5));
+  auto second = cache.Insert(500, block(6));
+  EXPECT_EQ(first, second);
+  const BlockCache::Stats s = cache.stats();
+  EXPECT_GT(s.evictions, 10u);
+  EXPECT_GT(s.hits, 0u);
+}
+
+}  // namespace
+}  // namespace simplexdb
