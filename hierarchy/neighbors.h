@@ -26,8 +26,8 @@
 #include <cstdint>
 
 #include "hierarchy/group_scan.h"
-#include "hierarchy/hp_neighbors_internal.h"
-#include "hierarchy/ht_neighbors_internal.h"
+#include "hierarchy/hp_neighbor_tables.h"
+#include "hierarchy/ht_neighbor_tables.h"
 #include "hierarchy/simplex_code.h"
 #include "hierarchy/split_rules.h"
 #include "util/macros.h"

@@ -51,7 +51,7 @@
 #include <string>
 #include <string_view>
 
-#include "hierarchy/code_text_internal.h"
+#include "hierarchy/code_text.h"
 #include "util/status.h"
 
 namespace simplexdb {

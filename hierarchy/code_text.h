@@ -1,5 +1,7 @@
 // What the location code types share (hierarchy/simplex_code.h,
 // hierarchy/tri_code.h): the "T:bits" text form's root part, and the hash.
+// Installed because those inline headers include it; what it defines lives
+// in simplexdb::internal and is not an API.
 #pragma once
 
 #include <cstdint>

@@ -1,7 +1,9 @@
-// Internals of the HT's face-neighbor algorithms (seed sections 3.2, 3.3):
-// Fig. 38, the neighbor mask and the constant-time step. The public entry
-// points are in hierarchy/neighbors.h (NeighborCursor<3>, Neighbor,
-// NeighborScan, NeighborMask).
+// The HT's face-neighbor tables and steps (seed sections 3.2, 3.3): Fig. 38,
+// the neighbor mask and the constant-time step. The public entry points are
+// in hierarchy/neighbors.h (NeighborCursor<3>, Neighbor, NeighborScan,
+// NeighborMask), whose inline cursor needs these definitions, so this header
+// is installed with it; what it defines lives in simplexdb::internal and is
+// not an API (names and layouts change with the cursor).
 //
 // Words and groups. A code at level L = 3G + r has r "tail" levels below the
 // last full group (the 1/2 or 1/4 pyramid levels of an unfinished group).

@@ -1,7 +1,10 @@
-// Internals of the HP's face-neighbor algorithms (seed sections 4.3, 4.4):
-// Figs. 53 and 56, the neighbor mask and the constant-time step. The public
-// entry points are in hierarchy/neighbors.h (NeighborCursor<4>, Neighbor,
-// NeighborScan, NeighborMask).
+// The HP's face-neighbor tables and steps (seed sections 4.3, 4.4): Figs. 53
+// and 56, the neighbor mask and the constant-time step. The public entry
+// points are in hierarchy/neighbors.h (NeighborCursor<4>, Neighbor,
+// NeighborScan, NeighborMask), whose inline cursor needs these definitions,
+// so this header is installed with it; what it defines lives in
+// simplexdb::internal and is not an API (names and layouts change with the
+// cursor).
 //
 // Groups. A code at level L = 4G + r has r tail levels (c-, s- and
 // e-pentatope levels of an unfinished period), stepped through with
