@@ -5,6 +5,9 @@
 #include <cassert>
 #include <string>
 #include <string_view>
+#include <type_traits>
+
+#include "storage/io/lmdb.h"
 
 namespace simplexdb {
 
@@ -102,6 +105,20 @@ Status TriLeafStore<P>::Write(const char* what, Edit edit) {
     if (rc != MDB_MAP_FULL) return env_->FromCode(rc, what);
     SDB_RETURN_IF_ERROR(env_->SetMapBytes(env_->map_bytes() * 2));
   }
+}
+
+static_assert(std::is_same_v<MDB_dbi, unsigned int>, "tri_leaf_store.h keeps an MDB_dbi");
+
+template <Polyhedron P>
+TriLeafStore<P>::TriLeafStore(std::unique_ptr<lmdb::Env> env, unsigned int leaves, bool read_only)
+    : env_(std::move(env)), leaves_(leaves), read_only_(read_only) {}
+
+template <Polyhedron P>
+TriLeafStore<P>::~TriLeafStore() = default;
+
+template <Polyhedron P>
+const std::string& TriLeafStore<P>::path() const {
+  return env_->path();
 }
 
 template <Polyhedron P>

@@ -40,10 +40,13 @@
 #include "hierarchy/tri_code.h"
 #include "hierarchy/tri_geometry.h"
 #include "hierarchy/tri_neighbors.h"
-#include "storage/io/lmdb.h"
 #include "util/status.h"
 
 namespace simplexdb {
+
+namespace lmdb {
+class Env;  // storage/io/lmdb.h, which embedders need not include
+}  // namespace lmdb
 
 template <Polyhedron P>
 class TriLeafStore {
@@ -55,6 +58,7 @@ class TriLeafStore {
   static Result<std::unique_ptr<TriLeafStore>> Create(const std::string& path);
   // Opens an existing store; writes fail when `read_only`.
   static Result<std::unique_ptr<TriLeafStore>> Open(const std::string& path, bool read_only);
+  ~TriLeafStore();
 
   Status Refine(Code code);
   Status Coarsen(Code code);
@@ -78,11 +82,10 @@ class TriLeafStore {
   // O(n).
   Status Verify() const;
 
-  const std::string& path() const { return env_->path(); }
+  const std::string& path() const;
 
  private:
-  TriLeafStore(std::unique_ptr<lmdb::Env> env, MDB_dbi leaves, bool read_only)
-      : env_(std::move(env)), leaves_(leaves), read_only_(read_only) {}
+  TriLeafStore(std::unique_ptr<lmdb::Env> env, unsigned int leaves, bool read_only);
 
   // Runs `edit` in a write transaction and commits; when the map is full,
   // aborts, doubles the map and runs it again.
@@ -90,7 +93,7 @@ class TriLeafStore {
   Status Write(const char* what, Edit edit);
 
   std::unique_ptr<lmdb::Env> env_;
-  MDB_dbi leaves_;
+  unsigned int leaves_;  // the MDB_dbi of the leaves
   bool read_only_;
 };
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "tests/hierarchy/tri_reference.h"
+#include "storage/io/lmdb.h"
 #include "tests/storage/store_test_util.h"
 
 namespace simplexdb {
