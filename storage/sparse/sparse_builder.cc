@@ -13,6 +13,7 @@
 
 #include "hierarchy/geometry.h"
 #include "storage/io/file.h"
+#include "storage/io/lmdb.h"
 #include "storage/dense/layout.h"
 #include "storage/error/simplex_scan.h"
 #include "storage/sparse/vertex_set.h"

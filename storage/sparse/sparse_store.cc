@@ -6,10 +6,12 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <type_traits>
 #include <nlohmann/json.hpp>
 
 #include "hierarchy/geometry.h"
 #include "storage/io/file.h"
+#include "storage/io/lmdb.h"
 #include "storage/sparse/vertex_set.h"
 #include "util/little_endian.h"
 
@@ -296,19 +298,35 @@ Status SparseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progre
   return dimension() == 3 ? VerifyTyped<3>(*this, progress) : VerifyTyped<4>(*this, progress);
 }
 
+static_assert(std::is_same_v<MDB_dbi, unsigned int>, "sparse_store.h keeps MDB_dbi values");
+
+SparseStore::~SparseStore() = default;
+
+lmdb::Env& SparseStore::env() const { return *env_; }
+
+template <int D>
+SparseStore::Reader<D>::Reader(const SparseStore& store, std::unique_ptr<lmdb::Txn> txn)
+    : store_(&store), txn_(std::move(txn)) {}
+template <int D>
+SparseStore::Reader<D>::Reader(Reader&&) noexcept = default;
+template <int D>
+SparseStore::Reader<D>& SparseStore::Reader<D>::operator=(Reader&&) noexcept = default;
+template <int D>
+SparseStore::Reader<D>::~Reader() = default;
+
 template <int D>
 Result<SparseStore::Reader<D>> SparseStore::Reader<D>::Create(const SparseStore& store) {
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(store.env(), /*read_only=*/true));
-  return Reader(store, std::move(txn));
+  return Reader(store, std::make_unique<lmdb::Txn>(std::move(txn)));
 }
 
 template <int D>
 Status SparseStore::Reader<D>::Refresh() {
-  txn_.Abort();
+  txn_->Abort();
   prefetch_.clear();
   prefetch_lo_ = 1;
   prefetch_hi_ = 0;
-  SDB_ASSIGN_OR_RETURN(txn_, lmdb::Txn::Begin(store_->env(), /*read_only=*/true));
+  SDB_ASSIGN_OR_RETURN(*txn_, lmdb::Txn::Begin(store_->env(), /*read_only=*/true));
   return Status::OK();
 }
 
@@ -336,7 +354,7 @@ Result<std::optional<uint32_t>> SparseStore::Reader<D>::FindStored(SimplexCode<D
   ++stats_.btree_lookups;
   const auto k = lmdb::KeyBytes(key);
   bool found = false;
-  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn_.Get(store_->errors_db(), k, &found));
+  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn_->Get(store_->errors_db(), k, &found));
   if (!found) return std::optional<uint32_t>();
   return DecodeStored(key, value);
 }
@@ -360,7 +378,7 @@ Result<std::optional<double>> SparseStore::Reader<D>::Field(const std::array<int
   const SparseHeader& h = store_->header();
   const auto k = lmdb::KeyBytes(VertexKey<D>(p, h.domain_bits));
   bool found = false;
-  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn_.Get(store_->field_db(), k, &found));
+  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn_->Get(store_->field_db(), k, &found));
   if (!found) return std::optional<double>();
   if (value.size() != VoxelSize(h.voxel_type)) {
     return Status::Corruption(store_->path() + ": vertex " + std::to_string(VertexKey<D>(p, h.domain_bits)) +
@@ -376,7 +394,7 @@ Status SparseStore::Reader<D>::Prefetch(SimplexCode<D> code, size_t max_entries)
   prefetch_.clear();
   prefetch_lo_ = 1;
   prefetch_hi_ = 0;
-  SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn_, store_->errors_db()));
+  SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(*txn_, store_->errors_db()));
   const uint64_t lo = code.range_min(), hi = code.range_max();
   auto first = lmdb::KeyBytes(lo);
   MDB_val k = lmdb::Val(first.data(), 8), v;

@@ -35,12 +35,16 @@
 
 #include "hierarchy/simplex_code.h"
 #include "storage/dense/format.h"
-#include "storage/io/lmdb.h"
 #include "storage/error/quantize.h"
 #include "storage/volume/voxel_type.h"
 #include "util/status.h"
 
 namespace simplexdb {
+
+namespace lmdb {  // storage/io/lmdb.h, which embedders need not include
+class Env;
+class Txn;
+}  // namespace lmdb
 
 inline constexpr uint32_t kSparseFormatVersion = 1;
 inline constexpr const char* kSparseFormatName = "simplexdb-sparse";
@@ -85,14 +89,17 @@ class SparseStore {
   // InvalidArgument (not LMDB, or LMDB without SimplexDB's databases: the
   // message says which), NotSupported (another format version), Corruption.
   static Result<std::unique_ptr<SparseStore>> Open(const std::string& path);
+  ~SparseStore();
 
   const SparseHeader& header() const { return header_; }
   int dimension() const { return header_.dimension; }
   const std::string& path() const { return path_; }
   const ErrorQuantizer& quantizer() const { return quantizer_; }
-  lmdb::Env& env() const { return *env_; }
-  MDB_dbi errors_db() const { return errors_; }
-  MDB_dbi field_db() const { return field_; }
+  // The LMDB environment and database handles (MDB_dbi), for the sparse
+  // wing's own writers and tests; they live as long as the store.
+  lmdb::Env& env() const;
+  unsigned int errors_db() const { return errors_; }
+  unsigned int field_db() const { return field_; }
   uint64_t file_bytes() const;
 
   // Reads every entry: keys are valid codes of this hierarchy above the leaf
@@ -116,6 +123,9 @@ class SparseStore {
    public:
     // REQUIRES: store.dimension() == D; the store outlives the reader.
     static Result<Reader> Create(const SparseStore& store);
+    Reader(Reader&&) noexcept;
+    Reader& operator=(Reader&&) noexcept;
+    ~Reader();
 
     // The stored error bound of a present node; nullopt for an absent one
     // (a leaf: error 0 for this store).
@@ -144,11 +154,11 @@ class SparseStore {
     const Stats& stats() const { return stats_; }
 
    private:
-    Reader(const SparseStore& store, lmdb::Txn txn) : store_(&store), txn_(std::move(txn)) {}
+    Reader(const SparseStore& store, std::unique_ptr<lmdb::Txn> txn);
     Result<std::optional<uint32_t>> DecodeStored(uint64_t key, std::span<const uint8_t> value);
 
     const SparseStore* store_;
-    lmdb::Txn txn_;
+    std::unique_ptr<lmdb::Txn> txn_;  // never null
     // Prefetched entries: keys [prefetch_lo_, prefetch_hi_] are all here.
     std::vector<std::pair<uint64_t, uint32_t>> prefetch_;
     uint64_t prefetch_lo_ = 1, prefetch_hi_ = 0;
@@ -160,7 +170,7 @@ class SparseStore {
 
   std::string path_;
   std::unique_ptr<lmdb::Env> env_;
-  MDB_dbi errors_ = 0, field_ = 0, meta_ = 0;
+  unsigned int errors_ = 0, field_ = 0, meta_ = 0;  // MDB_dbi
   SparseHeader header_;
   ErrorQuantizer quantizer_{Quantization::kU16, 1, 0};
 };

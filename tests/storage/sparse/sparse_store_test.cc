@@ -21,6 +21,7 @@
 #include "hierarchy/geometry.h"
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
+#include "storage/io/lmdb.h"
 #include "storage/sparse/sparse_builder.h"
 #include "storage/sparse/sparse_store.h"
 #include "storage/sparse/vertex_set.h"
