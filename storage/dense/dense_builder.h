@@ -20,6 +20,10 @@
 // renamed; a build that fails or is killed leaves nothing under the final
 // name (a killed build's temporary is removed by the next build of that
 // name).
+//
+// Thread safety: BuildDenseStore may run in several threads at once for
+// different outputs; it starts its own workers (`threads`) and calls
+// `progress` from the thread that called it. Errors: listed at the function.
 #pragma once
 
 #include <cstdint>

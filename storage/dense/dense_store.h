@@ -20,6 +20,16 @@
 // read from the mapping (file pages, not anonymous memory). Beyond that a
 // store keeps one byte per block (raw blocks' checksum state). With Options::in_memory every block
 // is decoded into memory at open: the in-core case.
+//
+// Lifetimes: the store must outlive its Readers and every BlockHandle it
+// hands out keeps its block alive by itself (a handle outlives eviction, not
+// the store's mapping: drop handles before the store). header(), path() and
+// quantizer() live as long as the store.
+//
+// Errors: Open returns NotFound, InvalidArgument (not a store), NotSupported
+// (another format version) or Corruption; lookups return Corruption naming
+// the block when a block fails its checksum or does not decode, and IOError
+// when the mapping cannot be read.
 #pragma once
 
 #include <array>

@@ -14,6 +14,11 @@
 // the index's (in the header), each block's (in its index entry). The file
 // is written under a temporary name and renamed when complete, so a reader
 // never sees a partial store under the real name.
+//
+// Thread safety: plain values and pure functions; no shared state.
+// Errors: the Parse functions return Corruption (a checksum or a field out
+// of range, naming it) or NotSupported (another format version), never a
+// half-filled value.
 #pragma once
 
 #include <array>

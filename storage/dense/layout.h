@@ -19,6 +19,9 @@
 // 2^brick_bits, numbered x fastest; bricks at the far edges are cut to the
 // grid (only real points are stored), their points x fastest within the
 // brick's own extent.
+//
+// Thread safety: immutable values; any number of threads may use one. No
+// errors: callers validate the header first (REQUIRES lines below).
 #pragma once
 
 #include <array>

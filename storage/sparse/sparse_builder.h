@@ -19,6 +19,12 @@
 // Both write under a temporary name and rename when complete (the LMDB file
 // is synced first); a failed or killed conversion leaves nothing under the
 // final name.
+//
+// Thread safety: each function may run in several threads at once for
+// different outputs; the dense store read may be shared with readers.
+// Errors: the input's own (NotFound, Corruption naming the block or entry),
+// InvalidArgument for options out of range, ResourceExhausted for a full
+// disk, all naming the file; nothing is left under the final name.
 #pragma once
 
 #include <cstdint>

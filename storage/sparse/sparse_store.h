@@ -23,6 +23,11 @@
 // open the same file (LMDB's lock file, STORE-lock, coordinates them).
 // Lookups go through a Reader, one per thread: it reads one consistent
 // snapshot (an LMDB read transaction) until Refresh().
+//
+// Lifetimes: the store must outlive its Readers; a Reader's snapshot lives
+// until Refresh() or its destruction (a long-lived snapshot keeps LMDB from
+// reusing the pages later writers free). header() and path() live as long
+// as the store.
 #pragma once
 
 #include <array>

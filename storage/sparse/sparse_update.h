@@ -31,6 +31,9 @@
 // millions of nodes can exceed (ResourceExhausted, nothing written). A
 // full map is grown and the transaction redone; a full disk fails with
 // nothing written.
+//
+// Thread safety: one update of a store at a time (LMDB serializes writers:
+// a second one waits); readers in any thread or process go on meanwhile.
 #pragma once
 
 #include <array>

@@ -30,6 +30,8 @@
 //
 // Thread safety: all methods may be called from several threads (LMDB
 // serializes the writers; MDB_NOTLS lets each read run its own snapshot).
+// Lifetimes: the vectors and codes returned are copies; nothing refers
+// into the store after a call returns.
 #pragma once
 
 #include <cstdint>
