@@ -28,8 +28,8 @@
 //
 // Errors: Open returns NotFound, InvalidArgument (not a store), NotSupported
 // (another format version) or Corruption; lookups return Corruption naming
-// the block when a block fails its checksum or does not decode, and IOError
-// when the mapping cannot be read.
+// the block when a block fails its checksum or does not decode, and
+// InvalidArgument for a block number out of range.
 #pragma once
 
 #include <array>

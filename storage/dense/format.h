@@ -16,9 +16,10 @@
 // never sees a partial store under the real name.
 //
 // Thread safety: plain values and pure functions; no shared state.
-// Errors: the Parse functions return Corruption (a checksum or a field out
-// of range, naming it) or NotSupported (another format version), never a
-// half-filled value.
+// Errors: ParseHeader returns InvalidArgument (not a dense store: bad
+// magic), NotSupported (another format version) or Corruption (a checksum
+// or a field out of range, naming it); ParseQuantization and
+// ParseCompression return InvalidArgument naming the unknown word.
 #pragma once
 
 #include <array>
