@@ -19,9 +19,9 @@ Result<ReadOnlyFile> ReadOnlyFile::Open(const std::string& path) {
   ReadOnlyFile file(path, fd);
   struct stat st;
   if (::fstat(fd, &st) != 0) return StatusFromErrno(errno, path, "stat");
-  if (S_ISDIR(st.st_mode)) {
-    return Status::InvalidArgument(path + ": is a directory, not a file");
-  }
+  // open(2) accepts a directory; read(2) would fail with EISDIR. Say so
+  // now, in the words of the one errno table.
+  if (S_ISDIR(st.st_mode)) return StatusFromErrno(EISDIR, path, "read");
   return file;
 }
 

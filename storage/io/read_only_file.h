@@ -30,8 +30,8 @@ class ReadOnlyFile {
  public:
   // Opens `path` read-only (close-on-exec). Errors: StatusFromErrno(errno,
   // path, "open" or "stat") when the system refuses (a missing file is
-  // NotFound); InvalidArgument "<path>: is a directory, not a file" for a
-  // directory, which open(2) would accept but no read can use.
+  // NotFound); StatusFromErrno(EISDIR, path, "read") for a directory, which
+  // open(2) accepts but read(2) refuses.
   static Result<ReadOnlyFile> Open(const std::string& path);
 
   ReadOnlyFile(ReadOnlyFile&& other) noexcept;

@@ -26,12 +26,12 @@
 //   NotFound         a named file does not exist.
 //   (errno)          any other failure of the operating system to open,
 //                    stat or read a file (permissions, a path through a
-//                    non-directory, I/O errors) has the code and words of
-//                    io's one errno table, StatusFromErrno in
-//                    storage/io/file.h (IOError for an I/O error).
+//                    non-directory, a directory named as a file, I/O
+//                    errors) has the code and words of io's one errno
+//                    table, StatusFromErrno in storage/io/file.h (IOError
+//                    for an I/O error).
 //   InvalidArgument  malformed input: bad magic or header field, bad dims, a
-//                    raw file too short for the dims the caller gave, a
-//                    directory where a file was expected.
+//                    raw file too short for the dims the caller gave.
 //   Corruption       a header is well formed but its data file is shorter
 //                    than the header says, or not gzip data when it should be.
 //   NotSupported     well-formed input outside what SimplexDB reads: other
