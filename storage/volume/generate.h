@@ -40,11 +40,19 @@
 // PRNG is our own (SplitMix64), not <random>'s distributions, whose output
 // is implementation-defined; Perlin noise uses only +, -, *, / and floor,
 // which IEEE 754 rounds the same everywhere, and generate.cc is compiled
-// without fused multiply-add (storage/volume/CMakeLists.txt). The analytic fields call sin,
-// cos and sqrt: sqrt is exact, sin and cos may differ in the last bit
-// between C libraries.
+// without fused multiply-add (storage/volume/CMakeLists.txt). The analytic
+// fields call sin, cos and sqrt: sqrt is exact, sin and cos may differ in the
+// last bit between C libraries.
 //
-// Thread safety: At() is const and reentrant; one generator may be shared.
+// Errors: only ParseFieldKind and ValidateGenerateOptions fail
+// (InvalidArgument, saying what is wrong); the rest REQUIRES valid options.
+//
+// Thread safety: At() and Fill() are const and reentrant; one generator may
+// be shared.
+//
+// Lifetimes: a FieldGenerator keeps its own copy of the options; options()
+// lives as long as the generator. FieldKindName returns a view of static
+// storage.
 #pragma once
 
 #include <array>

@@ -17,6 +17,9 @@
 //
 // Thread safety: reentrant; concurrent writes to the same path leave one of
 // the complete files.
+//
+// Lifetimes: nothing is handed back but a Status; the values are only read
+// during the call.
 #pragma once
 
 #include <array>

@@ -14,6 +14,14 @@
 // points (rounded down), so 129^3 with s = 4 gives 33^3, and the time axis
 // has `steps` points, at most s^3: the seed's 33^4 from a 129^3 Buckyball is
 // s = 4, steps = 33.
+//
+// Errors: SubgridsToTime's, listed at the function (InvalidArgument for bad
+// parameters, the VolumeReader's errors for the input).
+//
+// Thread safety: reentrant; SubgridsToTime opens its own reader.
+//
+// Lifetimes: the result owns its values (a plain value); nothing refers to
+// `in` after the call.
 #pragma once
 
 #include <array>
@@ -35,8 +43,8 @@ constexpr uint32_t SubgridAxis(uint32_t n, uint32_t s) { return (n - 1) / s + 1;
 
 // Reads all of `in` (a 3D volume) and builds the 4D volume above. Memory:
 // 8 bytes per input point plus 8 per output point.
-// Errors: InvalidArgument if `in` is not 3D, s < 2, or steps is not in
-// [2, s^3]; the reader's errors (naming the file) otherwise.
+// Errors: InvalidArgument if `in` is not 3D, s is not in [2, 64], or steps
+// is not in [2, s^3]; the reader's errors (naming the file) otherwise.
 Result<SubgridTimeVolume> SubgridsToTime(const VolumeInfo& in, uint32_t s, uint32_t steps);
 
 }  // namespace simplexdb

@@ -24,7 +24,12 @@
 // Errors (Status codes) returned by the Open* functions; every message
 // starts with the file name:
 //   NotFound         a named file does not exist.
-//   IOError          a file exists but cannot be read (permissions, ...).
+//   (errno)          any other failure of the operating system to open,
+//                    stat or read a file (permissions, a path through a
+//                    non-directory, a directory named as a file, I/O
+//                    errors) has the code and words of io's one errno
+//                    table, StatusFromErrno in storage/io/file.h (IOError
+//                    for an I/O error).
 //   InvalidArgument  malformed input: bad magic or header field, bad dims, a
 //                    raw file too short for the dims the caller gave.
 //   Corruption       a header is well formed but its data file is shorter
@@ -35,6 +40,20 @@
 //
 // Thread safety: the Open* functions are reentrant. A VolumeReader is not
 // thread-safe; open one per thread.
+//
+// Lifetimes: a VolumeInfo is a plain value; the Open* functions return it by
+// value and keep no file open. VolumeReader::Open hands the caller a
+// unique_ptr; the reader keeps its own copy of the VolumeInfo (info() lives
+// as long as the reader) and one data file open at a time, closed when it
+// moves to another file or is destroyed. The data files are opened again by
+// each reader, so a file changed after Open* is read as it is then (a file
+// that shrank is Corruption when read).
+//
+// Where the code is: the grid rules and the checks every reader shares in
+// volume_info.cc; one file per format (raw_reader.cc, nrrd_reader.cc,
+// nifti_reader.cc), time_series.cc, open_volume.cc (OpenVolume) and
+// volume_reader.cc (VolumeReader). Files are read through io's
+// ReadOnlyFile (storage/io/read_only_file.h).
 #pragma once
 
 #include <array>
@@ -50,7 +69,7 @@
 namespace simplexdb {
 
 namespace volume_internal {
-class ByteSource;  // one open data file, raw or gzip (volume.cc)
+class ByteSource;  // one open data file, raw or gzip (volume_reader.cc)
 }  // namespace volume_internal
 
 // A volume on disk: its grid and where and how its voxels are stored.
@@ -165,9 +184,10 @@ Result<VolumeInfo> OpenVolume(const std::string& path);
 // Not thread-safe; open one per thread.
 class VolumeReader {
  public:
-  // Checks the invariants of `info` (InvalidArgument otherwise) and opens
-  // its first data file (NotFound / IOError / Corruption for gzip data that
-  // is not gzip). The reader keeps its own copy of `info`.
+  // Checks the invariants of `info` (InvalidArgument otherwise; NotSupported
+  // for an invalid voxel type) and opens its first data file (NotFound, the
+  // errno table's Status for another failure to open it, Corruption for
+  // gzip data that is not gzip). The reader keeps its own copy of `info`.
   static Result<std::unique_ptr<VolumeReader>> Open(const VolumeInfo& info);
 
   ~VolumeReader();
@@ -177,7 +197,8 @@ class VolumeReader {
   // Reads `count` voxels starting at linear index `first` (x fastest, then
   // y, z, t) into out[0 .. count). Fails with Corruption naming the file on
   // a short read (the file shrank since it was opened, a truncated gzip
-  // stream) or a gzip error, IOError on an operating-system error, and
+  // stream) or a gzip error, the errno table's Status on an
+  // operating-system error (IOError for an I/O error), and
   // InvalidArgument if [first, first + count) is not inside the volume.
   // After a failure `out` holds unspecified values and the reader can be
   // used again. REQUIRES: `out` holds count doubles.

@@ -7,7 +7,14 @@
 // Every value of the six types is exactly representable as a double, so
 // DecodeVoxels is lossless and EncodeVoxels(DecodeVoxels(b)) gives back b.
 //
+// Errors: ParseVoxelType and VoxelTypeFromCode return NotSupported or
+// InvalidArgument as said below; nothing else fails (breaking a REQUIRES:
+// line is a programming error, asserted where cheap, not a Status).
+//
 // Thread safety: pure functions.
+//
+// Lifetimes: the string_views returned (ByteOrderName, VoxelTypeName,
+// NrrdTypeName) point at static storage and live as long as the program.
 #pragma once
 
 #include <cstddef>

@@ -1,0 +1,202 @@
+// The NIfTI-1 reader, OpenNifti (volume.h): single-file .nii volumes of
+// either byte order, read from their 348-byte header.
+#include "storage/volume/volume.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstddef>
+#include <cstring>
+#include <optional>
+#include <string_view>
+
+#include "storage/io/read_only_file.h"
+#include "storage/volume/volume_info_internal.h"
+
+namespace simplexdb {
+namespace {
+
+using Encoding = VolumeInfo::Encoding;
+using volume_internal::CheckDataFiles;
+using volume_internal::DropSingleTimeStep;
+using volume_internal::TruncatedData;
+
+// Field offsets in the 348-byte NIfTI-1 header (nifti1.h).
+constexpr size_t kNiftiHeaderSize = 348;
+constexpr size_t kNiftiDim = 40;        // int16 dim[8]
+constexpr size_t kNiftiDatatype = 70;   // int16
+constexpr size_t kNiftiBitpix = 72;     // int16
+constexpr size_t kNiftiPixdim = 76;     // float32 pixdim[8]
+constexpr size_t kNiftiVoxOffset = 108; // float32
+constexpr size_t kNiftiMagic = 344;     // char[4]
+
+// Reads integers and floats of the header in its byte order.
+class NiftiFields {
+ public:
+  NiftiFields(const std::array<std::byte, kNiftiHeaderSize>& h, ByteOrder order)
+      : h_(h), order_(order) {}
+  int16_t I16(size_t at) const {
+    int16_t v;
+    Get(at, &v);
+    return v;
+  }
+  int32_t I32(size_t at) const {
+    int32_t v;
+    Get(at, &v);
+    return v;
+  }
+  float F32(size_t at) const {
+    uint32_t u;
+    Get(at, &u);
+    return std::bit_cast<float>(u);
+  }
+
+ private:
+  template <class T>
+  void Get(size_t at, T* v) const {
+    std::array<std::byte, sizeof(T)> b;
+    std::memcpy(b.data(), h_.data() + at, sizeof(T));
+    if (order_ != NativeByteOrder()) std::reverse(b.begin(), b.end());
+    std::memcpy(v, b.data(), sizeof(T));
+  }
+  const std::array<std::byte, kNiftiHeaderSize>& h_;
+  ByteOrder order_;
+};
+
+struct NiftiDatatype {
+  int16_t code;
+  std::string_view name;
+  std::optional<VoxelType> type;
+};
+
+// NIfTI-1 datatype codes (nifti1.h, NIFTI_TYPE_*).
+constexpr NiftiDatatype kNiftiDatatypes[] = {
+    {1, "binary", std::nullopt},         {2, "uint8", VoxelType::kU8},
+    {4, "int16", VoxelType::kI16},       {8, "int32", std::nullopt},
+    {16, "float32", VoxelType::kF32},    {32, "complex64", std::nullopt},
+    {64, "float64", VoxelType::kF64},    {128, "rgb24", std::nullopt},
+    {256, "int8", VoxelType::kI8},       {512, "uint16", VoxelType::kU16},
+    {768, "uint32", std::nullopt},       {1024, "int64", std::nullopt},
+    {1280, "uint64", std::nullopt},      {1536, "float128", std::nullopt},
+    {1792, "complex128", std::nullopt},  {2048, "complex256", std::nullopt},
+    {2304, "rgba32", std::nullopt},
+};
+
+}  // namespace
+
+Result<VolumeInfo> OpenNifti(const std::string& path) {
+  SDB_ASSIGN_OR_RETURN(const ReadOnlyFile file, ReadOnlyFile::Open(path));
+  std::array<std::byte, kNiftiHeaderSize> h{};
+  SDB_ASSIGN_OR_RETURN(const size_t got, file.ReadUpTo(0, h.size(), h.data()));
+  if (got < h.size()) {
+    return Status::InvalidArgument(path + ": has " + std::to_string(got) +
+                                   " bytes, shorter than a NIfTI-1 header (348)");
+  }
+  // The byte order is the one in which sizeof_hdr reads 348.
+  ByteOrder order = ByteOrder::kLittle;
+  const int32_t size_le = NiftiFields(h, ByteOrder::kLittle).I32(0);
+  const int32_t size_be = NiftiFields(h, ByteOrder::kBig).I32(0);
+  if (size_le == 348) {
+    order = ByteOrder::kLittle;
+  } else if (size_be == 348) {
+    order = ByteOrder::kBig;
+  } else if (size_le == 540 || size_be == 540) {
+    return Status::NotSupported(path + ": a NIfTI-2 header (sizeof_hdr 540); "
+                                "SimplexDB reads NIfTI-1");
+  } else {
+    return Status::InvalidArgument(path + ": not a NIfTI-1 file: sizeof_hdr is " +
+                                   std::to_string(size_le) +
+                                   " (little-endian), expected 348");
+  }
+  const NiftiFields f(h, order);
+
+  const char* magic = reinterpret_cast<const char*>(h.data() + kNiftiMagic);
+  if (std::memcmp(magic, "ni1\0", 4) == 0) {
+    return Status::NotSupported(path + ": magic 'ni1' marks the header of a "
+                                ".hdr/.img pair; SimplexDB reads single-file .nii "
+                                "(magic 'n+1')");
+  }
+  if (std::memcmp(magic, "n+1\0", 4) != 0) {
+    std::string shown;
+    for (int i = 0; i < 4; ++i) {
+      const auto c = static_cast<unsigned char>(magic[i]);
+      shown += (c >= 32 && c < 127) ? std::string(1, static_cast<char>(c))
+                                    : "\\x" + std::to_string(c);
+    }
+    return Status::InvalidArgument(path + ": NIfTI-1 magic is '" + shown +
+                                   "', expected 'n+1' (single-file .nii)");
+  }
+
+  // dim[0] is the number of axes; axes above 4 are accepted only as 1.
+  const int16_t ndim = f.I16(kNiftiDim);
+  if (ndim < 1 || ndim > 7) {
+    return Status::InvalidArgument(path + ": dim[0] is " + std::to_string(ndim) +
+                                   ", expected 1..7");
+  }
+  int dimension = ndim;
+  while (dimension > 4 && f.I16(kNiftiDim + 2 * static_cast<size_t>(dimension)) == 1) {
+    --dimension;
+  }
+  if (dimension != 3 && dimension != 4) {
+    return Status::NotSupported(path + ": dim[0] is " + std::to_string(ndim) +
+                                "; SimplexDB reads 3D and 4D volumes");
+  }
+  VolumeInfo info;
+  info.dimension = dimension;
+  for (int i = 0; i < dimension; ++i) {
+    const int16_t n = f.I16(kNiftiDim + 2 * static_cast<size_t>(i + 1));
+    if (n < 0) {
+      return Status::InvalidArgument(path + ": dim[" + std::to_string(i + 1) +
+                                     "] is " + std::to_string(n) +
+                                     ", expected a positive size");
+    }
+    info.dims[static_cast<size_t>(i)] = static_cast<uint32_t>(n);
+    const float pixdim = f.F32(kNiftiPixdim + 4 * static_cast<size_t>(i + 1));
+    if (std::isfinite(pixdim) && pixdim != 0) {
+      info.spacing[static_cast<size_t>(i)] = std::fabs(static_cast<double>(pixdim));
+    }
+  }
+
+  const int16_t datatype = f.I16(kNiftiDatatype);
+  const NiftiDatatype* dt = nullptr;
+  for (const NiftiDatatype& t : kNiftiDatatypes) {
+    if (t.code == datatype) dt = &t;
+  }
+  if (dt == nullptr) {
+    return Status::InvalidArgument(path + ": unknown NIfTI datatype code " +
+                                   std::to_string(datatype));
+  }
+  if (!dt->type) {
+    return Status::NotSupported(path + ": NIfTI datatype " + std::to_string(datatype) +
+                                " (" + std::string(dt->name) +
+                                ") is not supported; supported: uint8, int8, uint16, "
+                                "int16, float32, float64");
+  }
+  info.type = *dt->type;
+  const int16_t bitpix = f.I16(kNiftiBitpix);
+  if (bitpix != static_cast<int16_t>(8 * VoxelSize(info.type))) {
+    return Status::InvalidArgument(path + ": bitpix is " + std::to_string(bitpix) +
+                                   ", expected " +
+                                   std::to_string(8 * VoxelSize(info.type)) + " for " +
+                                   std::string(dt->name));
+  }
+  const float vox_offset = f.F32(kNiftiVoxOffset);
+  if (!(vox_offset >= 352.0f) || vox_offset != std::floor(vox_offset) ||
+      vox_offset > 1e15f) {
+    return Status::InvalidArgument(path + ": vox_offset is " +
+                                   std::to_string(vox_offset) +
+                                   ", expected an integer >= 352 for a .nii file");
+  }
+  info.order = order;
+  info.encoding = Encoding::kRaw;
+  info.files = {path};
+  info.offset = static_cast<uint64_t>(vox_offset);
+  info.description = "NIfTI-1 file " + path;
+  DropSingleTimeStep(info);
+  SDB_RETURN_IF_ERROR(ValidateGrid(path, info.dimension, info.dims));
+  SDB_RETURN_IF_ERROR(CheckDataFiles(info, TruncatedData));
+  return info;
+}
+
+}  // namespace simplexdb

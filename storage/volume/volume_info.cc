@@ -1,0 +1,185 @@
+#include "storage/volume/volume.h"
+
+#include <algorithm>
+#include <cassert>
+#include <string>
+#include <utility>
+
+#include "storage/io/read_only_file.h"
+#include "storage/volume/text_internal.h"
+#include "storage/volume/volume_info_internal.h"
+
+namespace simplexdb {
+
+// ---------------------------------------------------------------------------
+// VolumeInfo and the grid rules (volume.h).
+
+uint64_t VolumeInfo::voxel_count() const {
+  return uint64_t{dims[0]} * dims[1] * dims[2] * dims[3];
+}
+
+uint64_t VolumeInfo::voxels_per_file() const {
+  assert(!files.empty());
+  return voxel_count() / files.size();
+}
+
+uint64_t VolumeInfo::offset_of(size_t i) const {
+  assert(i < files.size());
+  return file_offsets.empty() ? offset : file_offsets[i];
+}
+
+std::string FormatDims(int dimension, const std::array<uint32_t, 4>& dims) {
+  std::string s;
+  for (int i = 0; i < dimension && i < 4; ++i) {
+    if (i > 0) s.push_back('x');
+    s += std::to_string(dims[static_cast<size_t>(i)]);
+  }
+  return s;
+}
+
+Status ValidateGrid(const std::string& what, int dimension,
+                    const std::array<uint32_t, 4>& dims) {
+  if (dimension != 3 && dimension != 4) {
+    return Status::InvalidArgument(what + ": dimension " + std::to_string(dimension) +
+                                   ", expected 3 or 4");
+  }
+  for (int i = 0; i < 4; ++i) {
+    const uint32_t d = dims[static_cast<size_t>(i)];
+    if (i < dimension && d < 2) {
+      return Status::InvalidArgument(
+          what + ": dims " + FormatDims(dimension, dims) + ": axis " + "xyzt"[i] +
+          " has " + std::to_string(d) + " samples, expected at least 2");
+    }
+    if (i >= dimension && d != 1) {
+      return Status::InvalidArgument(what + ": a " + std::to_string(dimension) +
+                                     "D volume with " + std::to_string(d) +
+                                     " samples along unused axis " + "xyzt"[i] +
+                                     ", expected 1");
+    }
+  }
+  // Keep byte counts well inside uint64_t: at most 2^60 voxels.
+  uint64_t n = 1;
+  for (uint32_t d : dims) {
+    if (n > (uint64_t{1} << 60) / d) {
+      return Status::InvalidArgument(what + ": dims " + FormatDims(dimension, dims) +
+                                     " exceed 2^60 voxels");
+    }
+    n *= d;
+  }
+  return Status::OK();
+}
+
+namespace volume_internal {
+namespace {
+
+using Encoding = VolumeInfo::Encoding;
+
+// " (data file of NRRD header h.nhdr)" when the data file is not the file
+// the user named, so a message about it leads back to what they opened.
+std::string DataFileContext(const VolumeInfo& info, const std::string& path) {
+  const std::string& d = info.description;
+  if (d.empty() || (d.size() >= path.size() &&
+                    d.compare(d.size() - path.size(), path.size(), path) == 0)) {
+    return std::string();
+  }
+  return " (data file of " + d + ")";
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// Checks shared by every reader (volume_info_internal.h).
+
+void DropSingleTimeStep(VolumeInfo& info) {
+  if (info.dimension == 4 && info.dims[3] == 1) {
+    info.dimension = 3;
+    info.spacing[3] = 1;
+  }
+}
+
+Status CheckDataFiles(const VolumeInfo& info,
+                      Status (*truncated)(std::string_view)) {
+  const uint64_t bytes_per_file = info.voxels_per_file() * VoxelSize(info.type);
+  for (size_t i = 0; i < info.files.size(); ++i) {
+    const std::string& path = info.files[i];
+    const uint64_t offset = info.offset_of(i);
+    Result<ReadOnlyFile> opened = ReadOnlyFile::Open(path);
+    if (!opened.ok()) {
+      return WithMessage(opened.status(), std::string(opened.status().message()) +
+                                              DataFileContext(info, path));
+    }
+    const ReadOnlyFile file = std::move(opened).value();
+    SDB_ASSIGN_OR_RETURN(const uint64_t size, file.Size());
+    if (info.encoding == Encoding::kRaw) {
+      // Bytes after the voxels are trailing data we ignore (see volume.h).
+      if (size < offset || size - offset < bytes_per_file) {
+        const std::string what =
+            info.files.size() == 1
+                ? FormatDims(info.dimension, info.dims)
+                : std::to_string(info.voxels_per_file()) + " voxels (one of " +
+                      std::to_string(info.files.size()) + " files of " +
+                      FormatDims(info.dimension, info.dims) + ")";
+        return truncated(
+            path + ": has " + std::to_string(size) + " bytes, expected at least " +
+            std::to_string(offset + bytes_per_file) + " (" + what + " " +
+            std::string(VoxelTypeName(info.type)) + " = " +
+            std::to_string(bytes_per_file) + " bytes after offset " +
+            std::to_string(offset) + ")" + DataFileContext(info, path));
+      }
+      continue;
+    }
+    // gzip: magic at the offset, and the trailer's ISIZE (uncompressed size
+    // mod 2^32, RFC 1952) must match. A truncated stream almost surely ends
+    // in other bytes; the stream itself is checked when read.
+    constexpr uint64_t kMinGzip = 18;  // 10-byte header + 8-byte trailer
+    if (size < offset || size - offset < kMinGzip) {
+      return Status::Corruption(path + ": has " + std::to_string(size) +
+                                " bytes, too short for gzip data at byte " +
+                                std::to_string(offset) + DataFileContext(info, path));
+    }
+    std::array<std::byte, 4> b{};
+    SDB_ASSIGN_OR_RETURN(size_t got, file.ReadUpTo(offset, 2, b.data()));
+    if (got != 2 || b[0] != std::byte{0x1f} || b[1] != std::byte{0x8b}) {
+      return Status::Corruption(path + ": encoding gzip, but byte " +
+                                std::to_string(offset) +
+                                " does not start gzip data (magic 1f 8b)" +
+                                DataFileContext(info, path));
+    }
+    SDB_ASSIGN_OR_RETURN(got, file.ReadUpTo(size - 4, 4, b.data()));
+    if (got != 4) return Status::IOError(path + ": cannot read the gzip trailer");
+    const uint32_t isize = static_cast<uint32_t>(b[0]) |
+                           static_cast<uint32_t>(b[1]) << 8 |
+                           static_cast<uint32_t>(b[2]) << 16 |
+                           static_cast<uint32_t>(b[3]) << 24;
+    const auto expected = static_cast<uint32_t>(bytes_per_file);  // mod 2^32
+    if (isize != expected) {
+      return Status::Corruption(
+          path + ": gzip trailer gives " + std::to_string(isize) +
+          " bytes (mod 2^32) of decompressed data, expected " +
+          std::to_string(bytes_per_file) + " (" +
+          FormatDims(info.dimension, info.dims) + " " +
+          std::string(VoxelTypeName(info.type)) +
+          "): truncated or wrong sizes" + DataFileContext(info, path));
+    }
+  }
+  return Status::OK();
+}
+
+Status TruncatedRaw(std::string_view msg) {
+  return Status::InvalidArgument(std::string(msg) +
+                                 ": truncated, or the dims or type given are wrong");
+}
+Status TruncatedData(std::string_view msg) {
+  return Status::Corruption(std::string(msg) + ": the data file is truncated");
+}
+
+void SetOffsets(VolumeInfo& info, std::vector<uint64_t> offsets) {
+  const bool same = std::all_of(offsets.begin(), offsets.end(),
+                                [&](uint64_t o) { return o == offsets.front(); });
+  info.offset = offsets.empty() ? 0 : offsets.front();
+  info.file_offsets.clear();
+  if (!same) info.file_offsets = std::move(offsets);
+}
+
+}  // namespace volume_internal
+}  // namespace simplexdb

@@ -1,0 +1,46 @@
+// What every volume reader does to the VolumeInfo it returns (internal to
+// storage/volume): the grid rules and the data-file checks of volume.h,
+// shared by the raw, NRRD and NIfTI-1 readers and time series. Not part of
+// the API; no caller outside storage/volume should include it.
+//
+// Thread safety: reentrant (no shared state); CheckDataFiles opens files.
+#pragma once
+
+#include <cstdint>
+#include <string_view>
+#include <vector>
+
+#include "storage/volume/volume.h"
+#include "util/status.h"
+
+namespace simplexdb::volume_internal {
+
+// A 4D grid with one time step is read as 3D (see volume.h): sets
+// dimension 3 and spacing[3] 1 when dimension is 4 and dims[3] is 1.
+void DropSingleTimeStep(VolumeInfo& info);
+
+// Checks that every data file of `info` exists, is readable and is long
+// enough for its voxels after its offset (raw), or starts gzip data at its
+// offset whose trailer gives the expected size mod 2^32 (gzip). Errors:
+// those of ReadOnlyFile (storage/io/read_only_file.h; a missing file is
+// NotFound); `truncated(message)` for a raw file too short (its code
+// differs: the caller's dims for raw input, a corrupt file for a header
+// format); Corruption for gzip data that is not gzip, too short or of the
+// wrong size. Messages about a data file other than the file the user named
+// end with " (data file of <info.description>)".
+// REQUIRES: !info.files.empty(). Cost: one open, one fstat (and two small
+// preads for gzip) per data file.
+Status CheckDataFiles(const VolumeInfo& info, Status (*truncated)(std::string_view));
+
+// `truncated` for CheckDataFiles: raw input, whose size is the caller's
+// (InvalidArgument, "... truncated, or the dims or type given are wrong").
+Status TruncatedRaw(std::string_view msg);
+// `truncated` for CheckDataFiles: a header format, whose data file is short
+// (Corruption, "...: the data file is truncated").
+Status TruncatedData(std::string_view msg);
+
+// Sets info.offset and info.file_offsets from one offset per data file,
+// keeping just info.offset when all are the same, as in most volumes.
+void SetOffsets(VolumeInfo& info, std::vector<uint64_t> offsets);
+
+}  // namespace simplexdb::volume_internal
