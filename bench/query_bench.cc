@@ -118,7 +118,8 @@ void RunExtract(benchmark::State& state, Algorithm algorithm, const AnyStore* sh
   Mesh<D> mesh;
   QueryStats stats;
   // The mesh incremental starts from.
-  if (algorithm == Algorithm::kIncremental && !Query<D>(store(), Algorithm::kDepthFirst, 5, mesh, stats).ok()) {
+  if (algorithm == Algorithm::kIncremental &&
+      !Query<D>(store(), Algorithm::kDepthFirst, 5, mesh, stats).ok()) {
     state.SkipWithError("setup failed");
   }
   for (auto _ : state) {

@@ -20,7 +20,8 @@ Result<AnyStore> AnyStore::Open(const std::string& path, const StoreOptions& opt
   AnyStore store;
   if (ProbeStoreKind(path) == StoreKind::kSparse) {
     if (options.in_memory) {
-      return Status::InvalidArgument(path + ": in_memory applies to dense stores; the LMDB store is read in place");
+      return Status::InvalidArgument(path +
+                                     ": in_memory applies to dense stores; the LMDB store is read in place");
     }
     SDB_ASSIGN_OR_RETURN(store.sparse_, SparseStore::Open(path));
     store.info_ = InfoFromHeader(store.sparse_->header(), store.sparse_->path());
