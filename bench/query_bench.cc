@@ -12,34 +12,48 @@
 //       OS page cache), zstd with no cache at all (every block change
 //       decodes a frame: the floor), and the lossless LMDB store.
 //       Incremental times the step from the 5% mesh to the 1% mesh and back.
+//       Each query gets a new source and refiner, as a program's query does
+//       (query/open_store.h: AnyStore::Visit); making them takes microseconds
+//       and is timed with the query.
 //
 //   build/release/bench/query_bench
 #include <benchmark/benchmark.h>
 
-#include <memory>
+#include <cstdlib>
+#include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "bench/bench_util.h"
 #include "query/criteria.h"
 #include "query/mesh.h"
+#include "query/open_store.h"
 #include "query/refine.h"
 #include "query/source.h"
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
 #include "storage/sparse/sparse_builder.h"
-#include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
 
 namespace simplexdb {
 namespace {
 
+constexpr size_t kColdCacheBytes = size_t{256} << 20;
+
+// The stores of one hierarchy, opened once for the whole run (so the warm
+// cache stays warm across benchmarks); the cold store is opened anew per
+// query from zstd_path.
 struct QueryStores {
-  std::unique_ptr<DenseStore> in_memory, raw, zstd_warm, zstd_nocache;
+  std::vector<std::pair<const char*, AnyStore>> open;  // name, store
   std::string zstd_path;
-  std::unique_ptr<SparseStore> sparse;
 };
 
-constexpr size_t kColdCacheBytes = size_t{256} << 20;
+AnyStore OpenOrDie(const std::string& path, const StoreOptions& options) {
+  Result<AnyStore> store = AnyStore::Open(path, options);
+  if (!store.ok()) std::abort();
+  return *std::move(store);
+}
 
 QueryStores MakeStores(int dimension, uint32_t side) {
   QueryStores s;
@@ -50,17 +64,18 @@ QueryStores MakeStores(int dimension, uint32_t side) {
   if (!BuildDenseStore(in, base + "_raw.sdb", options).ok()) std::abort();
   options.compression = Compression::kZstd;
   if (!BuildDenseStore(in, base + "_zstd.sdb", options).ok()) std::abort();
-  DenseStore::Options o;
-  s.raw = *DenseStore::Open(base + "_raw.sdb", o);
-  o.cache_bytes = size_t{1} << 30;
-  s.zstd_warm = *DenseStore::Open(base + "_zstd.sdb", o);
-  o.cache_bytes = 0;
-  s.zstd_nocache = *DenseStore::Open(base + "_zstd.sdb", o);
   s.zstd_path = base + "_zstd.sdb";
-  o.in_memory = true;
-  s.in_memory = *DenseStore::Open(base + "_zstd.sdb", o);
-  if (!ConvertDenseToSparse(*s.zstd_warm, base + ".lmdb", SparseBuildOptions{}).ok()) std::abort();
-  s.sparse = *SparseStore::Open(base + ".lmdb");
+  StoreOptions in_memory, raw, warm, nocache;
+  in_memory.in_memory = true;
+  warm.cache_bytes = size_t{1} << 30;
+  nocache.cache_bytes = 0;
+  s.open.emplace_back("in-memory", OpenOrDie(s.zstd_path, in_memory));
+  s.open.emplace_back("raw", OpenOrDie(base + "_raw.sdb", raw));
+  s.open.emplace_back("zstd-warm", OpenOrDie(s.zstd_path, warm));
+  s.open.emplace_back("zstd-nocache", OpenOrDie(s.zstd_path, nocache));
+  const DenseStore& dense = *s.open[2].second.dense();
+  if (!ConvertDenseToSparse(dense, base + ".lmdb", SparseBuildOptions{}).ok()) std::abort();
+  s.open.emplace_back("lmdb", OpenOrDie(base + ".lmdb", StoreOptions{}));
   return s;
 }
 
@@ -71,47 +86,61 @@ Criteria<D> AtPercent(const SourceInfo& info, double pct) {
   return *MakeCriteria<D>(spec, info.domain_bits, info.field_range());
 }
 
-// One extraction per iteration over the source `make()` returns. With
-// `cold`, every iteration gets a new source from `make()` (untimed), which
-// opens the store anew: an empty cache.
-template <int D, class Make>
-void RunExtract(benchmark::State& state, Algorithm algorithm, bool cold, Make make) {
-  auto source = make();
-  using Source = typename decltype(source)::element_type;
-  const auto criteria = [&](double pct) { return AtPercent<D>(source->info(), pct); };
-  auto refiner = std::make_unique<Refiner<D, Source>>(*source, criteria(1));
-  auto back = std::make_unique<Refiner<D, Source>>(*source, criteria(5));
+// Runs `algorithm` at `pct` percent on `mesh`, over a new source of `store`.
+template <int D>
+Status Query(const AnyStore& store, Algorithm algorithm, double pct, Mesh<D>& mesh, QueryStats& stats) {
+  return store.Visit([&]<int E, class Source>(Source& source) -> Status {
+    if constexpr (E != D) {
+      return Status::InvalidArgument(store.path() + ": not of this benchmark's hierarchy");
+    } else {
+      Refiner<D, Source> refiner(source, AtPercent<D>(source.info(), pct));
+      return refiner.Run({algorithm}, mesh, stats);
+    }
+  });
+}
+
+// One extraction per iteration over `shared`, or with `cold_path` over that
+// store opened anew (untimed) for every iteration: an empty cache.
+template <int D>
+void RunExtract(benchmark::State& state, Algorithm algorithm, const AnyStore* shared,
+                const std::string& cold_path) {
+  std::optional<AnyStore> cold;
+  const auto store = [&]() -> const AnyStore& {
+    if (shared != nullptr) return *shared;
+    if (!cold) {
+      StoreOptions o;
+      o.cache_bytes = kColdCacheBytes;
+      cold.emplace(OpenOrDie(cold_path, o));
+    }
+    return *cold;
+  };
   uint64_t splits = 0, merges = 0, clusters = 0, simplices = 0;
   Mesh<D> mesh;
   QueryStats stats;
-  const auto start = [&] {  // the mesh the query starts from
-    if (algorithm != Algorithm::kIncremental) return;
-    mesh = Mesh<D>();
-    if (!back->Run({Algorithm::kDepthFirst}, mesh, stats).ok()) state.SkipWithError("setup failed");
-  };
-  start();
+  // The mesh incremental starts from.
+  if (algorithm == Algorithm::kIncremental &&
+      !Query<D>(store(), Algorithm::kDepthFirst, 5, mesh, stats).ok()) {
+    state.SkipWithError("setup failed");
+  }
   for (auto _ : state) {
-    if (cold) {
+    if (shared == nullptr) {
       state.PauseTiming();
-      refiner.reset();
-      back.reset();
-      source = make();
-      refiner = std::make_unique<Refiner<D, Source>>(*source, criteria(1));
-      back = std::make_unique<Refiner<D, Source>>(*source, criteria(5));
+      cold.reset();
+      store();
       state.ResumeTiming();
     }
     if (algorithm == Algorithm::kIncremental) {
       // 5% -> 1% (splits), then 1% -> 5% (merges): both timed.
-      if (!refiner->Run({algorithm}, mesh, stats).ok()) state.SkipWithError("query failed");
+      if (!Query<D>(store(), algorithm, 1, mesh, stats).ok()) state.SkipWithError("query failed");
       splits += stats.splits;
       clusters += stats.cluster_computations;
       simplices = stats.simplices;
-      if (!back->Run({algorithm}, mesh, stats).ok()) state.SkipWithError("query failed");
+      if (!Query<D>(store(), algorithm, 5, mesh, stats).ok()) state.SkipWithError("query failed");
       merges += stats.merges;
       clusters += stats.cluster_computations;
       splits += stats.splits;
     } else {
-      if (!refiner->Run({algorithm}, mesh, stats).ok()) state.SkipWithError("query failed");
+      if (!Query<D>(store(), algorithm, 1, mesh, stats).ok()) state.SkipWithError("query failed");
       splits += stats.splits;
       clusters += stats.cluster_computations;
       simplices = stats.simplices;
@@ -128,36 +157,20 @@ void RunExtract(benchmark::State& state, Algorithm algorithm, bool cold, Make ma
 template <int D>
 void Register(const char* name, uint32_t side) {
   static QueryStores stores = MakeStores(D, side);
-  const std::pair<const char*, DenseStore*> dense[] = {{"in-memory", stores.in_memory.get()},
-                                                       {"raw", stores.raw.get()},
-                                                       {"zstd-warm", stores.zstd_warm.get()},
-                                                       {"zstd-nocache", stores.zstd_nocache.get()}};
   for (Algorithm a : {Algorithm::kDepthFirst, Algorithm::kPriority, Algorithm::kIncremental,
                       Algorithm::kSaturated}) {
-    const auto add = [&](const char* store_name, auto make, bool cold) {
+    const auto add = [&](const char* store_name, const AnyStore* shared) {
       benchmark::RegisterBenchmark(
           (std::string("Extract/") + name + "/" + store_name + "/" + AlgorithmName(a)).c_str(),
-          [a, make, cold](benchmark::State& state) { RunExtract<D>(state, a, cold, make); })
+          [a, shared](benchmark::State& state) { RunExtract<D>(state, a, shared, stores.zstd_path); })
           ->Unit(benchmark::kMillisecond)
           ->MinTime(1.0);
     };
-    for (const auto& [store_name, store] : dense) {
-      DenseStore* st = store;
-      add(store_name, [st] { return std::make_unique<DenseSource<D>>(*st); }, false);
+    // The order of the report: in-core first, the cold store before LMDB.
+    for (const auto& [store_name, store] : stores.open) {
+      if (std::string(store_name) == "lmdb") add("zstd-cold", nullptr);
+      add(store_name, &store);
     }
-    // Opened anew for each query, so its cache starts empty. The store lives
-    // as long as the source: both in one holder.
-    struct ColdSource : DenseSource<D> {
-      explicit ColdSource(std::unique_ptr<DenseStore> s) : DenseSource<D>(*s), store(std::move(s)) {}
-      std::unique_ptr<DenseStore> store;
-    };
-    add("zstd-cold", [] {
-      DenseStore::Options o;
-      o.cache_bytes = kColdCacheBytes;
-      return std::make_unique<ColdSource>(*DenseStore::Open(stores.zstd_path, o));
-    }, true);
-    add("lmdb", [] { return std::make_unique<SparseSource<D>>(*SparseSource<D>::Create(*stores.sparse)); },
-        false);
   }
 }
 

@@ -12,7 +12,14 @@
 // Keys may be any value except ~0 (SimplexCode::None()'s key, which marks an
 // empty slot); REQUIRES of every method taking a key.
 //
-// Thread safety: none; one set per query.
+// Thread safety: none; one set per query (const methods write nothing, so
+// readers may share a set no one changes).
+//
+// Lifetimes: nothing is handed out by reference; ForEach passes keys by
+// value, and the set must not change during ForEach.
+//
+// Errors: none; insert and reserve throw std::bad_alloc when the table
+// cannot grow.
 #pragma once
 
 #include <algorithm>

@@ -14,7 +14,13 @@
 // Cost: O(n log n) time and (D+1) * n faces of D packed vertices in memory
 // (about 1.2 GB for the 12.6 million tetrahedra of a 129^3 grid).
 //
-// Thread safety: pure function.
+// Thread safety: pure function; any number of calls at once.
+//
+// Lifetimes: the span is read during the call only; the report is a value.
+//
+// Errors: none reported as a Status. Whatever is wrong with the list
+// (invalid codes included) gives ok == false and the first problem found in
+// `problem`. std::bad_alloc when the faces do not fit in memory.
 #pragma once
 
 #include <cstdint>

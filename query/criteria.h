@@ -18,6 +18,16 @@
 // input grid's own coordinates.
 //
 // Thread safety: values; the functions are pure.
+//
+// Lifetimes: everything is a value; Criteria copies what it needs from the
+// spec.
+//
+// Errors: only MakeCriteria fails: InvalidArgument naming the value and
+// what was expected (a threshold that is negative or not finite, a box of
+// the wrong count of numbers or with a bound that is not finite or low >
+// high, an isovalue or time that is not finite, a time on an HT). Box
+// bounds beyond the grid are clamped, not refused. Applies and the
+// geometric tests cannot fail.
 #pragma once
 
 #include <algorithm>

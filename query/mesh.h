@@ -9,7 +9,13 @@
 // The leaves are the roots and the children of split nodes that are not
 // split themselves: there are kRoots + (number of split nodes) of them.
 //
-// Thread safety: none; a mesh belongs to one query at a time.
+// Thread safety: none; a mesh belongs to one query at a time (const methods
+// write nothing, so readers may share a mesh no one changes).
+//
+// Lifetimes: Leaves() returns a new vector; split_set() is a reference into
+// the mesh, valid as long as the mesh.
+//
+// Errors: none; std::bad_alloc when memory runs out.
 #pragma once
 
 #include <cstdint>

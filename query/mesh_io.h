@@ -5,7 +5,20 @@
 // (storage/io/file.h), so a failed or interrupted write never leaves a partial
 // file under the real name. "-" means standard output for text.
 //
-// Thread safety: free functions; the walk uses the caller's source.
+// Thread safety: free functions; WriteCodes and WriteVtu may run in several
+// threads at once (on different paths); the walks use the caller's source,
+// which is one thread's (query/source.h).
+//
+// Lifetimes: results are values; spans and meshes passed in are read during
+// the call only. ForEachLeaf's vertices and values are valid during the
+// callback only.
+//
+// Errors: WriteCodes and WriteVtu return the writer's errors
+// (storage/io/file.h: the errno of the failing call as a Status naming the
+// file, ResourceExhausted for a full disk), IOError when writing to standard
+// output fails; nothing is left under the path then. ForEachLeaf returns the
+// first error of the callback or the source, and Corruption when the store
+// has no field value at a corner of the domain; CollectTetMesh the same.
 #pragma once
 
 #include <cmath>
@@ -18,6 +31,7 @@
 #include "hierarchy/geometry.h"
 #include "query/mesh.h"
 #include "query/refine.h"
+#include "query/source.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -44,7 +58,7 @@ Status WriteVtu(const TetMeshData& mesh, const std::string& path);
 
 // Walks the leaves of `mesh` depth-first, carrying vertices and their field
 // values down from the roots: calls leaf(code, vertices, values).
-template <int D, class Source, class Leaf>
+template <int D, ReadSource<D> Source, class Leaf>
 Status ForEachLeaf(const Mesh<D>& mesh, Source& source, Leaf&& leaf) {
   using Code = SimplexCode<D>;
   VertexValues<D, Source> values(source);
@@ -78,7 +92,7 @@ Status ForEachLeaf(const Mesh<D>& mesh, Source& source, Leaf&& leaf) {
 }
 
 // The HT mesh's leaves with their field and errors, points shared.
-template <class Source>
+template <ReadSource<3> Source>
 Result<TetMeshData> CollectTetMesh(const Mesh<3>& mesh, Source& source) {
   TetMeshData out;
   std::unordered_map<uint64_t, int64_t> index;

@@ -36,8 +36,26 @@
 // computation per cluster split and one hash lookup per cluster member;
 // nothing is proportional to the hierarchy's size except for kSaturated.
 //
+// Sources: any type modeling ReadSource<Source, D> (query/source.h), the
+// dense and sparse sources or a program's own; query/open_store.h picks the
+// right one for a store path. The templates below are instantiated for the
+// concrete source: error lookups are direct calls.
+//
 // Thread safety: a Refiner uses its source and mesh without locks; one per
-// thread.
+// thread (with its own source over a shared store). VertexValues likewise.
+//
+// Lifetimes: a Refiner and a VertexValues keep a reference to their source:
+// the source outlives them. Run() uses the mesh it is given only during the
+// call. Everything else is returned by value or written to the caller's
+// QueryStats.
+//
+// Errors: Refiner::Run returns the source's errors (Corruption, IOError:
+// query/source.h) and Corruption when a store has no field value at a
+// corner of the domain (criteria that need values only); kSaturated also
+// ResourceExhausted for a hierarchy with more internal nodes than
+// RefineOptions::max_saturated_nodes. ParseAlgorithm returns
+// InvalidArgument naming the text. On any error the mesh is left
+// conforming but unfinished.
 #pragma once
 
 #include <algorithm>
@@ -97,7 +115,7 @@ struct QueryStats {
 // interpolation over the dropped node, the average of the split edge's ends
 // (exact when lossless, within the tolerance otherwise), resolved walking
 // down from the root and remembered.
-template <int D, class Source>
+template <int D, ReadSource<D> Source>
 class VertexValues {
  public:
   using Code = SimplexCode<D>;
@@ -176,7 +194,7 @@ class VertexValues {
   std::unordered_map<uint64_t, double> memo_;
 };
 
-template <int D, class Source>
+template <int D, ReadSource<D> Source>
 class Refiner {
  public:
   using Code = SimplexCode<D>;
@@ -233,7 +251,7 @@ class Refiner {
   // may answer a smaller value without reading the block (the node passes
   // either way, and FailsWithError only compares a passing value).
   Result<double> ErrorForThreshold(Code code) {
-    if constexpr (requires { source_.ErrorForThreshold(code, 0.0); }) {
+    if constexpr (ThresholdReadSource<Source, D>) {
       return source_.ErrorForThreshold(code, criteria_.threshold);
     } else {
       return source_.Error(code);

@@ -16,7 +16,14 @@
 // Pentatopes that touch the hyperplane in less than a 3D piece contribute
 // nothing. Tetrahedra are oriented positively.
 //
-// Thread safety: a free function over the caller's source.
+// Thread safety: a free function over the caller's source (one thread's:
+// query/source.h).
+//
+// Lifetimes: the result is a value; the source and mesh are only read
+// during the call.
+//
+// Errors: SliceHpMesh returns the source's errors (Corruption, IOError) and
+// Corruption when the store has no field value at a corner of the domain.
 #pragma once
 
 #include <algorithm>
@@ -29,13 +36,14 @@
 #include "hierarchy/geometry.h"
 #include "query/mesh.h"
 #include "query/mesh_io.h"
+#include "query/source.h"
 #include "util/status.h"
 
 namespace simplexdb {
 
 // `t` is in lattice units (Criteria<4>::time). Cell arrays: the pentatope's
 // error, level and code for each tetrahedron cut from it.
-template <class Source>
+template <ReadSource<4> Source>
 Result<TetMeshData> SliceHpMesh(const Mesh<4>& mesh, Source& source, double t) {
   TetMeshData out;
   const int k = source.info().domain_bits;

@@ -1,27 +1,9 @@
-// Sources: the one read interface the query layer sees, over every store.
-//
-// A source answers, for one thread:
-//
-//   Result<double> Error(SimplexCode<D>)        the stored error bound (0 at
-//                                               and below the leaf level,
-//                                               and for a sparse store's
-//                                               absent nodes);
-//   Result<double> ErrorForThreshold(code, t)   optional: a value that is
-//                                               the bound when either
-//                                               exceeds t (the dense source
-//                                               answers from its block
-//                                               index's per-block maxima
-//                                               without decoding a block);
-//   Result<std::optional<double>> Field(point)  the field at a point of the
-//                                               domain grid [0, 2^k]^D, or
-//                                               nullopt where the store has
-//                                               no value (a sparse store
-//                                               keeps only the vertices its
-//                                               present nodes create);
-//   void Descend(SimplexCode<D>)                a hint that a walk goes into
-//                                               this subtree (the LMDB source
-//                                               prefetches it);
-//   const SourceInfo& info(), SourceStats stats().
+// Sources: the one read interface the query layer sees, over every store,
+// written as the concept ReadSource<S, D> below with its contract. The
+// refinement templates (query/refine.h, mesh_io.h, slice.h) take any type
+// that models it; DenseSource<D> (a dense store, mapped or in memory) and
+// SparseSource<D> (the LMDB store) are the two over stores, and
+// query/open_store.h makes the right one for a store path.
 //
 // Refinement is a template over the source (static dispatch): an error lookup
 // is a few nanoseconds in core and a virtual call would show.
@@ -29,14 +11,36 @@
 // The in-memory (in-core) case is a DenseStore opened with
 // Options::in_memory; it reads through the same DenseSource.
 //
-// Thread safety: a source is one thread's; make one per thread over a shared
-// store.
+// Thread safety: a source is one thread's at a time (no locks inside; it
+// keeps the blocks, snapshot and counters of one walk). Make one source per
+// thread over a shared store: DenseStore and SparseStore may be shared by
+// any number of threads, each with its own sources. A source may move to
+// another thread between calls (the LMDB environment is opened with
+// MDB_NOTLS).
+//
+// Lifetimes: a source must not outlive the store it reads (it keeps a
+// reference to it). Everything a source hands back is a value (Result<double>,
+// SourceStats, ...) except info(), a reference that lives as long as the
+// source; no span or pointer into a block or the LMDB map escapes a source.
+// A SparseSource reads one LMDB snapshot for its whole life (a read
+// transaction): it sees no commit made after it was created, and while it
+// lives LMDB keeps that snapshot's pages from reuse, so a writer's file can
+// grow; make a source per query rather than one for the program's life.
+// A Refiner (query/refine.h) holds a reference to its source: the source
+// outlives the refiner.
+//
+// Errors: lookups return the store reader's Status (Corruption naming the
+// file and block for damaged data, IOError for a failed read: the contract
+// below); making a DenseSource cannot fail; SparseSource::Create returns
+// ResourceExhausted or IOError (below).
 #pragma once
 
 #include <array>
+#include <concepts>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <type_traits>
 
 #include "hierarchy/simplex_code.h"
 #include "storage/dense/dense_store.h"
@@ -47,12 +51,14 @@ namespace simplexdb {
 
 // What a query needs to know of a store.
 struct SourceInfo {
-  int dimension = 3;
+  int dimension = 3;                             // 3: HT, 4: HP
   int domain_bits = 0;                           // the domain has side 2^k
-  std::array<uint32_t, 4> dims = {1, 1, 1, 1};   // the real grid
+  std::array<uint32_t, 4> dims = {1, 1, 1, 1};   // the real grid (unused axes 1)
+  // The field's range over the real grid, skipping missing values (NaN);
+  // min == max == 0 when every value is missing.
   double field_min = 0, field_max = 0;
-  double error_max = 0;
-  std::string path;
+  double error_max = 0;  // the largest node error, before quantization
+  std::string path;      // the store's file, for messages
 
   int leaf_level() const { return dimension * domain_bits; }
   double field_range() const { return field_max - field_min; }
@@ -73,7 +79,8 @@ SourceInfo InfoFromHeader(const Header& h, const std::string& path) {
   return info;
 }
 
-// Work a source did, for the statistics of a query.
+// Work a source did, for the statistics of a query. Counters only grow over
+// a source's life; a query reports the difference of two snapshots.
 struct SourceStats {
   uint64_t error_lookups = 0;
   uint64_t field_lookups = 0;
@@ -81,6 +88,85 @@ struct SourceStats {
   uint64_t blocks_skipped = 0;  // dense: blocks whose indexed maximum answered a threshold test
 };
 
+// ReadSource<S, D>: S reads a store of an HT (D = 3) or HP (D = 4) for one
+// thread. The contract, for s of type S over a store whose SourceInfo is
+// `info` (k = info.domain_bits, L = info.leaf_level()):
+//
+//   S::kFieldComplete            a constant: true when Field() never returns
+//                                nullopt (the dense store holds every grid
+//                                point); false lets it (the LMDB store keeps
+//                                only the vertices its present nodes create,
+//                                and VertexValues in query/refine.h
+//                                interpolates the others).
+//
+//   Result<double> s.Error(code)
+//       REQUIRES: code.is_valid() and code is a node of this hierarchy
+//       (code.level() may exceed L).
+//       The node's stored error bound: finite, >= 0 and <= about
+//       info.error_max (quantization may add one step). It is never below
+//       the node's true error (the seed's maximum over the real grid points
+//       in the simplex of |field - linear interpolation|): quantized errors
+//       (u16, u8) round up to the next code, f32 errors to the next float
+//       (storage/error/quantize.h). Exactly 0 for nodes at or below the
+//       leaf level (level >= L), for nodes holding no real grid point with a
+//       value (the padding, missing regions), and for a sparse store's
+//       absent nodes (a store built with a tolerance dropped subtrees whose
+//       errors were within it: for them 0 is the bound against the
+//       interpolated field that store serves, not against the volume).
+//       A node partly in a missing region reports the field range.
+//       The same code gives the same value for the source's whole life.
+//       Errors: those of the store's reader: Corruption for a damaged block
+//       or entry (naming the file and the block), IOError when reading
+//       fails.
+//
+//   Result<double> s.ErrorForThreshold(code, t)     OPTIONAL (see
+//       ThresholdReadSource): for a caller that only asks "does the bound
+//       exceed t?". Returns v with v > t exactly when Error(code) > t; then
+//       v == Error(code). Otherwise Error(code) <= v <= t (the dense source
+//       answers from its block index's per-block maxima without reading or
+//       decoding the block). REQUIRES and errors as Error().
+//
+//   Result<std::optional<double>> s.Field(p)
+//       REQUIRES: p is a point of the domain grid, 0 <= p[a] <= 2^k.
+//       The field at p. Points beyond the real grid (the padding) take the
+//       value of the nearest real point. nullopt only when !kFieldComplete
+//       and the store keeps no value at p. A value may be NaN where the
+//       volume had no field (a missing value). Errors as Error().
+//
+//   s.Descend(code)
+//       A hint that a walk goes into code's subtree next (the LMDB source
+//       prefetches it with one cursor scan). Never fails and changes no
+//       answer: a prefetch that fails is only a lost optimization.
+//
+//   const SourceInfo& s.info() const     the store's metadata; the same
+//       values for the source's life; the reference lives as long as s.
+//   SourceStats s.stats() const           the work done so far, by value.
+//
+// The query layer takes sources by reference and never copies or moves one;
+// SparseSource::Create returns one by value, so it is move-constructible.
+template <class S, int D>
+concept ReadSource =
+    (D == 3 || D == 4) &&
+    requires(S& s, const S& cs, SimplexCode<D> code, const std::array<int64_t, D>& p) {
+      typename std::bool_constant<S::kFieldComplete>;  // a constant expression
+      { s.Error(code) } -> std::same_as<Result<double>>;
+      { s.Field(p) } -> std::same_as<Result<std::optional<double>>>;
+      s.Descend(code);
+      { cs.info() } -> std::same_as<const SourceInfo&>;
+      { cs.stats() } -> std::convertible_to<SourceStats>;
+    };
+
+// A ReadSource that also answers ErrorForThreshold (the dense source): the
+// refiners use it where they only compare the bound with the threshold.
+template <class S, int D>
+concept ThresholdReadSource =
+    ReadSource<S, D> && requires(S& s, SimplexCode<D> code, double t) {
+      { s.ErrorForThreshold(code, t) } -> std::same_as<Result<double>>;
+    };
+
+// A dense store's source (mapped raw, zstd blocks through the store's cache,
+// or decoded in memory): models ThresholdReadSource<DenseSource<D>, D>.
+// Making one reads nothing and cannot fail.
 template <int D>
 class DenseSource {
  public:
@@ -119,6 +205,8 @@ class DenseSource {
   SourceStats stats_;
 };
 
+// An LMDB store's source: one read transaction (a consistent snapshot) and
+// the prefetched subtree. Models ReadSource<SparseSource<D>, D>.
 template <int D>
 class SparseSource {
  public:
@@ -130,7 +218,11 @@ class SparseSource {
   static constexpr int kPrefetchLevels = 8;
   static constexpr size_t kPrefetchEntries = 4096;
 
-  // The store outlives the source. Errors: those of SparseStore::Reader::Create.
+  // REQUIRES: store.dimension() == D; the store outlives the source.
+  // Errors: those of beginning an LMDB read transaction
+  // (SparseStore::Reader::Create): ResourceExhausted when every reader slot
+  // of the store is taken (lmdb::Env::Options::max_readers, across
+  // processes), IOError otherwise.
   static Result<SparseSource> Create(const SparseStore& store) {
     SDB_ASSIGN_OR_RETURN(auto reader, SparseStore::Reader<D>::Create(store));
     return SparseSource(store, std::move(reader));
@@ -168,5 +260,8 @@ class SparseSource {
   SourceStats stats_;
   uint64_t prefetches_ = 0;
 };
+
+static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);
+static_assert(ReadSource<SparseSource<3>, 3> && ReadSource<SparseSource<4>, 4>);
 
 }  // namespace simplexdb

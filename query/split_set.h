@@ -10,7 +10,14 @@
 // bitmap. Its memory comes from calloc: pages never touched are never
 // committed, so a small mesh over a deep hierarchy costs little.
 //
-// Thread safety: none; one set per mesh.
+// Thread safety: none; one set per mesh (const methods write nothing, so
+// readers may share a set no one changes).
+//
+// Lifetimes: nothing is handed out by reference; ForEach passes codes by
+// value, and the set must not change during ForEach.
+//
+// Errors: none; insert throws std::bad_alloc when the bitmap or the hash
+// table cannot be allocated.
 #pragma once
 
 #include <cstdint>

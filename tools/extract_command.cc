@@ -15,6 +15,7 @@
 #include "query/criteria.h"
 #include "query/mesh.h"
 #include "query/mesh_io.h"
+#include "query/open_store.h"
 #include "query/refine.h"
 #include "query/slice.h"
 #include "query/source.h"
@@ -224,33 +225,19 @@ void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nul
 }
 
 void RunExtract(const ExtractArgs& a) {
-  if (LooksLikeLmdb(a.store)) {
-    if (a.in_memory) throw CommandError("--in-memory applies to dense stores; the LMDB store is read in place", 2);
-    Result<std::unique_ptr<SparseStore>> store = SparseStore::Open(a.store);
-    if (!store.ok()) Fail(store.status());
-    if ((*store)->header().dimension == 3) {
-      auto source = SparseSource<3>::Create(**store);
-      if (!source.ok()) Fail(source.status());
-      Extract<3>(*source, a);
-    } else {
-      auto source = SparseSource<4>::Create(**store);
-      if (!source.ok()) Fail(source.status());
-      Extract<4>(*source, a);
-    }
-    return;
+  // A usage error (exit 2) before anything is opened, as --in-memory names
+  // the option; AnyStore::Open would refuse it too.
+  if (a.in_memory && ProbeStoreKind(a.store) == StoreKind::kSparse) {
+    throw CommandError("--in-memory applies to dense stores; the LMDB store is read in place", 2);
   }
-  DenseStore::Options options;
+  StoreOptions options;
   options.in_memory = a.in_memory;
   options.cache_bytes = a.cache_mb << 20;
-  Result<std::unique_ptr<DenseStore>> store = DenseStore::Open(a.store, options);
+  Result<AnyStore> store = AnyStore::Open(a.store, options);
   if (!store.ok()) Fail(store.status());
-  if ((*store)->dimension() == 3) {
-    DenseSource<3> source(**store);
-    Extract<3>(source, a, store->get());
-  } else {
-    DenseSource<4> source(**store);
-    Extract<4>(source, a, store->get());
-  }
+  const Status s =
+      store->Visit([&]<int D, class Source>(Source& source) { Extract<D>(source, a, store->dense()); });
+  if (!s.ok()) Fail(s);
 }
 
 template <int D>
