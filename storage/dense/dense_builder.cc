@@ -17,6 +17,7 @@
 #include "storage/io/codec.h"
 #include "storage/io/file.h"
 #include "storage/dense/layout.h"
+#include "storage/error/mask.h"
 #include "storage/error/quantize.h"
 #include "storage/error/simplex_scan.h"
 #include "storage/volume/voxel_type.h"
@@ -29,7 +30,7 @@ using Clock = std::chrono::steady_clock;
 // Runs work(worker, item) for items 0..count-1 on `threads` workers; the
 // calling thread reports progress meanwhile. Stops at the first failure.
 Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_point start,
-                   const std::function<void(const DenseBuildProgress&)>& progress,
+                   const std::function<void(const BuildProgress&)>& progress,
                    const std::function<Status(int worker, uint64_t item)>& work) {
   std::atomic<uint64_t> next{0};
   std::atomic<uint64_t> done{0};
@@ -62,13 +63,13 @@ Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_p
     while (!finished.wait_for(lock, std::chrono::milliseconds(200), [&] { return running == 0; })) {
       lock.unlock();
       const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-      progress(DenseBuildProgress{phase, done.load(), count, seconds});
+      progress(BuildProgress{phase, done.load(), count, seconds});
       lock.lock();
     }
   }
   for (auto& t : pool) t.join();
   if (progress && !failed.load()) {
-    progress(DenseBuildProgress{phase, count, count,
+    progress(BuildProgress{phase, count, count,
                                 std::chrono::duration<double>(Clock::now() - start).count()});
   }
   return first_failure;
@@ -681,26 +682,6 @@ Status Builder<D>::Finish(DenseBuildReport& report) {
 }
 
 }  // namespace
-
-VoxelType StoredVoxelType(VoxelType input, bool masked) {
-  return masked && !IsFloatType(input) ? VoxelType::kF32 : input;
-}
-
-void ApplyMask(const double* mask, size_t count, double* values) {
-  for (size_t i = 0; i < count; ++i) {
-    if (mask[i] == 0 || std::isnan(mask[i])) values[i] = std::numeric_limits<double>::quiet_NaN();
-  }
-}
-
-Status CheckMaskGrid(const VolumeInfo& mask, int dimension, const std::array<uint32_t, 4>& dims,
-                     const std::string& holder) {
-  bool same = mask.dimension == dimension;
-  for (int c = 0; c < dimension && same; ++c) same = mask.dims[c] == dims[c];
-  if (same) return Status::OK();
-  return Status::InvalidArgument("the mask " + mask.description + " is " +
-                                 FormatDims(mask.dimension, mask.dims) + "; " + holder + " " +
-                                 FormatDims(dimension, dims));
-}
 
 Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,
                                          const DenseBuildOptions& options) {

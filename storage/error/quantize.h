@@ -17,7 +17,7 @@
 #include <cstring>
 #include <limits>
 
-#include "storage/dense/format.h"
+#include "storage/error/quantization.h"
 
 namespace simplexdb {
 

@@ -12,6 +12,7 @@
 #include "hierarchy/cluster.h"
 #include "hierarchy/geometry.h"
 #include "storage/io/lmdb.h"
+#include "storage/error/mask.h"
 #include "storage/error/quantize.h"
 #include "storage/error/simplex_scan.h"
 #include "storage/volume/voxel_type.h"
@@ -195,7 +196,7 @@ class Updater {
 
   void Progress(uint64_t done, uint64_t total) {
     if (options_.progress) {
-      options_.progress(DenseBuildProgress{"units", done, total, SecondsSince(start_)});
+      options_.progress(BuildProgress{"units", done, total, SecondsSince(start_)});
     }
   }
 

@@ -39,7 +39,7 @@
 #include <optional>
 #include <string>
 
-#include "storage/dense/dense_builder.h"
+#include "storage/error/progress.h"
 #include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
 #include "util/status.h"
@@ -54,7 +54,7 @@ struct GridBox {
 };
 
 struct SparseUpdateOptions {
-  std::function<void(const DenseBuildProgress&)> progress;  // phase "units"
+  std::function<void(const BuildProgress&)> progress;  // phase "units"
   // As DenseBuildOptions::mask: 0 or NaN where the field is missing (the
   // store was imported with a mask; integers are then float32 in it).
   std::optional<VolumeInfo> mask;
