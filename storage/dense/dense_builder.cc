@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -17,6 +16,7 @@
 #include "storage/io/codec.h"
 #include "storage/io/file.h"
 #include "storage/dense/layout.h"
+#include "storage/dense/parallel_run.h"
 #include "storage/error/mask.h"
 #include "storage/error/quantize.h"
 #include "storage/error/unit_errors.h"
@@ -26,54 +26,6 @@ namespace simplexdb {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-// Runs work(worker, item) for items 0..count-1 on `threads` workers; the
-// calling thread reports progress meanwhile. Stops at the first failure.
-Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_point start,
-                   const std::function<void(const BuildProgress&)>& progress,
-                   const std::function<Status(int worker, uint64_t item)>& work) {
-  std::atomic<uint64_t> next{0};
-  std::atomic<uint64_t> done{0};
-  std::atomic<bool> failed{false};
-  std::mutex mu;
-  std::condition_variable finished;
-  int running = threads;
-  Status first_failure;
-  std::vector<std::thread> pool;
-  for (int w = 0; w < threads; ++w) {
-    pool.emplace_back([&, w] {
-      while (!failed.load(std::memory_order_relaxed)) {
-        const uint64_t item = next.fetch_add(1);
-        if (item >= count) break;
-        Status s = work(w, item);
-        if (!s.ok()) {
-          std::lock_guard<std::mutex> lock(mu);
-          if (!failed.exchange(true)) first_failure = std::move(s);
-          break;
-        }
-        done.fetch_add(1, std::memory_order_relaxed);
-      }
-      std::lock_guard<std::mutex> lock(mu);
-      if (--running == 0) finished.notify_all();
-    });
-  }
-  if (progress) {
-    // Report a few times a second; wake as soon as the workers are done.
-    std::unique_lock<std::mutex> lock(mu);
-    while (!finished.wait_for(lock, std::chrono::milliseconds(200), [&] { return running == 0; })) {
-      lock.unlock();
-      const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-      progress(BuildProgress{phase, done.load(), count, seconds});
-      lock.lock();
-    }
-  }
-  for (auto& t : pool) t.join();
-  if (progress && !failed.load()) {
-    progress(BuildProgress{phase, count, count,
-                                std::chrono::duration<double>(Clock::now() - start).count()});
-  }
-  return first_failure;
-}
 
 // A block's bytes as stored: zero blocks take no bytes; zstd frames only
 // when they are smaller than the raw bytes (raw blocks are read in place).
