@@ -12,9 +12,9 @@
 // time; pass 2 computes errors one unit (a block of the deepest band, with
 // the bounding box of its root's field values) at a time, on every core, and
 // gets the errors of the levels above the units from the same points as
-// partial maxima (the units tile every ancestor). Memory is the brick cache
-// and the per-thread units, both sized from `memory_bytes`, not from the
-// input.
+// partial maxima (the units tile every ancestor), both by the error engine
+// (storage/error/unit_errors.h). Memory is the brick cache and the
+// per-thread units, both sized from `memory_bytes`, not from the input.
 //
 // Crash safety: the store is written under a temporary name, flushed and
 // renamed; a build that fails or is killed leaves nothing under the final

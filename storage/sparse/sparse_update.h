@@ -6,9 +6,10 @@
 // domain's far faces where the box reaches the real grid's, because the
 // padding repeats the last real values) gets its error recomputed from the
 // new volume: the seed's maximum over the grid points inside the simplex,
-// as the dense builder computes it, so the store ends up entry for entry
-// what importing the new volume would give (integer voxel types: exactly;
-// floats: within the rounding of a differently ordered scan). A node is then
+// by the error engine the dense builder uses (storage/error/unit_errors.h),
+// so the store ends up entry for entry what importing the new volume would
+// give (integer voxel types: exactly; floats: within the rounding of a
+// differently ordered scan). A node is then
 // present when some error in its subtree exceeds the store's tolerance, as
 // when it was built; nodes away from the box keep their entries, and they
 // tell their ancestors whether their subtrees matter (present = yes).
