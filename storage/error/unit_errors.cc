@@ -124,19 +124,19 @@ Availability UnitScan<D>::AncestorPartials(std::span<const AncestorInterpolant<D
     using T = decltype(tag);
     std::array<Interpolant<D, T>, kMaxAncestors> interps;
     for (int j = 0; j < n; ++j) interps[j] = ancestors[j].*member;
-    MaxErrors<D, T>(simplex_, interps.data(), n, region_.lo, scan_hi_, view, partial);
+    return MaxErrors<D, T>(simplex_, interps.data(), n, region_.lo, scan_hi_, view, partial);
   };
+  std::optional<bool> any_point;  // whether the scan met a real point
   if (n > 0) {
-    if (rules_.exact) {
-      scan(int64_t{}, &AncestorInterpolant<D>::exact_);
-    } else {
-      scan(double{}, &AncestorInterpolant<D>::inexact_);
-    }
+    any_point = rules_.exact ? scan(int64_t{}, &AncestorInterpolant<D>::exact_)
+                             : scan(double{}, &AncestorInterpolant<D>::inexact_);
   }
-  // Every point of the unit counts for every ancestor. Scanned whenever the
-  // field may miss values (not only where this region does): an ancestor
-  // with a missing vertex and no real point records 0, not the range.
   if (!rules_.may_miss) return Availability{true, false};
+  // Every point of the unit counts for every ancestor, whether or not this
+  // region misses values: an ancestor with a missing vertex and no real
+  // point records 0, not the range. Without NaN in the region, the scan
+  // above already knows whether there is a point.
+  if (any_point && !RegionMissing()) return Availability{*any_point, false};
   return ScanAvailability<D>(simplex_, region_.lo, scan_hi_, view);
 }
 
