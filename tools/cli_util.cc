@@ -166,9 +166,9 @@ std::unique_ptr<DenseStore> OpenDenseStore(const std::string& path) {
   return *std::move(s);
 }
 
-std::function<void(const DenseBuildProgress&)> ProgressTo(ProgressLine& line,
+std::function<void(const BuildProgress&)> ProgressTo(ProgressLine& line,
                                                          const std::string& output) {
-  return [&line, output](const DenseBuildProgress& p) {
+  return [&line, output](const BuildProgress& p) {
     line.Update(fmt::format("{}: {} {}/{} ({:.0f}%), {:.1f} s", output, p.phase, p.done, p.total,
                             p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
   };

@@ -17,6 +17,7 @@
 
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
+#include "storage/error/progress.h"
 #include "storage/volume/volume.h"
 #include "tools/commands.h"
 #include "util/status.h"
@@ -91,7 +92,7 @@ std::unique_ptr<DenseStore> OpenDenseStore(const std::string& path);
 
 // A builder's progress callback that draws "OUTPUT: phase done/total (P%),
 // S s" on `line`. `line` must outlive the callback.
-std::function<void(const DenseBuildProgress&)> ProgressTo(ProgressLine& line,
+std::function<void(const BuildProgress&)> ProgressTo(ProgressLine& line,
                                                          const std::string& output);
 
 }  // namespace simplexdb::tools

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -17,62 +16,16 @@
 #include "storage/io/codec.h"
 #include "storage/io/file.h"
 #include "storage/dense/layout.h"
+#include "storage/dense/parallel_run.h"
+#include "storage/error/mask.h"
 #include "storage/error/quantize.h"
-#include "storage/error/simplex_scan.h"
+#include "storage/error/unit_errors.h"
 #include "storage/volume/voxel_type.h"
 
 namespace simplexdb {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-// Runs work(worker, item) for items 0..count-1 on `threads` workers; the
-// calling thread reports progress meanwhile. Stops at the first failure.
-Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_point start,
-                   const std::function<void(const DenseBuildProgress&)>& progress,
-                   const std::function<Status(int worker, uint64_t item)>& work) {
-  std::atomic<uint64_t> next{0};
-  std::atomic<uint64_t> done{0};
-  std::atomic<bool> failed{false};
-  std::mutex mu;
-  std::condition_variable finished;
-  int running = threads;
-  Status first_failure;
-  std::vector<std::thread> pool;
-  for (int w = 0; w < threads; ++w) {
-    pool.emplace_back([&, w] {
-      while (!failed.load(std::memory_order_relaxed)) {
-        const uint64_t item = next.fetch_add(1);
-        if (item >= count) break;
-        Status s = work(w, item);
-        if (!s.ok()) {
-          std::lock_guard<std::mutex> lock(mu);
-          if (!failed.exchange(true)) first_failure = std::move(s);
-          break;
-        }
-        done.fetch_add(1, std::memory_order_relaxed);
-      }
-      std::lock_guard<std::mutex> lock(mu);
-      if (--running == 0) finished.notify_all();
-    });
-  }
-  if (progress) {
-    // Report a few times a second; wake as soon as the workers are done.
-    std::unique_lock<std::mutex> lock(mu);
-    while (!finished.wait_for(lock, std::chrono::milliseconds(200), [&] { return running == 0; })) {
-      lock.unlock();
-      const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-      progress(DenseBuildProgress{phase, done.load(), count, seconds});
-      lock.lock();
-    }
-  }
-  for (auto& t : pool) t.join();
-  if (progress && !failed.load()) {
-    progress(DenseBuildProgress{phase, count, count,
-                                std::chrono::duration<double>(Clock::now() - start).count()});
-  }
-  return first_failure;
-}
 
 // A block's bytes as stored: zero blocks take no bytes; zstd frames only
 // when they are smaller than the raw bytes (raw blocks are read in place).
@@ -129,28 +82,10 @@ class Builder {
 
   Status Finish(DenseBuildReport& report);
 
-  // A box of field values in domain coordinates, filled from the bricks.
-  struct Region {
-    IPoint<D> lo{}, hi{};
-    std::array<int64_t, D> stride{};
-    std::vector<double> values;
-    GridView<D> view() const { return GridView<D>{values.data(), lo, stride}; }
-  };
-  Status FillRegion(Region& r);
+  // Fills a unit's region (its box set) from the bricks.
+  Status FillRegion(GridRegion<D>& r);
   Result<double> FieldValue(const IPoint<D>& p);
   Result<std::shared_ptr<const BlockCache::Block>> DecodedBrick(uint64_t brick);
-
-  // Grid coordinates of lattice vertices.
-  std::array<IPoint<D>, D + 1> GridVertices(const SimplexVertices<D>& v) const {
-    std::array<IPoint<D>, D + 1> g{};
-    for (int i = 0; i <= D; ++i) g[i] = LatticeToGrid<D>(v[i], k_);
-    return g;
-  }
-  IPoint<D> RealHigh() const {
-    IPoint<D> h{};
-    for (int c = 0; c < D; ++c) h[c] = static_cast<int64_t>(input_.dims[c]) - 1;
-    return h;
-  }
 
   // Index of a top node (level < units' level) among its root's top nodes.
   uint64_t TopIndex(SimplexCode<D> code) const {
@@ -178,6 +113,7 @@ class Builder {
   // The input has NaN voxels: missing values (see ErrorGivenAvailability).
   bool has_missing_ = false;
   std::unique_ptr<ErrorQuantizer> quantizer_;
+  ErrorRules<D> rules_;  // set when pass 1 has the field's range
   std::atomic<uint64_t> nodes_{0};
 
   // Units: the blocks of the deepest band.
@@ -375,13 +311,7 @@ Result<double> Builder<D>::FieldValue(const IPoint<D>& p) {
 }
 
 template <int D>
-Status Builder<D>::FillRegion(Region& r) {
-  int64_t total = 1;
-  for (int c = 0; c < D; ++c) {
-    r.stride[c] = total;
-    total *= r.hi[c] - r.lo[c] + 1;
-  }
-  r.values.resize(static_cast<size_t>(total));
+Status Builder<D>::FillRegion(GridRegion<D>& r) {
   const size_t vsize = VoxelSize(store_type_);
   const uint32_t side = bricks_.side();
   // Row by row (all coordinates but x), clamped to the real grid; along x,
@@ -421,6 +351,10 @@ Status Builder<D>::ComputeErrors() {
   const double range = field_max_ - field_min_;
   quantizer_ = std::make_unique<ErrorQuantizer>(
       options_.quantization, ErrorQuantizer::QuantumFor(options_.quantization, range), range);
+  for (int c = 0; c < D; ++c) rules_.real_hi[c] = static_cast<int64_t>(input_.dims[c]) - 1;
+  rules_.range = range;
+  rules_.exact = exact_;
+  rules_.may_miss = has_missing_;
   const int last_band = layout_.bands() - 1;
   unit_level_ = layout_.band_start(last_band);
   top_per_root_ = (uint64_t{1} << unit_level_) - 1;
@@ -449,13 +383,8 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
   thread_local std::unique_ptr<ZstdCompressor> zstd;
   if (!zstd) zstd = std::make_unique<ZstdCompressor>(options_.zstd_level);
 
-  const SimplexVertices<D> root_lattice = Vertices(root);
-  const auto root_grid = GridVertices(root_lattice);
-  const ScannableSimplex<D> root_simplex(root_grid);
-  const IPoint<D> real_hi = RealHigh();
-  bool outside = false;
-  for (int c = 0; c < D; ++c) outside = outside || root_simplex.box_lo()[c] > real_hi[c];
-  if (outside) {
+  UnitScan<D> scan(rules_, root, GridOf<D>(Vertices(root), k_));
+  if (!scan.has_real_points()) {
     // Wholly in the padding: every error is 0, a zero block (no bytes). The
     // common case for padded domains, so no block is materialized.
     IndexEntry& entry = index_[block];
@@ -466,92 +395,39 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
     entry.field_max = RoundUpToFloat(field_max_);
     return Status::OK();
   }
-  std::vector<uint32_t> codes(entries, 0);
-  Region region;
-  region.lo = root_simplex.box_lo();
-  region.hi = root_simplex.box_hi();
-  SDB_RETURN_IF_ERROR(FillRegion(region));
+  SDB_RETURN_IF_ERROR(FillRegion(scan.region()));
   double region_min = std::numeric_limits<double>::infinity(), region_max = -region_min;
-  for (const double v : region.values) {  // NaN (missing) compares false: skipped
+  for (const double v : scan.region().values) {  // NaN (missing) compares false: skipped
     region_min = std::min(region_min, v);
     region_max = std::max(region_max, v);
   }
   if (!(region_min <= region_max)) region_min = region_max = 0;
-  IPoint<D> scan_hi{};
-  for (int c = 0; c < D; ++c) scan_hi[c] = std::min(region.hi[c], real_hi[c]);
-  const IPoint<D>& scan_lo = region.lo;
 
-  const GridView<D> view = region.view();
-  // Bounds |f(p) - f(v_0)| for the 64-bit decision in the kernel.
-  const double step = field_max_ - field_min_;
-
-  // The error of every node of the subtree, depth first, in grid
-  // coordinates (midpoints of internal nodes' split edges are grid points);
-  // a node's entry in the block is its heap index within the subtree.
+  // The error of every node of the subtree; a node's entry in the block is
+  // its heap index within the subtree.
+  std::vector<uint32_t> codes(entries, 0);
   double block_max = 0;
-  struct Item {
-    SimplexCode<D> code;
-    std::array<IPoint<D>, D + 1> grid;
-    uint32_t entry;
-  };
-  std::vector<Item> stack = {Item{root, root_grid, 0}};
-  while (!stack.empty()) {
-    const Item item = stack.back();
-    stack.pop_back();
-    const ScannableSimplex<D> s(item.grid);
-    double error = 0;
-    if (exact_) {
-      std::array<int64_t, D + 1> f{};
-      for (int i = 0; i <= D; ++i) f[i] = static_cast<int64_t>(view.At(item.grid[i]));
-      error = MaxError<D, int64_t>(s, f, step, scan_lo, scan_hi, view).error;
-    } else {
-      std::array<double, D + 1> f{};
-      for (int i = 0; i <= D; ++i) f[i] = view.At(item.grid[i]);
-      error = MaxError<D, double>(s, f, step, scan_lo, scan_hi, view).error;
-      if (has_missing_) {
-        error = ErrorGivenAvailability(NodeAvailability<D>(s, scan_lo, scan_hi, view), error,
-                                       step);
-      }
-    }
-    codes[item.entry] = quantizer_->Encode(error);
-    block_max = std::max(block_max, error);
-    if (item.code.level() + 1 < layout_.leaf_level()) {
-      for (int child = 1; child >= 0; --child) {
-        stack.push_back(Item{item.code.child(child), ChildVertices<D>(item.code, item.grid, child),
-                             2 * item.entry + 1 + static_cast<uint32_t>(child)});
-      }
-    }
-  }
+  scan.ForEachNode(layout_.leaf_level(), {}, [&](const UnitNode<D>& node) {
+    codes[node.entry] = quantizer_->Encode(node.error);
+    block_max = std::max(block_max, node.error);
+  });
   nodes_.fetch_add(entries, std::memory_order_relaxed);
 
   // The unit's points, seen from every ancestor above the units: partial
   // maxima of their errors.
   if (unit_level_ > 0) {
-    std::array<double, 64> partial{};
-    std::array<bool, 64> vertex_missing{};
-    const auto interp_over = [&](auto tag) -> Status {
-      using T = decltype(tag);
-      std::array<Interpolant<D, T>, 64> interps;
-      for (int l = 0; l < unit_level_; ++l) {
-        const auto grid = GridVertices(Vertices(root.ancestor(l)));
-        const ScannableSimplex<D> a(grid);
-        std::array<T, D + 1> f{};
-        for (int i = 0; i <= D; ++i) {
-          SDB_ASSIGN_OR_RETURN(const double v, FieldValue(grid[i]));
-          f[i] = static_cast<T>(v);
-          vertex_missing[l] = vertex_missing[l] || std::isnan(v);
-        }
-        double extent = 0;
-        for (int c = 0; c < D; ++c) {
-          extent = std::max(extent, static_cast<double>(a.box_hi()[c] - a.box_lo()[c]));
-        }
-        interps[l] = Interpolant<D, T>(a, f, step, extent);
+    std::array<AncestorInterpolant<D>, UnitScan<D>::kMaxAncestors> ancestors;
+    for (int l = 0; l < unit_level_; ++l) {
+      const GridSimplex<D> grid = GridOf<D>(Vertices(root.ancestor(l)), k_);
+      std::array<double, D + 1> f{};
+      for (int i = 0; i <= D; ++i) {
+        SDB_ASSIGN_OR_RETURN(f[i], FieldValue(grid[i]));
       }
-      MaxErrors<D, T>(root_simplex, interps.data(), unit_level_, scan_lo, scan_hi, view,
-                      partial.data());
-      return Status::OK();
-    };
-    SDB_RETURN_IF_ERROR(exact_ ? interp_over(int64_t{}) : interp_over(double{}));
+      ancestors[l] = AncestorInterpolant<D>(rules_, grid, f);
+    }
+    std::array<double, UnitScan<D>::kMaxAncestors> partial{};
+    const Availability a = scan.AncestorPartials({ancestors.data(), size_t(unit_level_)},
+                                                 partial.data());
     std::vector<double>& tops = top_partials_[worker];
     for (int l = 0; l < unit_level_; ++l) {
       double& slot = tops[TopIndex(root.ancestor(l))];
@@ -559,11 +435,10 @@ Status Builder<D>::ProcessUnit(int worker, uint64_t unit) {
     }
     if (has_missing_) {
       // The unit's points count for every ancestor; vertices for their own.
-      const Availability a = ScanAvailability<D>(root_simplex, scan_lo, scan_hi, view);
       std::vector<uint8_t>& avail = top_availability_[worker];
       for (int l = 0; l < unit_level_; ++l) {
         avail[TopIndex(root.ancestor(l))] |= static_cast<uint8_t>(
-            (a.any_value ? 1 : 0) | (a.any_missing || vertex_missing[l] ? 2 : 0));
+            (a.any_value ? 1 : 0) | (a.any_missing || ancestors[l].vertex_missing() ? 2 : 0));
       }
     }
   }
@@ -599,7 +474,7 @@ Status Builder<D>::WriteTopBlocks() {
         uint8_t bits = 0;
         for (const auto& avail : top_availability_) bits |= avail[TopIndex(node)];
         error = ErrorGivenAvailability(Availability{(bits & 1) != 0, (bits & 2) != 0}, error,
-                                       field_max_ - field_min_);
+                                       rules_.range);
       }
       codes[i] = quantizer_->Encode(error);
       block_max = std::max(block_max, error);
@@ -681,26 +556,6 @@ Status Builder<D>::Finish(DenseBuildReport& report) {
 }
 
 }  // namespace
-
-VoxelType StoredVoxelType(VoxelType input, bool masked) {
-  return masked && !IsFloatType(input) ? VoxelType::kF32 : input;
-}
-
-void ApplyMask(const double* mask, size_t count, double* values) {
-  for (size_t i = 0; i < count; ++i) {
-    if (mask[i] == 0 || std::isnan(mask[i])) values[i] = std::numeric_limits<double>::quiet_NaN();
-  }
-}
-
-Status CheckMaskGrid(const VolumeInfo& mask, int dimension, const std::array<uint32_t, 4>& dims,
-                     const std::string& holder) {
-  bool same = mask.dimension == dimension;
-  for (int c = 0; c < dimension && same; ++c) same = mask.dims[c] == dims[c];
-  if (same) return Status::OK();
-  return Status::InvalidArgument("the mask " + mask.description + " is " +
-                                 FormatDims(mask.dimension, mask.dims) + "; " + holder + " " +
-                                 FormatDims(dimension, dims));
-}
 
 Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,
                                          const DenseBuildOptions& options) {

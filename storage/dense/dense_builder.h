@@ -12,9 +12,9 @@
 // time; pass 2 computes errors one unit (a block of the deepest band, with
 // the bounding box of its root's field values) at a time, on every core, and
 // gets the errors of the levels above the units from the same points as
-// partial maxima (the units tile every ancestor). Memory is the brick cache
-// and the per-thread units, both sized from `memory_bytes`, not from the
-// input.
+// partial maxima (the units tile every ancestor), both by the error engine
+// (storage/error/unit_errors.h). Memory is the brick cache and the
+// per-thread units, both sized from `memory_bytes`, not from the input.
 //
 // Crash safety: the store is written under a temporary name, flushed and
 // renamed; a build that fails or is killed leaves nothing under the final
@@ -32,17 +32,11 @@
 #include <string>
 
 #include "storage/dense/format.h"
+#include "storage/error/progress.h"
 #include "storage/volume/volume.h"
 #include "util/status.h"
 
 namespace simplexdb {
-
-struct DenseBuildProgress {
-  const char* phase;  // "field" or "errors"; "nodes" when converting to sparse
-  uint64_t done;
-  uint64_t total;
-  double seconds;     // since the build started
-};
 
 struct DenseBuildOptions {
   Quantization quantization = Quantization::kU16;
@@ -59,7 +53,7 @@ struct DenseBuildOptions {
   // input marks missing values.
   std::optional<VolumeInfo> mask;
   // Called from the building thread a few times a second.
-  std::function<void(const DenseBuildProgress&)> progress;
+  std::function<void(const BuildProgress&)> progress;  // phases "field", "errors"
 };
 
 struct DenseBuildReport {
@@ -68,17 +62,6 @@ struct DenseBuildReport {
   uint64_t grid_points = 0;  // real grid points read
   uint64_t nodes = 0;        // internal nodes whose error was stored
 };
-
-// Masks: the voxel type a store of `input` keeps (float32 for integers with
-// a mask, so masked points can hold NaN), and the masking itself: values[i]
-// becomes NaN where mask[i] is 0 or NaN.
-VoxelType StoredVoxelType(VoxelType input, bool masked);
-void ApplyMask(const double* mask, size_t count, double* values);
-// OK when `mask` has the grid `dimension`/`dims`; otherwise
-// InvalidArgument "the mask M is AxB; <holder> CxD" (holder: "the volume V
-// is", "the store S holds").
-Status CheckMaskGrid(const VolumeInfo& mask, int dimension, const std::array<uint32_t, 4>& dims,
-                     const std::string& holder);
 
 // Builds `out_path` from `input` (3D: HT, 4D: HP). Fails with a message
 // naming the input or the output: infinite values, a mask of another grid,

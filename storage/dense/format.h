@@ -29,6 +29,7 @@
 #include <string>
 #include <string_view>
 
+#include "storage/error/quantization.h"
 #include "storage/volume/voxel_type.h"
 #include "util/little_endian.h"
 #include "util/status.h"
@@ -40,11 +41,7 @@ inline constexpr uint32_t kFormatVersion = 1;
 inline constexpr size_t kHeaderSize = 4096;
 inline constexpr size_t kIndexEntrySize = 40;
 
-// How errors are stored (stable numbers: they are on disk).
-enum class Quantization : uint8_t { kU16 = 1, kU8 = 2, kF32 = 3 };
-std::string_view QuantizationName(Quantization q);  // "u16", "u8", "f32"
-Result<Quantization> ParseQuantization(std::string_view name);
-size_t QuantizedSize(Quantization q);  // bytes per stored error
+// How errors are stored: Quantization (storage/error/quantization.h).
 
 // How a block's bytes are stored (stable numbers: they are on disk).
 enum class BlockEncoding : uint8_t {

@@ -9,6 +9,15 @@
 //   f32:     the float nearest to e, moved up if it is below e.
 //
 // Zero stays exactly zero in every mode (the sparse store relies on it).
+// The quantization's vocabulary (enum, names, sizes) is
+// storage/error/quantization.h.
+//
+// Thread safety: an ErrorQuantizer is immutable after construction; any
+// number of threads may share one.
+// Lifetimes: a value type; nothing it returns refers to it.
+// Errors: none are returned. Encode maps e <= 0 to 0 and saturates a u16
+// or u8 error past the field range at MaxCode; an error is never NaN (the
+// engine records missing values as 0 or the range, never NaN).
 #pragma once
 
 #include <algorithm>
@@ -17,7 +26,7 @@
 #include <cstring>
 #include <limits>
 
-#include "storage/dense/format.h"
+#include "storage/error/quantization.h"
 
 namespace simplexdb {
 

@@ -23,6 +23,19 @@
 // linear on the simplex. Float voxel types use the same form in double
 // precision (subtracting f(v_0) first keeps the rounding relative to the
 // field's range).
+//
+// These are the kernels; the error engine that applies them to a unit of
+// the hierarchy (regions, padding, missing values, ancestors) is
+// storage/error/unit_errors.h, the one place builders and updaters call.
+//
+// Thread safety: value types and pure functions; ScannableSimplex and
+// Interpolant are immutable once built and may be shared.
+// Lifetimes: a GridView does not own its values: it is valid while the
+// buffer it points into is. Nothing else refers to its arguments after a
+// call.
+// Errors: none are returned; preconditions (REQUIRES below: coordinates
+// within kMaxScanCoordinate, affinely independent vertices, views covering
+// the scanned box) are assertions.
 #pragma once
 
 #include <algorithm>

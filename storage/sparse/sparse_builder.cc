@@ -140,7 +140,7 @@ class DenseToSparse {
     SDB_ASSIGN_OR_RETURN(const uint32_t stored, reader_.StoredError(code));
     const double e = dense_.quantizer().Decode(stored);
     if (options_.progress && (++visited_ & 0xfffff) == 0) {
-      options_.progress(DenseBuildProgress{"nodes", visited_, total_, SecondsSince(start_)});
+      options_.progress(BuildProgress{"nodes", visited_, total_, SecondsSince(start_)});
     }
     pending_.push_back(Pending{code, stored, vertices});
     if (e > options_.tolerance) SDB_RETURN_IF_ERROR(EmitPending());
@@ -279,7 +279,7 @@ Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
   std::error_code size_error;
   report.file_bytes = std::filesystem::file_size(out_path, size_error);
   if (options.progress) {
-    options.progress(DenseBuildProgress{"nodes", report.nodes_visited, report.nodes_visited,
+    options.progress(BuildProgress{"nodes", report.nodes_visited, report.nodes_visited,
                                         report.seconds});
   }
   return report;

@@ -33,6 +33,7 @@
 
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
+#include "storage/error/progress.h"
 #include "storage/sparse/sparse_store.h"
 #include "util/status.h"
 
@@ -44,7 +45,7 @@ struct SparseBuildOptions {
   double tolerance = 0;
   // The LMDB map to start with; it doubles whenever it fills (0: 64 MiB).
   uint64_t initial_map_bytes = 0;
-  std::function<void(const DenseBuildProgress&)> progress;
+  std::function<void(const BuildProgress&)> progress;
 };
 
 struct SparseBuildReport {

@@ -39,7 +39,6 @@
 #include <vector>
 
 #include "hierarchy/simplex_code.h"
-#include "storage/dense/format.h"
 #include "storage/error/quantize.h"
 #include "storage/volume/voxel_type.h"
 #include "util/status.h"

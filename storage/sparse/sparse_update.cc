@@ -12,8 +12,9 @@
 #include "hierarchy/cluster.h"
 #include "hierarchy/geometry.h"
 #include "storage/io/lmdb.h"
+#include "storage/error/mask.h"
 #include "storage/error/quantize.h"
-#include "storage/error/simplex_scan.h"
+#include "storage/error/unit_errors.h"
 #include "storage/volume/voxel_type.h"
 
 namespace simplexdb {
@@ -26,16 +27,6 @@ constexpr uint8_t kHeaderKey[] = {'h', 'e', 'a', 'd', 'e', 'r'};
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
-
-// Field values on a box of domain points, clamped to the real grid (the
-// padding repeats the last real value, as the dense builder's regions do).
-template <int D>
-struct Region {
-  IPoint<D> lo{}, hi{};
-  std::array<int64_t, D> stride{};
-  std::vector<double> values;
-  GridView<D> view() const { return GridView<D>{values.data(), lo, stride}; }
-};
 
 template <int D>
 class Updater {
@@ -53,11 +44,16 @@ class Updater {
         leaf_(h.leaf_level()),
         // Units: simplices of side about 2^6 (3D) or 2^4 (4D).
         unit_level_(D * std::max(0, h.domain_bits - (D == 3 ? 6 : 4))),
-        quantizer_(h.quantization, h.quantum, h.field_max - h.field_min),
-        step_(h.field_max - h.field_min) {
+        quantizer_(h.quantization, h.quantum, h.field_max - h.field_min) {
     const int64_t side_last = int64_t{1} << k_;
+    rules_.range = h.field_max - h.field_min;
+    rules_.exact = !IsFloatType(h.voxel_type);
+    // The store does not say whether the volume has missing values: any
+    // float may (a NaN, or a mask: masked integers are stored as float32).
+    rules_.may_miss = IsFloatType(h.voxel_type);
     for (int c = 0; c < D; ++c) {
       real_hi_[c] = static_cast<int64_t>(h.dims[c]) - 1;
+      rules_.real_hi[c] = real_hi_[c];
       ebox_lo_[c] = box.lo[c];
       // Domain points past the real grid take the last real value: a box
       // that reaches the real grid's far face reaches the domain's.
@@ -65,9 +61,10 @@ class Updater {
     }
   }
 
-  Status ComputeErrors() {
-    return IsFloatType(h_.voxel_type) ? Compute<double>() : Compute<int64_t>();
-  }
+  // The errors of every node whose simplex meets the box, by the dense
+  // builder's engine (storage/error/unit_errors.h) over the units that meet
+  // it or lie under an ancestor that does.
+  Status ComputeErrors();
 
   // Writes the update in `txn` (the header included). `*map_full` is set,
   // with a failed status, when a write found the map full: abort, grow the
@@ -75,18 +72,12 @@ class Updater {
   Status Apply(lmdb::Txn& txn, SparseUpdateReport* report, bool* map_full);
 
  private:
-  using Grid = std::array<IPoint<D>, D + 1>;
-
-  Grid GridOf(const SimplexVertices<D>& v) const {
-    Grid g{};
-    for (int i = 0; i <= D; ++i) g[i] = LatticeToGrid<D>(v[i], k_);
-    return g;
-  }
+  GridSimplex<D> Grid(const SimplexVertices<D>& v) const { return GridOf<D>(v, k_); }
 
   // Whether the simplex's bounding box meets the (grown) box: a superset of
   // the simplices that meet it, which is all the update needs (recomputing
   // an unchanged node gives its old error back).
-  bool Meets(const Grid& g) const {
+  bool Meets(const GridSimplex<D>& g) const {
     for (int c = 0; c < D; ++c) {
       int64_t lo = g[0][c], hi = g[0][c];
       for (int i = 1; i <= D; ++i) {
@@ -94,13 +85,6 @@ class Updater {
         hi = std::max(hi, g[i][c]);
       }
       if (hi < ebox_lo_[c] || lo > ebox_hi_[c]) return false;
-    }
-    return true;
-  }
-
-  bool HasRealPoints(const ScannableSimplex<D>& s) const {
-    for (int c = 0; c < D; ++c) {
-      if (s.box_lo()[c] > real_hi_[c]) return false;
     }
     return true;
   }
@@ -135,14 +119,9 @@ class Updater {
     return Status::OK();
   }
 
-  // Reads the region's values, clamped to the real grid, row by row.
-  Status Fill(Region<D>& r) {
-    int64_t total = 1;
-    for (int c = 0; c < D; ++c) {
-      r.stride[c] = total;
-      total *= r.hi[c] - r.lo[c] + 1;
-    }
-    r.values.resize(static_cast<size_t>(total));
+  // Reads a unit's region (its box set), clamped to the real grid, row by
+  // row.
+  Status Fill(GridRegion<D>& r) {
     const int64_t width = r.hi[0] - r.lo[0] + 1;
     const int64_t x_end = std::min(r.hi[0], real_hi_[0]);
     IPoint<D> p = r.lo;
@@ -177,13 +156,10 @@ class Updater {
     return v;
   }
 
-  template <class T>
-  Result<std::array<T, D + 1>> VertexValues(const Grid& g, bool* missing) {
-    std::array<T, D + 1> f{};
+  Result<std::array<double, D + 1>> VertexValues(const GridSimplex<D>& g) {
+    std::array<double, D + 1> f{};
     for (int i = 0; i <= D; ++i) {
-      SDB_ASSIGN_OR_RETURN(const double v, FieldAt(g[i]));
-      f[i] = static_cast<T>(v);
-      *missing = *missing || std::isnan(v);
+      SDB_ASSIGN_OR_RETURN(f[i], FieldAt(g[i]));
     }
     return f;
   }
@@ -195,113 +171,7 @@ class Updater {
 
   void Progress(uint64_t done, uint64_t total) {
     if (options_.progress) {
-      options_.progress(DenseBuildProgress{"units", done, total, SecondsSince(start_)});
-    }
-  }
-
-  // The errors of every node whose simplex meets the box, as the dense
-  // builder computes them (same scans, same interpolants).
-  template <class T>
-  Status Compute() {
-    const uint64_t units_per_root = uint64_t{1} << unit_level_;
-    uint64_t roots = 0;
-    for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
-      roots += Meets(GridOf(RootVertices<D>(top)));
-    }
-    const uint64_t total = roots * units_per_root;
-    uint64_t done = 0;
-    for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
-      if (!Meets(GridOf(RootVertices<D>(top)))) continue;
-      // The interpolants of the nodes above the units that meet the box,
-      // and (with missing values) where they have values (Availability).
-      std::unordered_map<uint64_t, Interpolant<D, T>> above;
-      std::unordered_map<uint64_t, Availability> above_availability;
-      for (uint64_t u = 0; u < units_per_root; ++u, ++done) {
-        if ((done & 63) == 0) Progress(done, total);
-        const SimplexCode<D> unit = SimplexCode<D>::FromPath(top, u, unit_level_);
-        const Grid grid = GridOf(Vertices(unit));
-        const ScannableSimplex<D> simplex(grid);
-        std::array<SimplexCode<D>, 64> codes;
-        std::array<Interpolant<D, T>, 64> interps;
-        int n = 0;
-        for (int l = 0; l < unit_level_; ++l) {
-          const SimplexCode<D> a = unit.ancestor(l);
-          const Grid ag = GridOf(Vertices(a));
-          if (!Meets(ag)) continue;
-          Raise(a, 0);
-          auto it = above.find(a.key());
-          if (it == above.end()) {
-            const ScannableSimplex<D> as(ag);
-            double extent = 0;
-            for (int c = 0; c < D; ++c) {
-              extent = std::max(extent, static_cast<double>(as.box_hi()[c] - as.box_lo()[c]));
-            }
-            bool vertex_missing = false;
-            SDB_ASSIGN_OR_RETURN(const auto f, VertexValues<T>(ag, &vertex_missing));
-            it = above.emplace(a.key(), Interpolant<D, T>(as, f, step_, extent)).first;
-            above_availability[a.key()].any_missing = vertex_missing;
-          }
-          codes[n] = a;
-          interps[n++] = it->second;
-        }
-        const bool meets = Meets(grid);
-        if (!HasRealPoints(simplex) || (n == 0 && !meets)) continue;
-        Region<D> region;
-        region.lo = simplex.box_lo();
-        region.hi = simplex.box_hi();
-        SDB_RETURN_IF_ERROR(Fill(region));
-        IPoint<D> scan_hi{};
-        for (int c = 0; c < D; ++c) scan_hi[c] = std::min(region.hi[c], real_hi_[c]);
-        const GridView<D> view = region.view();
-        const bool missing = std::any_of(region.values.begin(), region.values.end(),
-                                         [](double v) { return std::isnan(v); });
-        if (n > 0) {
-          std::array<double, 64> partial{};
-          MaxErrors<D, T>(simplex, interps.data(), n, region.lo, scan_hi, view, partial.data());
-          for (int j = 0; j < n; ++j) Raise(codes[j], partial[j]);
-          const Availability a = missing ? ScanAvailability<D>(simplex, region.lo, scan_hi, view)
-                                         : Availability{true, false};
-          for (int j = 0; j < n; ++j) above_availability[codes[j].key()].Merge(a);
-        }
-        if (meets) Descend<T>(unit, grid, region.lo, scan_hi, view, missing);
-      }
-      // As the dense builder: 0 where no point has a value, the field range
-      // where some have none.
-      for (const auto& [key, a] : above_availability) {
-        double& e = errors_.at(key);
-        e = ErrorGivenAvailability(a, e, step_);
-      }
-    }
-    Progress(total, total);
-    return Status::OK();
-  }
-
-  // The unit's nodes that meet the box, depth first.
-  template <class T>
-  void Descend(SimplexCode<D> unit, const Grid& grid, const IPoint<D>& scan_lo,
-               const IPoint<D>& scan_hi, const GridView<D>& view, bool missing) {
-    struct Item {
-      SimplexCode<D> code;
-      Grid grid;
-    };
-    std::vector<Item> stack = {Item{unit, grid}};
-    while (!stack.empty()) {
-      const Item item = stack.back();
-      stack.pop_back();
-      const ScannableSimplex<D> s(item.grid);
-      std::array<T, D + 1> f{};
-      for (int i = 0; i <= D; ++i) f[i] = static_cast<T>(view.At(item.grid[i]));
-      double error = MaxError<D, T>(s, f, step_, scan_lo, scan_hi, view).error;
-      if (missing) {
-        error = ErrorGivenAvailability(NodeAvailability<D>(s, scan_lo, scan_hi, view), error,
-                                       step_);
-      }
-      Raise(item.code, error);
-      if (item.code.level() + 1 >= leaf_) continue;
-      for (int child = 1; child >= 0; --child) {
-        Item next{item.code.child(child), ChildVertices<D>(item.code, item.grid, child)};
-        if (Meets(next.grid)) stack.push_back(next);
-      }
+      options_.progress(BuildProgress{"units", done, total, SecondsSince(start_)});
     }
   }
 
@@ -509,7 +379,7 @@ class Updater {
   Clock::time_point start_;
   const int k_, leaf_, unit_level_;
   ErrorQuantizer quantizer_;
-  const double step_;
+  ErrorRules<D> rules_;
   IPoint<D> real_hi_{}, ebox_lo_{}, ebox_hi_{};
   std::unordered_map<uint64_t, double> errors_;  // code key -> recomputed error
   std::vector<double> mask_row_;
@@ -525,6 +395,73 @@ class Updater {
   std::vector<uint64_t> appeared_;
   std::vector<std::pair<SimplexCode<D>, uint64_t>> vanished_;
 };
+
+template <int D>
+Status Updater<D>::ComputeErrors() {
+  const uint64_t units_per_root = uint64_t{1} << unit_level_;
+  uint64_t roots = 0;
+  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
+    roots += Meets(Grid(RootVertices<D>(top)));
+  }
+  const uint64_t total = roots * units_per_root;
+  uint64_t done = 0;
+  const auto meets = [this](const GridSimplex<D>& g) { return Meets(g); };
+  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
+    if (!Meets(Grid(RootVertices<D>(top)))) continue;
+    // The interpolants of the nodes above the units that meet the box,
+    // and where they have values (Availability).
+    std::unordered_map<uint64_t, AncestorInterpolant<D>> above;
+    std::unordered_map<uint64_t, Availability> above_availability;
+    for (uint64_t u = 0; u < units_per_root; ++u, ++done) {
+      if ((done & 63) == 0) Progress(done, total);
+      const SimplexCode<D> unit = SimplexCode<D>::FromPath(top, u, unit_level_);
+      const GridSimplex<D> grid = Grid(Vertices(unit));
+      std::array<SimplexCode<D>, UnitScan<D>::kMaxAncestors> codes;
+      std::array<AncestorInterpolant<D>, UnitScan<D>::kMaxAncestors> interps;
+      int n = 0;
+      for (int l = 0; l < unit_level_; ++l) {
+        const SimplexCode<D> a = unit.ancestor(l);
+        const GridSimplex<D> ag = Grid(Vertices(a));
+        if (!Meets(ag)) continue;
+        Raise(a, 0);
+        auto it = above.find(a.key());
+        if (it == above.end()) {
+          SDB_ASSIGN_OR_RETURN(const auto f, VertexValues(ag));
+          it = above.emplace(a.key(), AncestorInterpolant<D>(rules_, ag, f)).first;
+          above_availability[a.key()].any_missing = it->second.vertex_missing();
+        }
+        codes[n] = a;
+        interps[n++] = it->second;
+      }
+      const bool unit_meets = Meets(grid);
+      if (n == 0 && !unit_meets) continue;
+      UnitScan<D> scan(rules_, unit, grid);
+      if (!scan.has_real_points()) continue;
+      SDB_RETURN_IF_ERROR(Fill(scan.region()));
+      if (n > 0) {
+        std::array<double, UnitScan<D>::kMaxAncestors> partial{};
+        const Availability a =
+            scan.AncestorPartials({interps.data(), static_cast<size_t>(n)}, partial.data());
+        for (int j = 0; j < n; ++j) {
+          Raise(codes[j], partial[j]);
+          above_availability[codes[j].key()].Merge(a);
+        }
+      }
+      if (unit_meets) {
+        scan.ForEachNode(leaf_, meets,
+                         [&](const UnitNode<D>& node) { Raise(node.code, node.error); });
+      }
+    }
+    // As the dense builder: 0 where no point has a value, the field range
+    // where some have none.
+    for (const auto& [key, a] : above_availability) {
+      double& e = errors_.at(key);
+      e = ErrorGivenAvailability(a, e, rules_.range);
+    }
+  }
+  Progress(total, total);
+  return Status::OK();
+}
 
 template <int D>
 Status Updater<D>::Apply(lmdb::Txn& txn, SparseUpdateReport* report, bool* map_full) {

@@ -6,9 +6,10 @@
 // domain's far faces where the box reaches the real grid's, because the
 // padding repeats the last real values) gets its error recomputed from the
 // new volume: the seed's maximum over the grid points inside the simplex,
-// as the dense builder computes it, so the store ends up entry for entry
-// what importing the new volume would give (integer voxel types: exactly;
-// floats: within the rounding of a differently ordered scan). A node is then
+// by the error engine the dense builder uses (storage/error/unit_errors.h),
+// so the store ends up entry for entry what importing the new volume would
+// give (integer voxel types: exactly; floats: within the rounding of a
+// differently ordered scan). A node is then
 // present when some error in its subtree exceeds the store's tolerance, as
 // when it was built; nodes away from the box keep their entries, and they
 // tell their ancestors whether their subtrees matter (present = yes).
@@ -42,7 +43,7 @@
 #include <optional>
 #include <string>
 
-#include "storage/dense/dense_builder.h"
+#include "storage/error/progress.h"
 #include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
 #include "util/status.h"
@@ -57,7 +58,7 @@ struct GridBox {
 };
 
 struct SparseUpdateOptions {
-  std::function<void(const DenseBuildProgress&)> progress;  // phase "units"
+  std::function<void(const BuildProgress&)> progress;  // phase "units"
   // As DenseBuildOptions::mask: 0 or NaN where the field is missing (the
   // store was imported with a mask; integers are then float32 in it).
   std::optional<VolumeInfo> mask;

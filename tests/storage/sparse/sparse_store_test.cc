@@ -472,7 +472,7 @@ TEST(SparseStore, AKilledConversionLeavesNothingUnderTheFinalName) {
   if (child == 0) {
     SparseBuildOptions options;
     // Die at the first report before the end, with entries already written.
-    options.progress = [](const DenseBuildProgress& p) {
+    options.progress = [](const BuildProgress& p) {
       if (p.done < p.total) _exit(3);
     };
     (void)ConvertDenseToSparse(*dense, out, options);
