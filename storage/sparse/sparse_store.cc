@@ -245,7 +245,7 @@ Status VerifyTyped(const SparseStore& store,
       ++nodes;
       if (progress && (++done & 0xfffff) == 0) progress(done, total);
     }
-    if (rc != MDB_NOTFOUND) return store.env().FromCode(rc, "reading the errors");
+    if (rc != MDB_NOTFOUND) return store.env().FromCode(rc, "read the errors");
   }
   if (nodes != h.nodes) {
     return Status::Corruption(path + ": " + std::to_string(nodes) + " nodes; the header says " +
@@ -273,7 +273,7 @@ Status VerifyTyped(const SparseStore& store,
       ++vertices;
       if (progress && (++done & 0xfffff) == 0) progress(done, total);
     }
-    if (rc != MDB_NOTFOUND) return store.env().FromCode(rc, "reading the field");
+    if (rc != MDB_NOTFOUND) return store.env().FromCode(rc, "read the field");
   }
   if (vertices != needed.size()) {
     return Status::Corruption(path + ": " + std::to_string(needed.size() - vertices) +
@@ -394,7 +394,7 @@ Status SparseStore::Reader<D>::Prefetch(SimplexCode<D> code, size_t max_entries)
                          DecodeStored(key, {static_cast<const uint8_t*>(v.mv_data), v.mv_size}));
     prefetch_.emplace_back(key, *stored);
   }
-  if (rc != MDB_SUCCESS && rc != MDB_NOTFOUND) return store_->env().FromCode(rc, "prefetching");
+  if (rc != MDB_SUCCESS && rc != MDB_NOTFOUND) return store_->env().FromCode(rc, "prefetch");
   prefetch_lo_ = lo;
   prefetch_hi_ = covered;
   stats_.prefetched += prefetch_.size();
