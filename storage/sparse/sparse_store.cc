@@ -1,7 +1,6 @@
 #include "storage/sparse/sparse_store.h"
 
 #include <sys/stat.h>
-#include <xxhash.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hierarchy/geometry.h"
+#include "storage/io/checksum.h"
 #include "storage/io/file.h"
 #include "storage/sparse/vertex_set.h"
 #include "util/little_endian.h"
@@ -103,7 +103,7 @@ uint64_t SparseEntryHash(int db, std::span<const uint8_t> key, std::span<const u
   const size_t m = std::min(value.size(), size_t{16});
   std::copy_n(key.data(), n, buffer);
   std::copy_n(value.data(), m, buffer + n);
-  return XXH3_64bits_withSeed(buffer, n + m, static_cast<XXH64_hash_t>(db + 1));
+  return Checksum(std::span<const uint8_t>(buffer, n + m), static_cast<uint64_t>(db + 1));
 }
 
 bool LooksLikeLmdb(const std::string& path) {
