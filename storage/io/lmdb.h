@@ -1,8 +1,9 @@
 // A thin layer over LMDB (liblmdb, the C library): owning handles for the
 // environment, transactions and cursors, a batch writer that grows the map,
 // and LMDB's return codes as a Status that names the file. Nothing here
-// knows about SimplexDB's data. Not part of the installed API (it includes
-// <lmdb.h>): stores include it from their .cc files.
+// knows about SimplexDB's data. It includes <lmdb.h>, so it is meant for
+// the stores' own code, not for embedders (today sparse_store.h and
+// tri_leaf_store.h still include it).
 //
 // Environments are single files (MDB_NOSUBDIR: STORE and STORE-lock) opened
 // with MDB_NOTLS, so one thread may hold several read transactions (one per

@@ -90,7 +90,8 @@ template <Polyhedron P>
 template <class Edit>
 Status TriLeafStore<P>::Write(const char* what, Edit edit) {
   if (read_only_) {
-    return Status::InvalidArgument(path() + ": cannot " + what + ": the store was opened read-only");
+    return Status::InvalidArgument(path() + ": cannot " + what +
+                                   ": the store was opened read-only");
   }
   for (;;) {
     SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*env_, /*read_only=*/false));

@@ -100,8 +100,9 @@ Status AppendVoxels(AtomicFileWriter& file, VoxelType type,
     const size_t n = std::min(kChunk, values.size() - i);
     bytes.resize(n * VoxelSize(type));
     EncodeVoxels(type, ByteOrder::kLittle, values.data() + i, n, bytes.data());
-    SDB_ASSIGN_OR_RETURN(const uint64_t at,
-                         file.Append({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}));
+    SDB_ASSIGN_OR_RETURN(
+        const uint64_t at,
+        file.Append({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}));
     (void)at;
   }
   return Status::OK();

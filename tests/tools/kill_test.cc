@@ -91,7 +91,8 @@ struct Case {
 };
 
 // The names in `folder` that are not temporaries of `outputs`.
-std::vector<std::string> Strangers(const std::string& folder, const std::vector<std::string>& outputs) {
+std::vector<std::string> Strangers(const std::string& folder,
+                                   const std::vector<std::string>& outputs) {
   std::vector<std::string> strangers;
   for (const std::string& name : Names(folder)) {
     const bool temporary = std::any_of(outputs.begin(), outputs.end(), [&](const std::string& o) {

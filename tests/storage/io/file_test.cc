@@ -67,8 +67,9 @@ TEST(Temporaries, StaleOnesOfDeadProcessesAreRemoved) {
   const std::string out = dir.path() + "/out.sdb";
   const std::string dead = std::to_string(DeadPid());
   const std::string live = std::to_string(getppid());  // runs as long as we do
-  for (const std::string& suffix : {dead, dead + "-lock", dead + ".dense", dead + ".dense.tmp." + dead,
-                                    dead + ".field", live, live + "-lock"}) {
+  for (const std::string& suffix : {dead, dead + "-lock", dead + ".dense",
+                                    dead + ".dense.tmp." + dead, dead + ".field", live,
+                                    live + "-lock"}) {
     Touch(out + ".tmp." + suffix);
   }
   Touch(dir.path() + "/other.sdb.tmp." + dead);  // another output's
