@@ -19,6 +19,7 @@
 #include "query/refine.h"
 #include "query/slice.h"
 #include "query/source.h"
+#include "storage/io/file.h"
 #include "storage/sparse/sparse_store.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
@@ -96,9 +97,7 @@ void WriteSliceSeries(const Mesh<4>& mesh, Source& source, const std::vector<dou
                        slash == std::string::npos ? file : file.substr(slash + 1));
   }
   pvd += "</Collection>\n</VTKFile>\n";
-  std::ofstream out(output);
-  out << pvd;
-  if (!out.flush()) throw CommandError(fmt::format("{}: cannot write", output));
+  if (Status st = WriteFileAtomically(output, pvd); !st.ok()) Fail(st);
 }
 
 // `dense`: the store behind `source` when it is a dense one (its cache is
@@ -214,9 +213,7 @@ void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nul
   }
   const std::string text = j.dump(2) + "\n";
   if (a.format == "json" && a.output != "-") {
-    std::ofstream out(a.output);
-    out << text;
-    if (!out.flush()) throw CommandError(fmt::format("{}: cannot write", a.output));
+    if (Status st = WriteFileAtomically(a.output, text); !st.ok()) Fail(st);
   } else {
     // With codes on stdout the statistics go to stderr, out of the way.
     std::fputs(text.c_str(), a.format == "codes" && a.output == "-" ? stderr : stdout);

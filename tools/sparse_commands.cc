@@ -193,19 +193,17 @@ void RunSparseVerify(const std::string& path, bool quiet) {
 
 void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuildOptions options,
                   const std::string& tolerance, bool as_json, bool quiet) {
-  // The dense store is the sparse one's source; it lives only as long as
-  // this function (removed on every path out).
-  struct Remove {
-    std::string path;
-    ~Remove() { unlink(path.c_str()); }
-  } temp{output + ".dense.tmp." + std::to_string(getpid())};
-  RemoveStaleTemporaries(output + ".dense");
+  // The dense store is the sparse one's source: a scratch file of the
+  // output (`<output>.tmp.<pid>.dense`), removed on every path out of this
+  // function, and by the next run of the same output if this one is killed.
+  if (Status s = PrepareOutput(output); !s.ok()) Fail(s);
+  const TemporaryFile temp(output, "dense");
   ProgressLine line(!quiet);
   options.progress = ProgressTo(line, output);
-  const Result<DenseBuildReport> built = BuildDenseStore(input, temp.path, options);
+  const Result<DenseBuildReport> built = BuildDenseStore(input, temp.path(), options);
   line.Finish();
   if (!built.ok()) Fail(built.status());
-  const auto dense = OpenDenseStore(temp.path);
+  const auto dense = OpenDenseStore(temp.path());
   SparseBuildReport report = Convert(*dense, output, tolerance, quiet || as_json);
   report.seconds += built->seconds;
   PrintSparseReport(report, output, as_json, quiet);

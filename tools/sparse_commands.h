@@ -16,9 +16,10 @@ bool IsSparseStorePath(const std::string& path);
 void RunSparseInfo(const std::string& path, bool as_json);
 void RunSparseVerify(const std::string& path, bool quiet);
 
-// Builds a dense store from `input` beside `output` (a temporary), converts
-// it with `tolerance` ("7.3" absolute or "1%" of the field range), removes
-// the temporary.
+// Builds a dense store from `input` as a scratch file of `output`
+// (`<output>.tmp.<pid>.dense`, storage/io/file.h), converts it with
+// `tolerance` ("7.3" absolute or "1%" of the field range), removes the
+// scratch file.
 void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuildOptions options,
                   const std::string& tolerance, bool as_json, bool quiet);
 

@@ -13,6 +13,7 @@
 #include "hierarchy/geometry.h"
 #include "hierarchy/simplex_code.h"
 #include "storage/dense/block_cache.h"
+#include "storage/io/checksum.h"
 #include "storage/io/codec.h"
 #include "storage/io/file.h"
 #include "storage/dense/layout.h"

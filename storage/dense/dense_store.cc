@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "storage/io/checksum.h"
 #include "storage/io/codec.h"
 #include "util/little_endian.h"
 

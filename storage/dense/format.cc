@@ -1,10 +1,10 @@
 #include "storage/dense/format.h"
 
-#include <xxhash.h>
-
 #include <cmath>
 #include <cstring>
 #include <limits>
+
+#include "storage/io/checksum.h"
 
 namespace simplexdb {
 namespace {
@@ -55,10 +55,6 @@ Result<Compression> ParseCompression(std::string_view name) {
   if (name == "zstd") return Compression::kZstd;
   return Status::InvalidArgument("unknown compression '" + std::string(name) +
                                  "': expected none or zstd");
-}
-
-uint64_t Checksum(std::span<const uint8_t> bytes) {
-  return XXH3_64bits(bytes.data(), bytes.size());
 }
 
 float RoundDownToFloat(double v) {

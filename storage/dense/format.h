@@ -113,9 +113,6 @@ inline IndexEntry ParseIndexEntry(const uint8_t* in) {
   return e;
 }
 
-// XXH3-64 of `bytes`.
-uint64_t Checksum(std::span<const uint8_t> bytes);
-
 // Float bounds that contain a double: a <= RoundDown(a), RoundUp(a) >= a.
 float RoundDownToFloat(double v);
 float RoundUpToFloat(double v);

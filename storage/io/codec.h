@@ -1,6 +1,15 @@
 // zstd compression of blocks, with RAII contexts. Each compressed block is
 // one independent frame that records its content size and a content
 // checksum, so a frame can be decoded alone and a damaged one is detected.
+// zstd's error codes become a Status here and nowhere else.
+//
+// Errors: ResourceExhausted when zstd cannot allocate its context (the
+// constructors do not fail; the first call reports it); Corruption for a
+// frame that does not decode to the size asked for; IOError when zstd
+// refuses to compress (its error name in the message).
+//
+// Lifetimes: Compress returns a new vector it owns; Decompress writes into
+// the caller's span and keeps nothing.
 //
 // Thread safety: a Compressor or Decompressor is used by one thread at a
 // time (each holds a zstd context); make one per thread.
@@ -27,7 +36,8 @@ class ZstdCompressor {
   ZstdCompressor(const ZstdCompressor&) = delete;
   ZstdCompressor& operator=(const ZstdCompressor&) = delete;
 
-  // Compresses `src` into one frame.
+  // Compresses `src` into one frame. Errors: ResourceExhausted (no
+  // context), IOError (zstd failed).
   Result<std::vector<uint8_t>> Compress(std::span<const uint8_t> src);
 
  private:

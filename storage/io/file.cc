@@ -9,23 +9,30 @@
 #include <boost/interprocess/file_mapping.hpp>
 #include <boost/interprocess/mapped_region.hpp>
 #include <cerrno>
-#include <cstring>
-#include <string_view>
+#include <cstdlib>
+#include <mutex>
+#include <set>
+#include <system_error>
 
 namespace simplexdb {
 
 Status StatusFromErrno(int err, const std::string& path, const std::string& action) {
-  const std::string msg = path + ": cannot " + action + ": " + std::strerror(err);
+  // std::generic_category's message is strerror's text, without strerror's
+  // shared buffer.
+  const std::string msg =
+      path + ": cannot " + action + ": " + std::generic_category().message(err);
   switch (err) {
-    case ENOENT: return Status::NotFound(msg);
+    case ENOENT:
+    case ENOTDIR: return Status::NotFound(msg);
     case ENOSPC:
-    case EDQUOT: return Status::ResourceExhausted(msg);
-    case EACCES:
-    case EPERM:
+    case EDQUOT:
+    case EFBIG:
+    case ENOMEM:
+    case EMFILE:
+    case ENFILE: return Status::ResourceExhausted(msg);
     case EISDIR:
-    case ENOTDIR:
     case ENAMETOOLONG: return Status::InvalidArgument(msg);
-    default: return Status::IOError(msg);
+    default: return Status::IOError(msg);  // EACCES, EPERM, EROFS, EIO, ...
   }
 }
 
@@ -42,30 +49,86 @@ std::string BaseOf(const std::string& path) {
   return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
+// The process id in a temporary's name, or 0 when `name` is not one of
+// `final_name`'s temporaries.
+long TemporaryOwner(std::string_view name, std::string_view final_name) {
+  if (name.size() <= final_name.size() + 5 || name.substr(0, final_name.size()) != final_name ||
+      name.substr(final_name.size(), 5) != ".tmp.") {
+    return 0;
+  }
+  const std::string_view rest = name.substr(final_name.size() + 5);
+  size_t digits = 0;
+  long pid = 0;
+  while (digits < rest.size() && digits < 10 && rest[digits] >= '0' && rest[digits] <= '9') {
+    pid = pid * 10 + (rest[digits] - '0');
+    ++digits;
+  }
+  if (digits == 0 || pid <= 0) return 0;
+  if (digits < rest.size() && rest[digits] != '.' && rest[digits] != '-') return 0;
+  return pid;
+}
+
+// The temporary names this process holds, so that two writers of the same
+// output in one process (two threads) never share one.
+class HeldNames {
+ public:
+  // `base`, or `base.2`, `base.3`, ... : the first one not held.
+  std::string Claim(const std::string& base) {
+    std::lock_guard<std::mutex> lock(mu_);
+    std::string name = base;
+    for (int n = 2; held_.count(name) != 0; ++n) name = base + "." + std::to_string(n);
+    held_.insert(name);
+    return name;
+  }
+  void Release(const std::string& name) {
+    std::lock_guard<std::mutex> lock(mu_);
+    held_.erase(name);
+  }
+
+ private:
+  std::mutex mu_;
+  std::set<std::string> held_;
+};
+
+HeldNames& Held() {
+  static HeldNames* names = new HeldNames();  // never destroyed: used until exit
+  return *names;
+}
+
 }  // namespace
+
+std::string TemporaryPathFor(const std::string& final_path) {
+  return final_path + ".tmp." + std::to_string(getpid());
+}
+
+bool IsTemporaryOf(std::string_view name, std::string_view final_name) {
+  return TemporaryOwner(name, final_name) != 0;
+}
 
 void RemoveStaleTemporaries(const std::string& final_path) {
   const std::string dir = DirectoryOf(final_path);
-  const std::string prefix = BaseOf(final_path) + ".tmp.";
+  const std::string base = BaseOf(final_path);
   DIR* d = opendir(dir.c_str());
   if (d == nullptr) return;
   while (const dirent* e = readdir(d)) {
-    const std::string_view name = e->d_name;
-    if (name.substr(0, prefix.size()) != prefix) continue;
-    const std::string pid_text(name.substr(prefix.size()));
-    char* end = nullptr;
-    const long pid = std::strtol(pid_text.c_str(), &end, 10);
-    const std::string_view rest = end;
-    if (end == pid_text.c_str() || (!rest.empty() && rest != "-lock") || pid <= 0) continue;
+    const std::string name = e->d_name;
+    const long pid = TemporaryOwner(name, base);
+    if (pid == 0 || pid == getpid()) continue;
     if (kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
-      unlink((dir + "/" + std::string(name)).c_str());
+      unlink((dir + "/" + name).c_str());
     }
   }
   closedir(d);
 }
 
-std::string TemporaryPathFor(const std::string& final_path) {
-  return final_path + ".tmp." + std::to_string(getpid());
+Status PrepareOutput(const std::string& final_path) {
+  struct stat st;
+  if (stat(DirectoryOf(final_path).c_str(), &st) != 0) {
+    return StatusFromErrno(errno, final_path, "create");
+  }
+  if (!S_ISDIR(st.st_mode)) return StatusFromErrno(ENOTDIR, final_path, "create");
+  RemoveStaleTemporaries(final_path);
+  return Status::OK();
 }
 
 Status RenameDurably(const std::string& from, const std::string& to) {
@@ -103,41 +166,75 @@ AtomicFileWriter::AtomicFileWriter(std::string final_path, std::string temp_path
     : final_path_(std::move(final_path)), temp_path_(std::move(temp_path)), fd_(fd) {}
 
 Result<std::unique_ptr<AtomicFileWriter>> AtomicFileWriter::Create(const std::string& final_path) {
-  RemoveStaleTemporaries(final_path);
-  const std::string temp = TemporaryPathFor(final_path);
-  const int fd = open(temp.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return StatusFromErrno(errno, temp, "create");
+  SDB_RETURN_IF_ERROR(PrepareOutput(final_path));
+  const std::string temp = Held().Claim(TemporaryPathFor(final_path));
+  int fd;
+  do {
+    fd = open(temp.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  } while (fd < 0 && errno == EINTR);
+  if (fd < 0) {
+    const int err = errno;
+    Held().Release(temp);
+    return StatusFromErrno(err, final_path, "create");
+  }
   return std::unique_ptr<AtomicFileWriter>(new AtomicFileWriter(final_path, temp, fd));
 }
 
 AtomicFileWriter::~AtomicFileWriter() {
   if (fd_ >= 0) close(fd_);
   if (!committed_) unlink(temp_path_.c_str());
+  Held().Release(temp_path_);
 }
 
 Result<uint64_t> AtomicFileWriter::Append(std::span<const uint8_t> bytes) {
   const uint64_t offset = end_.fetch_add(bytes.size());
-  SDB_RETURN_IF_ERROR(WriteFully(fd_, offset, bytes, temp_path_));
+  SDB_RETURN_IF_ERROR(WriteFully(fd_, offset, bytes, final_path_));
   return offset;
 }
 
 Status AtomicFileWriter::WriteAt(uint64_t offset, std::span<const uint8_t> bytes) {
-  return WriteFully(fd_, offset, bytes, temp_path_);
+  return WriteFully(fd_, offset, bytes, final_path_);
 }
 
 Status AtomicFileWriter::Commit() {
   // Reserved space past the last write must exist in the file too.
   if (ftruncate(fd_, static_cast<off_t>(end_.load())) != 0) {
-    return StatusFromErrno(errno, temp_path_, "set the size of");
+    return StatusFromErrno(errno, final_path_, "set the size of");
   }
-  if (fsync(fd_) != 0) return StatusFromErrno(errno, temp_path_, "flush");
-  if (close(fd_) != 0) {
-    fd_ = -1;
-    return StatusFromErrno(errno, temp_path_, "close");
-  }
+  if (fsync(fd_) != 0) return StatusFromErrno(errno, final_path_, "flush");
+  const int fd = fd_;
   fd_ = -1;
+  if (close(fd) != 0) return StatusFromErrno(errno, final_path_, "close");
   SDB_RETURN_IF_ERROR(RenameDurably(temp_path_, final_path_));
   committed_ = true;
+  return Status::OK();
+}
+
+Status WriteFileAtomically(const std::string& path, std::string_view bytes) {
+  SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> file, AtomicFileWriter::Create(path));
+  SDB_ASSIGN_OR_RETURN(const uint64_t at, file->Append(bytes));
+  (void)at;
+  return file->Commit();
+}
+
+TemporaryFile::TemporaryFile(const std::string& final_path, std::string_view role)
+    : final_path_(final_path),
+      path_(Held().Claim(role.empty() ? TemporaryPathFor(final_path)
+                                      : TemporaryPathFor(final_path) + "." + std::string(role))) {
+  unlink(path_.c_str());
+  unlink((path_ + "-lock").c_str());
+}
+
+TemporaryFile::~TemporaryFile() {
+  if (!committed_) unlink(path_.c_str());
+  unlink((path_ + "-lock").c_str());
+  Held().Release(path_);
+}
+
+Status TemporaryFile::Commit() {
+  SDB_RETURN_IF_ERROR(RenameDurably(path_, final_path_));
+  committed_ = true;
+  unlink((path_ + "-lock").c_str());
   return Status::OK();
 }
 

@@ -1,10 +1,52 @@
-// Files: an output written under a temporary name and renamed into place
-// when complete, and a read-only memory mapping (Boost.Interprocess).
-// Errors from the operating system become a Status naming the file and the
-// reason (a full disk is ResourceExhausted) here, once.
+// Files: the one errno -> Status table, the one atomic writer every output
+// of every command goes through, the one naming pattern of temporaries, and
+// read-only memory mappings (Boost.Interprocess).
 //
-// Thread safety: AtomicFileWriter::Append and WriteAt may be called from
-// several threads at once; Commit from one. MappedFile is immutable.
+// Errors. StatusFromErrno is the only place an errno becomes a Status
+// (lmdb.cc sends LMDB's errno-valued codes here too), so the same errno
+// gives the same code and the same words wherever it arises:
+// "<path>: cannot <action>: <strerror>". The table:
+//
+//   errno                        Status             why
+//   ENOENT, ENOTDIR              NotFound           the file, or a folder on
+//                                                   its way, does not exist
+//                                                   (ENOTDIR: a component of
+//                                                   the path is a regular file)
+//   ENOSPC, EDQUOT, EFBIG,       ResourceExhausted  a disk, quota, file-size,
+//   ENOMEM, EMFILE, ENFILE                          memory or descriptor budget
+//                                                   is full: free some, retry
+//   EISDIR, ENAMETOOLONG         InvalidArgument    the name given cannot be
+//                                                   this file at all
+//   EACCES, EPERM, EROFS, EIO    IOError            the name is fine and the
+//   and every other errno                           system refused the read or
+//                                                   write (permissions, a
+//                                                   read-only mount, a failing
+//                                                   device)
+//
+// Temporaries. Everything written on the way to an output OUT is named
+//
+//   OUT.tmp.<pid><suffix>   suffix empty, or beginning with '.' or '-'
+//
+//   OUT.tmp.<pid>           OUT until it is complete (AtomicFileWriter,
+//                           TemporaryFile); a second writer of OUT in the
+//                           same process (another thread) gets OUT.tmp.<pid>.2
+//   OUT.tmp.<pid>-lock      LMDB's lock file beside it
+//   OUT.tmp.<pid>.<role>    a scratch file of the command that writes OUT
+//                           (TemporaryFile with a role: the dense store an
+//                           `import --sparse` goes through, `.dense`; the raw
+//                           field of a `convert --to dense`, `.field`), and
+//                           `.<role>.tmp.<pid>` while that is being written
+//
+// A process that dies (kill -9, power loss) leaves only names of this
+// pattern, never a half-written OUT; the next AtomicFileWriter::Create or
+// PrepareOutput of the same OUT removes those of processes that no longer
+// run.
+//
+// Thread safety: the free functions are reentrant. AtomicFileWriter::Append,
+// WriteAt and Reserve may be called from several threads at once; Commit
+// from one, after every write returned. Writers of the same output in one
+// process get distinct temporaries; the last Commit wins. A TemporaryFile
+// belongs to one thread. MappedFile is immutable.
 #pragma once
 
 #include <atomic>
@@ -12,6 +54,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 
 #include "util/status.h"
 
@@ -22,41 +65,71 @@ class mapped_region;
 
 namespace simplexdb {
 
-// The Status for a failed system call on `path` with errno `err`.
+// The Status for a system call that failed with errno `err` while doing
+// `action` (a verb phrase: "open", "write", "set the size of") on `path`:
+// the code from the table above, the message
+// "<path>: cannot <action>: <strerror(err)>". REQUIRES: err != 0.
 Status StatusFromErrno(int err, const std::string& path, const std::string& action);
 
-// `<final_path>.tmp.<pid>`: where this process writes what becomes
-// `final_path`.
+// `<final_path>.tmp.<pid>`: the first temporary name of `final_path` in
+// this process (the writers above add suffixes when it is taken).
 std::string TemporaryPathFor(const std::string& final_path);
 
-// Removes the temporaries of `final_path` (`.tmp.<pid>`, and LMDB's
-// `.tmp.<pid>-lock`) left by processes that no longer run.
+// True when `name` (a file name, no folder) is one of the temporaries of
+// the output named `final_name` (no folder either), of any process.
+bool IsTemporaryOf(std::string_view name, std::string_view final_name);
+
+// Removes the temporaries of `final_path` (every pattern above) left by
+// processes that no longer run. Best effort: what cannot be listed or
+// removed stays.
 void RemoveStaleTemporaries(const std::string& final_path);
 
-// Renames `from` to `to` and flushes the directory (best effort): after it
-// returns, the file is durable under its new name.
+// What a command does before it writes anything for `final_path`: checks
+// that its folder exists, so that a missing one is reported by the output's
+// name and not a temporary's (NotFound: "<final_path>: cannot create: No
+// such file or directory"; ENOTDIR when a component is a regular file), and
+// removes the stale temporaries of `final_path`.
+Status PrepareOutput(const std::string& final_path);
+
+// Renames `from` to `to` and flushes the directory (best effort: some file
+// systems cannot sync a directory): after it returns, the file is durable
+// under its new name. Errors name `to`.
 Status RenameDurably(const std::string& from, const std::string& to);
 
 class AtomicFileWriter {
  public:
-  // Creates `<final_path>.tmp.<pid>` for writing. Stale temporaries of the
-  // same final path left by processes that no longer run (a build killed
-  // part-way) are removed first.
+  // PrepareOutput(final_path), then creates its temporary for writing
+  // (mode 0644 less the umask). Errors name `final_path`: NotFound for a
+  // missing folder, IOError when the folder refuses a new file (EACCES,
+  // EROFS), ResourceExhausted when it has no room for one.
   static Result<std::unique_ptr<AtomicFileWriter>> Create(const std::string& final_path);
 
-  // Unless committed, removes the temporary file.
+  // Unless committed, closes and removes the temporary: an output that
+  // failed or was abandoned leaves nothing, and an earlier file of the same
+  // name stays as it was.
   ~AtomicFileWriter();
+  AtomicFileWriter(const AtomicFileWriter&) = delete;
+  AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
 
   // Writes `bytes` at a fresh offset at the end and returns that offset.
+  // Errors (naming the final path): ResourceExhausted for a full disk,
+  // IOError otherwise.
   Result<uint64_t> Append(std::span<const uint8_t> bytes);
-  // Writes `bytes` at `offset` (for the header, written last).
+  Result<uint64_t> Append(std::string_view text) {
+    return Append({reinterpret_cast<const uint8_t*>(text.data()), text.size()});
+  }
+  // Writes `bytes` at `offset` (for a header written last, or parts written
+  // by several threads). Same errors as Append.
   Status WriteAt(uint64_t offset, std::span<const uint8_t> bytes);
-  // Reserves `size` bytes at the end (zero until written).
+  // Reserves `size` bytes at the end (zero until written) and returns their
+  // offset.
   uint64_t Reserve(uint64_t size) { return end_.fetch_add(size); }
   uint64_t size() const { return end_.load(); }
 
-  // Flushes to disk, renames to the final path, and flushes the directory:
-  // after it returns, the store is durable under its final name.
+  // Sets the file's size to size(), flushes it to disk, renames it to the
+  // final path and flushes the folder: after it returns OK, the output is
+  // durable under its final name. On error the temporary is removed when
+  // the writer goes away. REQUIRES: called once, with no write running.
   Status Commit();
 
   const std::string& final_path() const { return final_path_; }
@@ -72,12 +145,51 @@ class AtomicFileWriter {
   bool committed_ = false;
 };
 
+// Writes `bytes` as the whole of `path` through an AtomicFileWriter (for a
+// small output made in memory: a JSON report, a .pvd collection). Errors:
+// those of Create, Append and Commit.
+Status WriteFileAtomically(const std::string& path, std::string_view bytes);
+
+// A name in the temporaries' pattern that other code fills: LMDB writes its
+// own file; a command writes a scratch file it needs on the way to its
+// output. Unless committed, the file and LMDB's `<path()>-lock` are removed
+// when this goes away (and by the next RemoveStaleTemporaries of the output
+// if the process dies first). Creates no file itself.
+class TemporaryFile {
+ public:
+  // With an empty `role`: the temporary of `final_path`, renamed into place
+  // by Commit. With a role ("dense", "field"): the scratch file
+  // `<final_path>.tmp.<pid>.<role>`, never committed. A leftover file of
+  // the same name (from an earlier process with this pid) is removed.
+  explicit TemporaryFile(const std::string& final_path, std::string_view role = {});
+  ~TemporaryFile();
+  TemporaryFile(const TemporaryFile&) = delete;
+  TemporaryFile& operator=(const TemporaryFile&) = delete;
+
+  const std::string& path() const { return path_; }
+  const std::string& final_path() const { return final_path_; }
+
+  // RenameDurably(path(), final_path()), then removes `<path()>-lock`.
+  // REQUIRES: no role; the file complete, flushed and closed (for LMDB:
+  // Env::Sync() and the environment closed).
+  Status Commit();
+
+ private:
+  std::string final_path_;
+  std::string path_;
+  bool committed_ = false;
+};
+
 class MappedFile {
  public:
-  // Maps `path` read-only. Many processes may map the same file.
+  // Maps `path` read-only. Many processes may map the same file. Errors:
+  // the table above for a file that cannot be found or opened;
+  // InvalidArgument when `path` is not a regular file; IOError when the
+  // mapping fails. An empty file maps to zero bytes.
   static Result<std::unique_ptr<MappedFile>> Open(const std::string& path);
   ~MappedFile();
 
+  // Valid as long as this MappedFile.
   std::span<const uint8_t> bytes() const { return bytes_; }
   const std::string& path() const { return path_; }
 

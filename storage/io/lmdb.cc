@@ -6,6 +6,8 @@
 #include <cerrno>
 #include <string>
 
+#include "storage/io/file.h"
+
 namespace simplexdb::lmdb {
 
 namespace {
@@ -23,21 +25,17 @@ int64_t FreeBytesBeside(const std::string& path) {
 }  // namespace
 
 Status FromCode(int rc, const std::string& path, std::string_view action) {
-  const std::string what = path + ": " + std::string(action) + ": " + mdb_strerror(rc);
-  // LMDB turns a short write into EIO: when the disk is the reason, say so.
-  if (rc == EIO) {
-    const int64_t free_bytes = FreeBytesBeside(path);
-    if (free_bytes >= 0 && free_bytes < (int64_t{1} << 20)) {
-      return Status::ResourceExhausted(what + " (the disk is full: " + std::to_string(free_bytes) +
-                                       " bytes free; nothing was changed)");
+  if (rc > 0) {  // an errno value
+    // LMDB turns a short write into EIO: when the disk is the reason, it is
+    // a full disk, reported as one.
+    if (rc == EIO) {
+      const int64_t free_bytes = FreeBytesBeside(path);
+      if (free_bytes >= 0 && free_bytes < (int64_t{1} << 20)) rc = ENOSPC;
     }
+    return StatusFromErrno(rc, path, std::string(action));
   }
+  const std::string what = path + ": cannot " + std::string(action) + ": " + mdb_strerror(rc);
   switch (rc) {
-    case ENOENT:
-      return Status::NotFound(what);
-    case ENOSPC:
-    case EDQUOT:
-      return Status::ResourceExhausted(what + " (the disk is full; nothing was changed)");
     case MDB_INVALID:
     case MDB_VERSION_MISMATCH:
       return Status::InvalidArgument(what + " (not an LMDB file this LMDB version reads)");
@@ -56,16 +54,17 @@ Status FromCode(int rc, const std::string& path, std::string_view action) {
 }
 
 Result<std::unique_ptr<Env>> Env::Open(const std::string& path, const Options& options) {
+  const std::string& name = options.name.empty() ? path : options.name;
   MDB_env* raw = nullptr;
   int rc = mdb_env_create(&raw);
-  if (rc != MDB_SUCCESS) return lmdb::FromCode(rc, path, "creating an LMDB environment");
-  std::unique_ptr<Env> env(new Env(raw, path));
+  if (rc != MDB_SUCCESS) return lmdb::FromCode(rc, name, "create an LMDB environment");
+  std::unique_ptr<Env> env(new Env(raw, path, name));
   rc = mdb_env_set_maxdbs(raw, options.max_dbs);
   if (rc == MDB_SUCCESS) rc = mdb_env_set_maxreaders(raw, options.max_readers);
   if (rc == MDB_SUCCESS && options.map_bytes > 0) {
     rc = mdb_env_set_mapsize(raw, options.map_bytes);
   }
-  if (rc != MDB_SUCCESS) return env->FromCode(rc, "configuring the environment");
+  if (rc != MDB_SUCCESS) return env->FromCode(rc, "configure the environment");
   // Builders sync once, explicitly, when they are done (MDB_NOSYNC): a crash
   // before that leaves a temporary file, never a store under its real name.
   unsigned flags = MDB_NOSUBDIR | MDB_NOTLS;
@@ -75,7 +74,7 @@ Result<std::unique_ptr<Env>> Env::Open(const std::string& path, const Options& o
     flags |= MDB_NOSYNC;
   }
   rc = mdb_env_open(raw, path.c_str(), flags, 0644);
-  if (rc != MDB_SUCCESS) return env->FromCode(rc, options.read_only ? "opening" : "creating");
+  if (rc != MDB_SUCCESS) return env->FromCode(rc, options.read_only ? "open" : "create");
   // LMDB reads pages through its map and trusts the file to hold every page
   // its meta page counts: a truncated file would fault (SIGBUS) on first
   // touch. Check the size first.
@@ -85,14 +84,14 @@ Result<std::unique_ptr<Env>> Env::Open(const std::string& path, const Options& o
   mdb_env_stat(raw, &stat_info);
   const uint64_t needed = (static_cast<uint64_t>(info.me_last_pgno) + 1) * stat_info.ms_psize;
   struct stat now;
-  if (stat(path.c_str(), &now) != 0) return lmdb::FromCode(errno, path, "opening");
+  if (stat(path.c_str(), &now) != 0) return env->FromCode(errno, "open");
   if (static_cast<uint64_t>(now.st_size) < needed) {
-    return Status::Corruption(path + ": truncated: " + std::to_string(now.st_size) +
+    return Status::Corruption(env->name() + ": truncated: " + std::to_string(now.st_size) +
                               " bytes, but its pages need " + std::to_string(needed));
   }
   int dead = 0;
   rc = mdb_reader_check(raw, &dead);
-  if (rc != MDB_SUCCESS) return env->FromCode(rc, "clearing stale readers");
+  if (rc != MDB_SUCCESS) return env->FromCode(rc, "clear stale readers");
   return env;
 }
 
@@ -106,12 +105,12 @@ uint64_t Env::map_bytes() const {
 
 Status Env::SetMapBytes(uint64_t bytes) {
   const int rc = mdb_env_set_mapsize(env_, bytes);
-  return rc == MDB_SUCCESS ? Status::OK() : FromCode(rc, "growing the map");
+  return rc == MDB_SUCCESS ? Status::OK() : FromCode(rc, "grow the map");
 }
 
 Status Env::Sync() {
   const int rc = mdb_env_sync(env_, 1);
-  return rc == MDB_SUCCESS ? Status::OK() : FromCode(rc, "syncing to disk");
+  return rc == MDB_SUCCESS ? Status::OK() : FromCode(rc, "flush");
 }
 
 Result<Txn> Txn::Begin(Env& env, bool read_only) {
@@ -122,7 +121,7 @@ Result<Txn> Txn::Begin(Env& env, bool read_only) {
     rc = mdb_env_set_mapsize(env.get(), 0);
     if (rc == MDB_SUCCESS) rc = mdb_txn_begin(env.get(), nullptr, read_only ? MDB_RDONLY : 0, &txn);
   }
-  if (rc != MDB_SUCCESS) return env.FromCode(rc, "beginning a transaction");
+  if (rc != MDB_SUCCESS) return env.FromCode(rc, "begin a transaction");
   return Txn(&env, txn);
 }
 
@@ -138,7 +137,7 @@ Txn& Txn::operator=(Txn&& other) noexcept {
 
 Status Txn::Commit() {
   const int rc = CommitCode();
-  return rc == MDB_SUCCESS ? Status::OK() : env_->FromCode(rc, "committing");
+  return rc == MDB_SUCCESS ? Status::OK() : env_->FromCode(rc, "commit");
 }
 
 int Txn::CommitCode() {
@@ -156,10 +155,10 @@ Result<MDB_dbi> Txn::OpenDb(const char* name, bool create) {
   MDB_dbi dbi = 0;
   const int rc = mdb_dbi_open(txn_, name, create ? MDB_CREATE : 0, &dbi);
   if (rc == MDB_NOTFOUND) {
-    return Status::InvalidArgument(env_->path() + ": no database '" + name + "' in this LMDB file");
+    return Status::InvalidArgument(env_->name() + ": no database '" + name + "' in this LMDB file");
   }
   if (rc != MDB_SUCCESS) {
-    return env_->FromCode(rc, std::string("opening database '") + name + "'");
+    return env_->FromCode(rc, std::string("open database '") + name + "'");
   }
   return dbi;
 }
@@ -170,7 +169,7 @@ Result<std::span<const uint8_t>> Txn::Get(MDB_dbi dbi, std::span<const uint8_t> 
   const int rc = mdb_get(txn_, dbi, &k, &v);
   *found = rc == MDB_SUCCESS;
   if (rc == MDB_NOTFOUND) return std::span<const uint8_t>();
-  if (rc != MDB_SUCCESS) return env_->FromCode(rc, "reading");
+  if (rc != MDB_SUCCESS) return env_->FromCode(rc, "read");
   return std::span<const uint8_t>(static_cast<const uint8_t*>(v.mv_data), v.mv_size);
 }
 
@@ -178,13 +177,13 @@ Status Txn::Put(MDB_dbi dbi, std::span<const uint8_t> key, std::span<const uint8
                 unsigned flags) {
   MDB_val k = Val(key.data(), key.size()), v = Val(value.data(), value.size());
   const int rc = mdb_put(txn_, dbi, &k, &v, flags);
-  return rc == MDB_SUCCESS ? Status::OK() : env_->FromCode(rc, "writing");
+  return rc == MDB_SUCCESS ? Status::OK() : env_->FromCode(rc, "write");
 }
 
 Result<Cursor> Cursor::Open(Txn& txn, MDB_dbi dbi) {
   MDB_cursor* c = nullptr;
   const int rc = mdb_cursor_open(txn.get(), dbi, &c);
-  if (rc != MDB_SUCCESS) return txn.env().FromCode(rc, "opening a cursor");
+  if (rc != MDB_SUCCESS) return txn.env().FromCode(rc, "open a cursor");
   return Cursor(c);
 }
 
@@ -207,10 +206,10 @@ Status BatchWriter::TryCommit(int* rc) {
     p += e.key_size + e.value_size;
     *rc = mdb_put(txn.get(), e.dbi, &k, &v, e.append ? MDB_APPEND : 0);
     if (*rc == MDB_MAP_FULL) return Status::OK();  // the transaction aborts here
-    if (*rc != MDB_SUCCESS) return env_.FromCode(*rc, "writing");
+    if (*rc != MDB_SUCCESS) return env_.FromCode(*rc, "write");
   }
   *rc = txn.CommitCode();
-  if (*rc != MDB_SUCCESS && *rc != MDB_MAP_FULL) return env_.FromCode(*rc, "committing");
+  if (*rc != MDB_SUCCESS && *rc != MDB_MAP_FULL) return env_.FromCode(*rc, "commit");
   return Status::OK();
 }
 

@@ -1,16 +1,29 @@
 // A thin layer over LMDB (liblmdb, the C library): owning handles for the
-// environment and transactions, and LMDB's return codes as a Status that
-// names the file. Nothing here knows about SimplexDB's data.
+// environment, transactions and cursors, a batch writer that grows the map,
+// and LMDB's return codes as a Status that names the file. Nothing here
+// knows about SimplexDB's data. It includes <lmdb.h>, so it is meant for
+// the stores' own code, not for embedders (today sparse_store.h and
+// tri_leaf_store.h still include it).
 //
 // Environments are single files (MDB_NOSUBDIR: STORE and STORE-lock) opened
 // with MDB_NOTLS, so one thread may hold several read transactions (one per
 // Reader) and a read transaction is not tied to the thread that began it.
+// A builder writes its environment under a TemporaryFile's name
+// (storage/io/file.h) and renames it into place when it is complete.
 //
 // Map size: LMDB fails a write with MDB_MAP_FULL when the map is too small.
 // Writers here never show that to a user: BatchWriter keeps each batch until
 // it commits, and on MDB_MAP_FULL aborts it, doubles the map and replays it.
 // Readers follow a map grown by another process (MDB_MAP_RESIZED) by
 // adopting the new size and retrying.
+//
+// Errors: every function returning a Status or Result turns LMDB's code into
+// one through FromCode (errno-valued codes through the one errno table of
+// storage/io/file.h, so a full disk reads the same here as anywhere), with
+// the message "<file>: cannot <action>: <reason>".
+//
+// Lifetimes: a Txn must end before its Env is destroyed, a Cursor before its
+// Txn; bytes returned by Txn::Get live until the transaction ends.
 //
 // Thread safety: an Env may be shared by threads; a Txn belongs to one
 // thread at a time; a BatchWriter to one thread.
@@ -31,10 +44,17 @@
 
 namespace simplexdb::lmdb {
 
-// The Status for LMDB return code `rc` (not MDB_SUCCESS) from `action` on
-// the environment at `path`: a full disk is ResourceExhausted, a damaged
-// file Corruption, a file that is not LMDB (or of another LMDB version)
-// InvalidArgument, a missing file NotFound.
+// The Status for LMDB return code `rc` (not MDB_SUCCESS) from `action` (a
+// verb phrase: "open", "read the field") on the environment at `path`:
+// "<path>: cannot <action>: <reason>". Codes that are errno values go
+// through StatusFromErrno (storage/io/file.h): a missing file is NotFound,
+// a full disk ResourceExhausted (also LMDB's EIO for a short write when the
+// disk is full: it is then reported as ENOSPC), a refused write IOError.
+// LMDB's own codes: a damaged file (MDB_CORRUPTED, MDB_PAGE_NOTFOUND,
+// MDB_BAD_VALSIZE) is Corruption, a file that is not LMDB or of another
+// LMDB version (MDB_INVALID, MDB_VERSION_MISMATCH) InvalidArgument, a full
+// map, reader table, transaction or database table ResourceExhausted, any
+// other IOError.
 Status FromCode(int rc, const std::string& path, std::string_view action);
 
 // Keys: a 64-bit integer stored big-endian, so LMDB's byte order (memcmp)
@@ -64,30 +84,39 @@ class Env {
     bool sync_commits = false;
     unsigned max_dbs = 4;
     unsigned max_readers = 510;
+    // The file errors name (empty: `path`): a builder writing a temporary
+    // names its output, which is what the user asked for.
+    std::string name;
   };
   // Opens (a writer creates) the single-file environment at `path`, checks
   // that the file holds every page LMDB's meta page counts (Corruption if it
   // was cut short), and clears the reader slots of processes that died
-  // (mdb_reader_check).
+  // (mdb_reader_check). Errors: FromCode's; NotFound for a missing file (a
+  // reader) or folder.
   static Result<std::unique_ptr<Env>> Open(const std::string& path, const Options& options);
   ~Env();  // closes the environment
 
   MDB_env* get() const { return env_; }
   const std::string& path() const { return path_; }
+  // The file errors name: Options::name, or path().
+  const std::string& name() const { return name_; }
   uint64_t map_bytes() const;
   // Sets the map size (no transaction of this process may be open).
   Status SetMapBytes(uint64_t bytes);
   // Flushes to disk (a no-op unless the environment was opened without
   // syncing: here it is, for writers that sync once at the end).
   Status Sync();
+  // lmdb::FromCode for this environment's name().
   Status FromCode(int rc, std::string_view action) const {
-    return lmdb::FromCode(rc, path_, action);
+    return lmdb::FromCode(rc, name_, action);
   }
 
  private:
-  Env(MDB_env* env, std::string path) : env_(env), path_(std::move(path)) {}
+  Env(MDB_env* env, std::string path, std::string name)
+      : env_(env), path_(std::move(path)), name_(std::move(name)) {}
   MDB_env* env_;
   std::string path_;
+  std::string name_;
 };
 
 class Txn {
@@ -105,10 +134,11 @@ class Txn {
   void Abort();
 
   // The named database `name`; `create` in a write transaction.
+  // InvalidArgument when it does not exist and `create` is false.
   Result<MDB_dbi> OpenDb(const char* name, bool create);
 
   // The value of `key` in `dbi`: the bytes (valid until the transaction
-  // ends), or an empty span with found = false.
+  // ends), or an empty span with found = false (not an error).
   Result<std::span<const uint8_t>> Get(MDB_dbi dbi, std::span<const uint8_t> key, bool* found);
   Status Put(MDB_dbi dbi, std::span<const uint8_t> key, std::span<const uint8_t> value,
              unsigned flags = 0);
@@ -146,7 +176,8 @@ class BatchWriter {
 
   Status Put(MDB_dbi dbi, std::span<const uint8_t> key, std::span<const uint8_t> value,
              bool append);
-  // Commits what is pending.
+  // Commits what is pending. Errors: FromCode's (never MDB_MAP_FULL); a
+  // failed batch is not kept.
   Status Flush();
   uint64_t map_growths() const { return growths_; }
 

@@ -28,25 +28,6 @@ double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// Removes a temporary LMDB file and its lock file unless released.
-class TemporaryLmdb {
- public:
-  explicit TemporaryLmdb(std::string path) : path_(std::move(path)) { Remove(); }
-  ~TemporaryLmdb() {
-    if (!released_) Remove();
-  }
-  const std::string& path() const { return path_; }
-  void Release() { released_ = true; }
-  void Remove() const {
-    unlink(path_.c_str());
-    unlink((path_ + "-lock").c_str());
-  }
-
- private:
-  std::string path_;
-  bool released_ = false;
-};
-
 template <int D>
 std::array<int64_t, D> PointOfKey(uint64_t key, int domain_bits) {
   const uint64_t side = (uint64_t{1} << domain_bits) + 1;
@@ -221,12 +202,13 @@ Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
     return Status::InvalidArgument("tolerance " + std::to_string(options.tolerance) +
                                    ": expected a finite number >= 0");
   }
-  RemoveStaleTemporaries(out_path);
-  TemporaryLmdb temp(TemporaryPathFor(out_path));
+  SDB_RETURN_IF_ERROR(PrepareOutput(out_path));
+  TemporaryFile temp(out_path);  // LMDB writes it; renamed into place when complete
   SparseBuildReport report;
   {
     lmdb::Env::Options env_options;
     env_options.read_only = false;
+    env_options.name = out_path;
     env_options.map_bytes = options.initial_map_bytes > 0 ? options.initial_map_bytes
                                                           : uint64_t{64} << 20;
     SDB_ASSIGN_OR_RETURN(std::unique_ptr<lmdb::Env> env, lmdb::Env::Open(temp.path(), env_options));
@@ -272,9 +254,7 @@ Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
     report.map_growths += meta_writer.map_growths();
     SDB_RETURN_IF_ERROR(env->Sync());
   }  // closes the environment
-  SDB_RETURN_IF_ERROR(RenameDurably(temp.path(), out_path));
-  temp.Release();
-  unlink((temp.path() + "-lock").c_str());
+  SDB_RETURN_IF_ERROR(temp.Commit());
   report.seconds = SecondsSince(start);
   std::error_code size_error;
   report.file_bytes = std::filesystem::file_size(out_path, size_error);
@@ -447,7 +427,7 @@ class FieldRebuilder {
       if (!inside) continue;
       std::copy_n(static_cast<const std::byte*>(v.mv_data), voxel_, out_ + IndexOf(p) * voxel_);
     }
-    if (rc != MDB_NOTFOUND) return sparse_.env().FromCode(rc, "reading the field");
+    if (rc != MDB_NOTFOUND) return sparse_.env().FromCode(rc, "read the field");
     return Status::OK();
   }
 
@@ -474,7 +454,11 @@ Result<DenseBuildReport> ConvertSparseToDense(const SparseStore& sparse,
   const SparseHeader& h = sparse.header();
   uint64_t points = 1;
   for (int c = 0; c < h.dimension; ++c) points *= h.dims[c];
-  const std::string field_path = out_path + ".field.tmp." + std::to_string(getpid());
+  // The raw field is a scratch file of the output (removed on every path
+  // out, and by the next run of the same output if this process dies).
+  SDB_RETURN_IF_ERROR(PrepareOutput(out_path));
+  const TemporaryFile field(out_path, "field");
+  const std::string& field_path = field.path();
   SDB_ASSIGN_OR_RETURN(auto scratch,
                        ScratchFile::Create(field_path, points * VoxelSize(h.voxel_type)));
   SDB_RETURN_IF_ERROR(h.dimension == 3 ? RebuildField<3>(sparse, scratch->data())

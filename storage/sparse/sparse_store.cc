@@ -1,7 +1,6 @@
 #include "storage/sparse/sparse_store.h"
 
 #include <sys/stat.h>
-#include <xxhash.h>
 
 #include <algorithm>
 #include <cmath>
@@ -10,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hierarchy/geometry.h"
+#include "storage/io/checksum.h"
 #include "storage/io/file.h"
 #include "storage/io/lmdb.h"
 #include "storage/sparse/vertex_set.h"
@@ -105,7 +105,7 @@ uint64_t SparseEntryHash(int db, std::span<const uint8_t> key, std::span<const u
   const size_t m = std::min(value.size(), size_t{16});
   std::copy_n(key.data(), n, buffer);
   std::copy_n(value.data(), m, buffer + n);
-  return XXH3_64bits_withSeed(buffer, n + m, static_cast<XXH64_hash_t>(db + 1));
+  return Checksum(std::span<const uint8_t>(buffer, n + m), static_cast<uint64_t>(db + 1));
 }
 
 bool LooksLikeLmdb(const std::string& path) {
@@ -247,7 +247,7 @@ Status VerifyTyped(const SparseStore& store,
       ++nodes;
       if (progress && (++done & 0xfffff) == 0) progress(done, total);
     }
-    if (rc != MDB_NOTFOUND) return store.env().FromCode(rc, "reading the errors");
+    if (rc != MDB_NOTFOUND) return store.env().FromCode(rc, "read the errors");
   }
   if (nodes != h.nodes) {
     return Status::Corruption(path + ": " + std::to_string(nodes) + " nodes; the header says " +
@@ -275,7 +275,7 @@ Status VerifyTyped(const SparseStore& store,
       ++vertices;
       if (progress && (++done & 0xfffff) == 0) progress(done, total);
     }
-    if (rc != MDB_NOTFOUND) return store.env().FromCode(rc, "reading the field");
+    if (rc != MDB_NOTFOUND) return store.env().FromCode(rc, "read the field");
   }
   if (vertices != needed.size()) {
     return Status::Corruption(path + ": " + std::to_string(needed.size() - vertices) +
@@ -412,7 +412,7 @@ Status SparseStore::Reader<D>::Prefetch(SimplexCode<D> code, size_t max_entries)
                          DecodeStored(key, {static_cast<const uint8_t*>(v.mv_data), v.mv_size}));
     prefetch_.emplace_back(key, *stored);
   }
-  if (rc != MDB_SUCCESS && rc != MDB_NOTFOUND) return store_->env().FromCode(rc, "prefetching");
+  if (rc != MDB_SUCCESS && rc != MDB_NOTFOUND) return store_->env().FromCode(rc, "prefetch");
   prefetch_lo_ = lo;
   prefetch_hi_ = covered;
   stats_.prefetched += prefetch_.size();

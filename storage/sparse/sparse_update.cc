@@ -202,14 +202,14 @@ class Updater {
     if (old) sum_ -= SparseEntryHash(db, k, *old);
     sum_ += SparseEntryHash(db, k, value);
     MDB_val kv = lmdb::Val(k.data(), k.size()), vv = lmdb::Val(value.data(), value.size());
-    return Check(mdb_put(txn_->get(), dbi, &kv, &vv, 0), "writing");
+    return Check(mdb_put(txn_->get(), dbi, &kv, &vv, 0), "write");
   }
 
   Status Delete(int db, MDB_dbi dbi, uint64_t key, std::span<const uint8_t> old) {
     const auto k = lmdb::KeyBytes(key);
     sum_ -= SparseEntryHash(db, k, old);
     MDB_val kv = lmdb::Val(k.data(), k.size());
-    return Check(mdb_del(txn_->get(), dbi, &kv, nullptr), "deleting");
+    return Check(mdb_del(txn_->get(), dbi, &kv, nullptr), "delete");
   }
 
   Result<bool> Present(SimplexCode<D> code) {
@@ -307,12 +307,12 @@ class Updater {
           sum_ -= SparseEntryHash(kFieldDb, k, old);
           sum_ += SparseEntryHash(kFieldDb, k, fresh);
           MDB_val nv = lmdb::Val(fresh.data(), fresh.size());
-          SDB_RETURN_IF_ERROR(Check(mdb_cursor_put(cursor.get(), &kv, &nv, MDB_CURRENT), "writing"));
+          SDB_RETURN_IF_ERROR(Check(mdb_cursor_put(cursor.get(), &kv, &nv, MDB_CURRENT), "write"));
           ++report_->vertices_written;
         }
         rc = mdb_cursor_get(cursor.get(), &kv, &vv, MDB_NEXT);
       }
-      if (rc != MDB_SUCCESS && rc != MDB_NOTFOUND) SDB_RETURN_IF_ERROR(Check(rc, "reading"));
+      if (rc != MDB_SUCCESS && rc != MDB_NOTFOUND) SDB_RETURN_IF_ERROR(Check(rc, "read"));
       if (!NextRow<D>(p, lo, hi)) break;
     }
     return Status::OK();
@@ -367,7 +367,7 @@ class Updater {
           h_.quantization, {static_cast<const uint8_t*>(vv.mv_data), vv.mv_size});
       if (stored) m = std::max(m, quantizer_.Decode(*stored));
     }
-    if (rc != MDB_NOTFOUND) SDB_RETURN_IF_ERROR(Check(rc, "reading the errors"));
+    if (rc != MDB_NOTFOUND) SDB_RETURN_IF_ERROR(Check(rc, "read the errors"));
     return std::min(m, old_max);
   }
 
@@ -508,7 +508,7 @@ Status Updater<D>::Apply(lmdb::Txn& txn, SparseUpdateReport* report, bool* map_f
   now.vertices = vertices_;
   const std::string header = SerializeSparseHeader(now);
   MDB_val kv = lmdb::Val(kHeaderKey, sizeof kHeaderKey), vv = lmdb::Val(header.data(), header.size());
-  SDB_RETURN_IF_ERROR(Check(mdb_put(txn.get(), meta, &kv, &vv, 0), "writing the header"));
+  SDB_RETURN_IF_ERROR(Check(mdb_put(txn.get(), meta, &kv, &vv, 0), "write the header"));
   report->header = now;
   return Status::OK();
 }
@@ -540,7 +540,7 @@ Result<SparseUpdateReport> Update(const std::string& path, const SparseHeader& h
       if (!s.ok() && !map_full) return s;  // the transaction aborts: nothing written
       if (!map_full) {
         rc = txn.CommitCode();
-        if (rc != MDB_SUCCESS && rc != MDB_MAP_FULL) return env->FromCode(rc, "committing");
+        if (rc != MDB_SUCCESS && rc != MDB_MAP_FULL) return env->FromCode(rc, "commit");
         map_full = rc == MDB_MAP_FULL;
       }
     }

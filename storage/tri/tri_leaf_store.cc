@@ -83,7 +83,7 @@ Status ScanKeys(lmdb::Txn& txn, MDB_dbi dbi, uint64_t lo, uint64_t hi, Fn fn) {
     SDB_RETURN_IF_ERROR(fn(lmdb::KeyValue(k)));
     rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT);
   }
-  if (rc != MDB_SUCCESS && rc != MDB_NOTFOUND) return txn.env().FromCode(rc, "reading leaves");
+  if (rc != MDB_SUCCESS && rc != MDB_NOTFOUND) return txn.env().FromCode(rc, "read leaves");
   return Status::OK();
 }
 
@@ -93,7 +93,8 @@ template <Polyhedron P>
 template <class Edit>
 Status TriLeafStore<P>::Write(const char* what, Edit edit) {
   if (read_only_) {
-    return Status::InvalidArgument(path() + ": " + what + ": the store was opened read-only");
+    return Status::InvalidArgument(path() + ": cannot " + what +
+                                   ": the store was opened read-only");
   }
   for (;;) {
     SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*env_, /*read_only=*/false));
@@ -139,7 +140,7 @@ Result<std::unique_ptr<TriLeafStore<P>>> TriLeafStore<P>::Create(const std::stri
   SDB_RETURN_IF_ERROR(txn.Put(meta, Bytes("polyhedron"), Bytes(SolidName<P>())));
   for (int f = 0; f < Code::kFaces; ++f) {
     const int rc = PutKey(txn.get(), leaves, Code::Face(f).key());
-    if (rc != MDB_SUCCESS) return env->FromCode(rc, "writing the base faces");
+    if (rc != MDB_SUCCESS) return env->FromCode(rc, "write the base faces");
   }
   SDB_RETURN_IF_ERROR(txn.Commit());
   return std::unique_ptr<TriLeafStore>(new TriLeafStore(std::move(env), leaves, false));
@@ -184,7 +185,7 @@ Result<std::unique_ptr<TriLeafStore<P>>> TriLeafStore<P>::Open(const std::string
 template <Polyhedron P>
 Status TriLeafStore<P>::Refine(Code code) {
   assert(code.is_valid());
-  return Write("refining", [&](MDB_txn* txn, int* rc) -> Status {
+  return Write("refine", [&](MDB_txn* txn, int* rc) -> Status {
     Code leaf;
     bool found = false;
     *rc = FindLeaf<P>(txn, leaves_, code, &leaf, &found);
@@ -209,7 +210,7 @@ Status TriLeafStore<P>::Refine(Code code) {
 template <Polyhedron P>
 Status TriLeafStore<P>::Coarsen(Code code) {
   assert(code.is_valid());
-  return Write("coarsening", [&](MDB_txn* txn, int* rc) -> Status {
+  return Write("coarsen", [&](MDB_txn* txn, int* rc) -> Status {
     Code leaf;
     bool found = false;
     *rc = FindLeaf<P>(txn, leaves_, code, &leaf, &found);
@@ -245,7 +246,7 @@ Result<TriCode<P>> TriLeafStore<P>::LeafContaining(Code code) const {
   Code leaf;
   bool found = false;
   const int rc = FindLeaf<P>(txn.get(), leaves_, code, &leaf, &found);
-  if (rc != MDB_SUCCESS) return env_->FromCode(rc, "finding a leaf");
+  if (rc != MDB_SUCCESS) return env_->FromCode(rc, "find a leaf");
   if (!found) {
     return Status::NotFound(path() + ": " + code.ToString() + " is subdivided: no leaf holds it");
   }
@@ -270,7 +271,7 @@ Result<TriSizedNeighbor<P>> TriLeafStore<P>::Neighbor(Code leaf, TriDirection di
   Code holder;
   bool found = false;
   const int rc = FindLeaf<P>(txn.get(), leaves_, q, &holder, &found);
-  if (rc != MDB_SUCCESS) return env_->FromCode(rc, "finding a neighbor");
+  if (rc != MDB_SUCCESS) return env_->FromCode(rc, "find a neighbor");
   if (!found) return TriSizedNeighbor<P>{q, TriNeighborSize::kSmaller};
   return TriSizedNeighbor<P>{holder,
                              holder == q ? TriNeighborSize::kEqual : TriNeighborSize::kLarger};
@@ -304,7 +305,7 @@ Result<uint64_t> TriLeafStore<P>::LeafCount() const {
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*env_, /*read_only=*/true));
   MDB_stat stat_info{};
   const int rc = mdb_stat(txn.get(), leaves_, &stat_info);
-  if (rc != MDB_SUCCESS) return env_->FromCode(rc, "counting leaves");
+  if (rc != MDB_SUCCESS) return env_->FromCode(rc, "count leaves");
   return static_cast<uint64_t>(stat_info.ms_entries);
 }
 

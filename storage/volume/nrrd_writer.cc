@@ -1,97 +1,18 @@
 #include "storage/volume/nrrd_writer.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
+#include <memory>
 #include <string_view>
 #include <system_error>
-#include <utility>
 #include <vector>
+
+#include "storage/io/file.h"
 
 namespace simplexdb {
 namespace {
-
-// errno is translated into a Status here, once.
-Status WriteError(const std::string& path, std::string_view what, int err) {
-  const std::string msg = path + ": " + std::string(what) + ": " +
-                          std::error_code(err, std::generic_category()).message();
-  if (err == ENOSPC || err == EDQUOT) return Status::ResourceExhausted(msg);
-  return Status::IOError(msg);
-}
-
-// A file written under a temporary name and renamed into place by Commit().
-// Destroying it uncommitted removes the temporary file.
-class AtomicFile {
- public:
-  explicit AtomicFile(std::string path) : path_(std::move(path)) {}
-  AtomicFile(const AtomicFile&) = delete;
-  AtomicFile& operator=(const AtomicFile&) = delete;
-  ~AtomicFile() {
-    if (fd_ >= 0) ::close(fd_);
-    if (!tmp_.empty() && !committed_) ::unlink(tmp_.c_str());
-  }
-
-  Status Create() {
-    std::string name = path_ + ".tmp-XXXXXX";
-    const int fd = ::mkstemp(name.data());
-    if (fd < 0) return WriteError(path_, "cannot create a temporary file", errno);
-    fd_ = fd;
-    tmp_ = std::move(name);
-    // mkstemp makes the file 0600; a volume is an ordinary file.
-    if (::fchmod(fd_, 0644) != 0) return WriteError(tmp_, "cannot chmod", errno);
-    return Status::OK();
-  }
-
-  Status Append(const void* data, size_t n) {
-    const auto* p = static_cast<const char*>(data);
-    while (n > 0) {
-      const ssize_t w = ::write(fd_, p, n);
-      if (w < 0) {
-        if (errno == EINTR) continue;
-        return WriteError(path_, "write failed", errno);
-      }
-      p += w;
-      n -= static_cast<size_t>(w);
-    }
-    return Status::OK();
-  }
-
-  // fsync, close, rename over path_, fsync the directory so the rename
-  // itself is durable.
-  Status Commit() {
-    if (::fsync(fd_) != 0) return WriteError(path_, "fsync failed", errno);
-    const int fd = std::exchange(fd_, -1);
-    if (::close(fd) != 0) return WriteError(path_, "close failed", errno);
-    if (::rename(tmp_.c_str(), path_.c_str()) != 0) {
-      return WriteError(path_, "cannot rename " + tmp_ + " to it", errno);
-    }
-    committed_ = true;
-    std::filesystem::path dir = std::filesystem::path(path_).parent_path();
-    if (dir.empty()) dir = ".";
-    const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (dfd < 0) return WriteError(dir.string(), "cannot open the directory", errno);
-    const int r = ::fsync(dfd);
-    const int err = errno;
-    ::close(dfd);
-    // Some file systems cannot fsync a directory (EINVAL): nothing to do.
-    if (r != 0 && err != EINVAL) {
-      return WriteError(dir.string(), "fsync of the directory failed", err);
-    }
-    return Status::OK();
-  }
-
- private:
-  std::string path_;
-  std::string tmp_;  // empty until Create()
-  int fd_ = -1;
-  bool committed_ = false;
-};
 
 // Shortest text that reads back as the same double.
 std::string FormatDouble(double v) {
@@ -171,7 +92,7 @@ std::string NrrdHeader(int dimension, const std::array<uint32_t, 4>& dims,
 
 // Appends the values to `file` as little-endian `type`, 64 Ki voxels at a
 // time.
-Status AppendVoxels(AtomicFile& file, VoxelType type,
+Status AppendVoxels(AtomicFileWriter& file, VoxelType type,
                     std::span<const double> values) {
   constexpr size_t kChunk = 64 * 1024;  // voxels per write
   std::vector<std::byte> bytes;
@@ -179,7 +100,10 @@ Status AppendVoxels(AtomicFile& file, VoxelType type,
     const size_t n = std::min(kChunk, values.size() - i);
     bytes.resize(n * VoxelSize(type));
     EncodeVoxels(type, ByteOrder::kLittle, values.data() + i, n, bytes.data());
-    SDB_RETURN_IF_ERROR(file.Append(bytes.data(), bytes.size()));
+    SDB_ASSIGN_OR_RETURN(
+        const uint64_t at,
+        file.Append({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}));
+    (void)at;
   }
   return Status::OK();
 }
@@ -190,9 +114,9 @@ Result<std::string> DataFileName(const std::string& raw_path,
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::path raw = fs::absolute(raw_path, ec).lexically_normal();
-  if (ec) return WriteError(raw_path, "cannot make the path absolute", ec.value());
+  if (ec) return StatusFromErrno(ec.value(), raw_path, "make an absolute path of");
   const fs::path dir = fs::absolute(nhdr_path, ec).lexically_normal().parent_path();
-  if (ec) return WriteError(nhdr_path, "cannot make the path absolute", ec.value());
+  if (ec) return StatusFromErrno(ec.value(), nhdr_path, "make an absolute path of");
   const fs::path rel = raw.lexically_relative(dir);
   const std::string name =
       !rel.empty() && *rel.begin() != ".." ? rel.string() : raw.string();
@@ -214,11 +138,11 @@ Status WriteNrrd(const std::string& path, int dimension,
   SDB_RETURN_IF_ERROR(CheckInput(path, dimension, dims, type, values, spacing));
   // A blank line ends an attached header; the voxels follow it.
   const std::string header = NrrdHeader(dimension, dims, type, spacing) + "\n";
-  AtomicFile file(path);
-  SDB_RETURN_IF_ERROR(file.Create());
-  SDB_RETURN_IF_ERROR(file.Append(header.data(), header.size()));
-  SDB_RETURN_IF_ERROR(AppendVoxels(file, type, values));
-  return file.Commit();
+  SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> file, AtomicFileWriter::Create(path));
+  SDB_ASSIGN_OR_RETURN(const uint64_t at, file->Append(header));
+  (void)at;
+  SDB_RETURN_IF_ERROR(AppendVoxels(*file, type, values));
+  return file->Commit();
 }
 
 Status WriteRawWithNhdr(const std::string& raw_path, const std::string& nhdr_path,
@@ -228,17 +152,13 @@ Status WriteRawWithNhdr(const std::string& raw_path, const std::string& nhdr_pat
   SDB_RETURN_IF_ERROR(CheckInput(nhdr_path, dimension, dims, type, values, spacing));
   SDB_ASSIGN_OR_RETURN(const std::string data_file, DataFileName(raw_path, nhdr_path));
   {
-    AtomicFile raw(raw_path);
-    SDB_RETURN_IF_ERROR(raw.Create());
-    SDB_RETURN_IF_ERROR(AppendVoxels(raw, type, values));
-    SDB_RETURN_IF_ERROR(raw.Commit());
+    SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> raw, AtomicFileWriter::Create(raw_path));
+    SDB_RETURN_IF_ERROR(AppendVoxels(*raw, type, values));
+    SDB_RETURN_IF_ERROR(raw->Commit());
   }
   const std::string header =
       NrrdHeader(dimension, dims, type, spacing) + "data file: " + data_file + "\n";
-  AtomicFile nhdr(nhdr_path);
-  SDB_RETURN_IF_ERROR(nhdr.Create());
-  SDB_RETURN_IF_ERROR(nhdr.Append(header.data(), header.size()));
-  return nhdr.Commit();
+  return WriteFileAtomically(nhdr_path, header);
 }
 
 }  // namespace simplexdb

@@ -2,18 +2,23 @@
 //
 // Output is always NRRD0004, encoding raw, little endian, with "spacings:"
 // (so OpenNrrd, teem, VTK, ITK and 3D Slicer read it). Files appear
-// atomically: the bytes go to a temporary file in the same directory
-// (<path>.tmp-XXXXXX), which is fsynced and renamed over `path`, and the
-// directory is fsynced. A crash or error leaves either the old file or the
-// complete new one under `path`, never a half-written one; on error the
-// temporary file is removed.
+// atomically, through the one atomic writer (AtomicFileWriter,
+// storage/io/file.h): the bytes go to `<path>.tmp.<pid>` in the same
+// directory, which is fsynced and renamed over `path`, and the directory is
+// fsynced. A crash or error leaves either the old file or the complete new
+// one under `path`, never a half-written one; on error the temporary file is
+// removed, and one left by a killed process is removed by the next write of
+// the same path.
 //
-// Errors (every message names the file):
+// Errors (every message names the file, never a temporary):
 //   InvalidArgument    bad dims, values.size() not the voxel count, a value
 //                      not representable as `type` (the first one is named
 //                      with its voxel index), a non-positive spacing.
+//   NotFound           the output folder does not exist (or a component of
+//                      the path is a regular file).
 //   ResourceExhausted  the disk or quota is full.
-//   IOError            any other operating-system failure.
+//   IOError            any other operating-system failure (the errno table
+//                      of storage/io/file.h: EACCES, EROFS, EIO, ...).
 //
 // Thread safety: reentrant; concurrent writes to the same path leave one of
 // the complete files.

@@ -24,6 +24,7 @@
 
 #include "storage/dense/dense_store.h"
 #include "storage/dense/format.h"
+#include "storage/io/checksum.h"
 #include "util/little_endian.h"
 
 namespace simplexdb {
