@@ -10,38 +10,17 @@
 #include <array>
 #include <cerrno>
 #include <cstddef>
-#include <filesystem>
 #include <fstream>
 #include <string>
 #include <utility>
 
 #include "storage/io/file.h"
+#include "tests/storage/store_test_util.h"
 
 namespace simplexdb {
 namespace {
 
-namespace fs = std::filesystem;
-
-// A fresh directory, removed with its contents at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl =
-        (fs::path(::testing::TempDir()) / "read_only_file_test_XXXXXX").lexically_normal();
-    const char* made = ::mkdtemp(tmpl.data());
-    EXPECT_NE(made, nullptr) << tmpl;
-    path_ = made != nullptr ? made : tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
+using testing::TempDir;
 
 void WriteFile(const std::string& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
@@ -55,7 +34,7 @@ std::string AsText(const std::byte* bytes, size_t n) {
 
 TEST(ReadOnlyFile, SizeAndReadsThatStopOnlyAtTheEnd) {
   TempDir dir;
-  const std::string path = dir / "ten.bin";
+  const std::string path = dir.path() + "/ten.bin";
   WriteFile(path, "0123456789");
   auto file = ReadOnlyFile::Open(path);
   ASSERT_TRUE(file.ok()) << file.status().ToString();
@@ -83,7 +62,7 @@ TEST(ReadOnlyFile, SizeAndReadsThatStopOnlyAtTheEnd) {
 
 TEST(ReadOnlyFile, MissingFileIsNotFoundNamingIt) {
   TempDir dir;
-  const std::string path = dir / "absent.bin";
+  const std::string path = dir.path() + "/absent.bin";
   auto file = ReadOnlyFile::Open(path);
   ASSERT_FALSE(file.ok());
   EXPECT_TRUE(file.status().IsNotFound()) << file.status().ToString();
@@ -106,7 +85,7 @@ TEST(ReadOnlyFile, DirectoryIsRefusedAsReadWouldRefuseIt) {
 
 TEST(ReadOnlyFile, SeekThenReleaseHandsOverThePositionedDescriptor) {
   TempDir dir;
-  const std::string path = dir / "ten.bin";
+  const std::string path = dir.path() + "/ten.bin";
   WriteFile(path, "0123456789");
   auto opened = ReadOnlyFile::Open(path);
   ASSERT_TRUE(opened.ok());
@@ -124,7 +103,7 @@ TEST(ReadOnlyFile, SeekThenReleaseHandsOverThePositionedDescriptor) {
 
 TEST(ReadOnlyFile, MoveTransfersTheDescriptor) {
   TempDir dir;
-  const std::string path = dir / "ten.bin";
+  const std::string path = dir.path() + "/ten.bin";
   WriteFile(path, "0123456789");
   auto opened = ReadOnlyFile::Open(path);
   ASSERT_TRUE(opened.ok());
