@@ -4,7 +4,6 @@
 #include "storage/io/read_only_file.h"
 
 #include <gtest/gtest.h>
-#include <stdlib.h>
 #include <unistd.h>
 
 #include <array>
