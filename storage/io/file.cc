@@ -259,4 +259,36 @@ Result<std::unique_ptr<MappedFile>> MappedFile::Open(const std::string& path) {
   return f;
 }
 
+WritableScratchMapping::WritableScratchMapping(std::string path) : path_(std::move(path)) {}
+
+Result<std::unique_ptr<WritableScratchMapping>> WritableScratchMapping::Create(
+    const std::string& path, uint64_t bytes) {
+  std::unique_ptr<WritableScratchMapping> f(new WritableScratchMapping(path));
+  const int fd = open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return StatusFromErrno(errno, path, "create");
+  const int rc = ftruncate(fd, static_cast<off_t>(bytes));
+  const int err = errno;
+  close(fd);
+  if (rc != 0) return StatusFromErrno(err, path, "set the size of");
+  try {
+    namespace bip = boost::interprocess;
+    f->mapping_ = std::make_unique<bip::file_mapping>(path.c_str(), bip::read_write);
+    f->region_ = std::make_unique<bip::mapped_region>(*f->mapping_, bip::read_write);
+  } catch (const std::exception& e) {
+    return Status::IOError(path + ": cannot map: " + e.what());
+  }
+  f->data_ = static_cast<std::byte*>(f->region_->get_address());
+  return f;
+}
+
+WritableScratchMapping::~WritableScratchMapping() {
+  region_.reset();
+  mapping_.reset();
+  unlink(path_.c_str());
+}
+
+Status WritableScratchMapping::Flush() {
+  return region_->flush() ? Status::OK() : Status::IOError(path_ + ": cannot flush the mapping");
+}
+
 }  // namespace simplexdb

@@ -50,6 +50,7 @@
 #pragma once
 
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -199,6 +200,35 @@ class MappedFile {
   std::unique_ptr<boost::interprocess::file_mapping> mapping_;
   std::unique_ptr<boost::interprocess::mapped_region> region_;
   std::span<const uint8_t> bytes_;
+};
+
+// A new file of a given size mapped read-write, for scratch data larger than
+// memory should hold (convert --to dense rebuilds the raw field in one).
+// The file is removed when this goes away; name it with TemporaryFile so a
+// killed process's copy is removed by the next run of the same output.
+class WritableScratchMapping {
+ public:
+  // Creates `path` (truncating it) with `bytes` zero bytes and maps it.
+  // Errors: the table above for a file that cannot be created or sized
+  // (ResourceExhausted when the disk is full); IOError when the mapping
+  // fails.
+  static Result<std::unique_ptr<WritableScratchMapping>> Create(const std::string& path,
+                                                                uint64_t bytes);
+  // Unmaps and removes the file.
+  ~WritableScratchMapping();
+
+  // Valid as long as this object.
+  std::byte* data() const { return data_; }
+  const std::string& path() const { return path_; }
+  // Writes the mapped pages to the file (before another reader opens it).
+  Status Flush();
+
+ private:
+  explicit WritableScratchMapping(std::string path);
+  std::string path_;
+  std::unique_ptr<boost::interprocess::file_mapping> mapping_;
+  std::unique_ptr<boost::interprocess::mapped_region> region_;
+  std::byte* data_ = nullptr;
 };
 
 }  // namespace simplexdb

@@ -1,21 +1,16 @@
 #include "storage/sparse/sparse_builder.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <boost/interprocess/file_mapping.hpp>
-#include <boost/interprocess/mapped_region.hpp>
 #include <chrono>
 #include <filesystem>
 #include <cmath>
 #include <vector>
 
 #include "hierarchy/geometry.h"
-#include "storage/io/file.h"
-#include "storage/io/lmdb.h"
 #include "storage/dense/layout.h"
 #include "storage/error/simplex_scan.h"
+#include "storage/io/file.h"
+#include "storage/io/lmdb.h"
 #include "storage/sparse/vertex_set.h"
 #include "storage/volume/voxel_type.h"
 
@@ -267,47 +262,6 @@ Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
 
 namespace {
 
-// A read-write memory mapping of a new file of `bytes` bytes, removed when
-// this goes away.
-class ScratchFile {
- public:
-  static Result<std::unique_ptr<ScratchFile>> Create(const std::string& path, uint64_t bytes) {
-    std::unique_ptr<ScratchFile> f(new ScratchFile(path));
-    const int fd = open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0) return StatusFromErrno(errno, path, "create");
-    const int rc = ftruncate(fd, static_cast<off_t>(bytes));
-    const int err = errno;
-    close(fd);
-    if (rc != 0) return StatusFromErrno(err, path, "set the size of");
-    try {
-      namespace bip = boost::interprocess;
-      f->mapping_ = std::make_unique<bip::file_mapping>(path.c_str(), bip::read_write);
-      f->region_ = std::make_unique<bip::mapped_region>(*f->mapping_, bip::read_write);
-    } catch (const std::exception& e) {
-      return Status::IOError(path + ": cannot map: " + e.what());
-    }
-    f->data_ = static_cast<std::byte*>(f->region_->get_address());
-    return f;
-  }
-  ~ScratchFile() {
-    region_.reset();
-    mapping_.reset();
-    unlink(path_.c_str());
-  }
-  std::byte* data() const { return data_; }
-  const std::string& path() const { return path_; }
-  Status Flush() {
-    return region_->flush() ? Status::OK() : Status::IOError(path_ + ": cannot flush the mapping");
-  }
-
- private:
-  explicit ScratchFile(std::string path) : path_(std::move(path)) {}
-  std::string path_;
-  std::unique_ptr<boost::interprocess::file_mapping> mapping_;
-  std::unique_ptr<boost::interprocess::mapped_region> region_;
-  std::byte* data_ = nullptr;
-};
-
 template <int D>
 class FieldRebuilder {
  public:
@@ -460,7 +414,7 @@ Result<DenseBuildReport> ConvertSparseToDense(const SparseStore& sparse,
   const TemporaryFile field(out_path, "field");
   const std::string& field_path = field.path();
   SDB_ASSIGN_OR_RETURN(auto scratch,
-                       ScratchFile::Create(field_path, points * VoxelSize(h.voxel_type)));
+                       WritableScratchMapping::Create(field_path, points * VoxelSize(h.voxel_type)));
   SDB_RETURN_IF_ERROR(h.dimension == 3 ? RebuildField<3>(sparse, scratch->data())
                                        : RebuildField<4>(sparse, scratch->data()));
   SDB_RETURN_IF_ERROR(scratch->Flush());

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 #include <vector>
@@ -171,6 +172,27 @@ TEST(TemporaryFile, CommitsOrRemovesItselfAndLmdbsLock) {
     Touch(temp.path() + "-lock");
   }  // neither committed
   EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"s.lmdb"});
+}
+
+TEST(WritableScratchMapping, HoldsWhatIsWrittenUntilItGoesAway) {
+  TempDir dir;
+  const std::string path = dir.path() + "/scratch";
+  {
+    auto scratch = WritableScratchMapping::Create(path, 3000);
+    ASSERT_TRUE(scratch.ok()) << scratch.status().ToString();
+    std::byte* data = (*scratch)->data();
+    for (int i = 0; i < 3000; ++i) data[i] = static_cast<std::byte>(i % 251);
+    ASSERT_TRUE((*scratch)->Flush().ok());
+    std::ifstream in(path, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_EQ(bytes.size(), 3000u);
+    for (int i = 0; i < 3000; ++i) ASSERT_EQ(static_cast<unsigned char>(bytes[i]), i % 251) << i;
+  }
+  EXPECT_FALSE(fs::exists(path));
+  const auto missing = WritableScratchMapping::Create(dir.path() + "/no/scratch", 10);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_TRUE(missing.status().IsNotFound()) << missing.status().ToString();
+  EXPECT_NE(missing.status().message().find(dir.path() + "/no/scratch"), std::string::npos);
 }
 
 TEST(Checksum, IsXxh3) {
