@@ -2,7 +2,6 @@
 // `simplexdb conformity`: the geometric conformity check of a mesh given as
 // leaf codes.
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
@@ -20,7 +19,6 @@
 #include "query/slice.h"
 #include "query/source.h"
 #include "storage/io/file.h"
-#include "storage/sparse/sparse_store.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 
