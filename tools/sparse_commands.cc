@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "query/open_store.h"
 #include "storage/io/file.h"
 #include "storage/sparse/sparse_builder.h"
 #include "storage/sparse/sparse_store.h"
@@ -88,7 +89,7 @@ void RunConvert(const std::string& input, const std::string& output, const std::
                 const std::string& tolerance, const std::string& compression, bool as_json,
                 bool quiet) {
   if (to == "sparse") {
-    if (IsSparseStorePath(input)) {
+    if (ProbeStoreKind(input) == StoreKind::kSparse) {
       throw CommandError(input + " is already a sparse store; convert it --to dense first", 2);
     }
     const auto dense = OpenDenseStore(input);
@@ -96,7 +97,7 @@ void RunConvert(const std::string& input, const std::string& output, const std::
     return;
   }
   if (tolerance != "0") throw CommandError("--tolerance applies to --to sparse", 2);
-  if (!IsSparseStorePath(input)) {
+  if (ProbeStoreKind(input) != StoreKind::kSparse) {
     throw CommandError(input + " is not a sparse store; only sparse stores convert --to dense", 2);
   }
   const auto sparse = OpenSparse(input);
@@ -125,7 +126,6 @@ void RunConvert(const std::string& input, const std::string& output, const std::
 
 }  // namespace
 
-bool IsSparseStorePath(const std::string& path) { return LooksLikeLmdb(path); }
 
 void RunSparseInfo(const std::string& path, bool as_json) {
   const auto store = OpenSparse(path);
@@ -240,7 +240,7 @@ void RegisterConvertCommand(CLI::App& app) {
 
 void RunUpdate(const std::string& store, const std::string& input, const std::string& box_text,
                const std::string& mask, bool as_json, bool quiet) {
-  if (!IsSparseStorePath(store)) {
+  if (ProbeStoreKind(store) != StoreKind::kSparse) {
     throw CommandError(store + " is not a sparse store: only sparse (LMDB) stores are updated in "
                                    "place; import the volume again for a dense one",
                        2);

@@ -9,10 +9,6 @@
 
 namespace simplexdb::tools {
 
-// True when `path` is an LMDB file (so info and verify treat it as a sparse
-// store, and say so if it is another program's LMDB file).
-bool IsSparseStorePath(const std::string& path);
-
 void RunSparseInfo(const std::string& path, bool as_json);
 void RunSparseVerify(const std::string& path, bool quiet);
 

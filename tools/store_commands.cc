@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "query/open_store.h"
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
 #include "storage/volume/nrrd_writer.h"
@@ -114,7 +115,7 @@ void RunImport(const ImportArgs& a) {
 
 
 void RunInfo(const std::string& path, bool as_json) {
-  if (IsSparseStorePath(path)) {
+  if (ProbeStoreKind(path) == StoreKind::kSparse) {
     RunSparseInfo(path, as_json);
     return;
   }
@@ -190,7 +191,7 @@ void RunInfo(const std::string& path, bool as_json) {
 // --- verify ----------------------------------------------------------------
 
 void RunVerify(const std::string& path, bool quiet) {
-  if (IsSparseStorePath(path)) {
+  if (ProbeStoreKind(path) == StoreKind::kSparse) {
     RunSparseVerify(path, quiet);
     return;
   }
@@ -350,7 +351,7 @@ void RegisterStoreCommands(CLI::App& app) {
     cmd->add_option("--step", a->step, "every step-th point along each axis (a coarser resolution)")
         ->capture_default_str();
     cmd->callback([a] {
-      if (IsSparseStorePath(a->store)) {
+      if (ProbeStoreKind(a->store) == StoreKind::kSparse) {
         throw CommandError(a->store + " is a sparse store: convert it --to dense to export", 2);
       }
       const auto store = OpenDenseStore(a->store);
