@@ -20,7 +20,6 @@
 #include <filesystem>
 #include <functional>
 #include <random>
-#include <regex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -80,8 +79,17 @@ std::vector<std::string> Names(const std::string& dir) {
   return names;
 }
 
-std::string RegexQuote(const std::string& s) {
-  return std::regex_replace(s, std::regex(R"([.^$|()\[\]{}*+?\\])"), R"(\$&)");
+// True when `name` is `output`.tmp.<digits>, maybe followed by a suffix
+// that begins with '.' or '-' (the pattern storage/io/file.h documents,
+// spelled out here rather than taken from the code under test).
+bool LooksLikeTemporaryOf(const std::string& name, const std::string& output) {
+  const std::string prefix = output + ".tmp.";
+  if (name.compare(0, prefix.size(), prefix) != 0) return false;
+  size_t i = prefix.size();
+  const size_t digits_begin = i;
+  while (i < name.size() && name[i] >= '0' && name[i] <= '9') ++i;
+  if (i == digits_begin) return false;
+  return i == name.size() || name[i] == '.' || name[i] == '-';
 }
 
 // One command writing `outputs` (file names) into a folder.
@@ -99,7 +107,7 @@ std::vector<std::string> Strangers(const std::string& folder,
   for (const std::string& name : Names(folder)) {
     if (std::find(outputs.begin(), outputs.end(), name) != outputs.end()) continue;
     const bool temporary = std::any_of(outputs.begin(), outputs.end(), [&](const std::string& o) {
-      return std::regex_match(name, std::regex(RegexQuote(o) + R"(\.tmp\.[0-9]+([.-].*)?)"));
+      return LooksLikeTemporaryOf(name, o);
     });
     if (!temporary) strangers.push_back(name);
   }
