@@ -12,12 +12,12 @@ BlockCache::BlockCache(size_t capacity_bytes, int shards)
   for (int i = 0; i < shards; ++i) shards_.push_back(std::make_unique<Shard>());
 }
 
-BlockCache::Shard& BlockCache::ShardOf(uint64_t key) {
-  const uint64_t h = key * 0x9E3779B97F4A7C15ULL;
-  return *shards_[(h >> 32) % shards_.size()];
+BlockCache::Shard& BlockCache::ShardOf(const Key& key) {
+  // The high half picks the shard; the map's buckets use the low bits.
+  return *shards_[(Mix(key) >> 32) % shards_.size()];
 }
 
-std::shared_ptr<const BlockCache::Block> BlockCache::Lookup(uint64_t key) {
+std::shared_ptr<const BlockCache::Block> BlockCache::Lookup(Key key) {
   Shard& s = ShardOf(key);
   std::lock_guard<std::mutex> lock(s.mu);
   const auto it = s.map.find(key);
@@ -30,7 +30,7 @@ std::shared_ptr<const BlockCache::Block> BlockCache::Lookup(uint64_t key) {
   return it->second->second;
 }
 
-std::shared_ptr<const BlockCache::Block> BlockCache::Insert(uint64_t key,
+std::shared_ptr<const BlockCache::Block> BlockCache::Insert(Key key,
                                                             std::shared_ptr<const Block> block) {
   Shard& s = ShardOf(key);
   std::lock_guard<std::mutex> lock(s.mu);
@@ -57,6 +57,24 @@ void BlockCache::EvictOverBudget(Shard& s) {
   }
 }
 
+size_t BlockCache::EraseStore(uint64_t store) {
+  size_t erased = 0;
+  for (const auto& s : shards_) {
+    std::lock_guard<std::mutex> lock(s->mu);
+    for (auto it = s->lru.begin(); it != s->lru.end();) {
+      if (it->first.store != store) {
+        ++it;
+        continue;
+      }
+      s->charge -= it->second->size();
+      s->map.erase(it->first);
+      it = s->lru.erase(it);
+      ++erased;
+    }
+  }
+  return erased;
+}
+
 size_t BlockCache::charge() const {
   size_t total = 0;
   for (const auto& s : shards_) {
@@ -79,7 +97,7 @@ BlockCache::Stats BlockCache::stats() const {
 
 uint64_t BlockCache::NewStoreId() {
   static std::atomic<uint64_t> next{1};
-  return next.fetch_add(1) & 0xFFFF;
+  return next.fetch_add(1, std::memory_order_relaxed);
 }
 
 }  // namespace simplexdb

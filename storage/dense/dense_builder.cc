@@ -281,7 +281,9 @@ Status Builder<D>::WriteBrickRow(uint64_t row, VolumeReader& reader, VolumeReade
 
 template <int D>
 Result<std::shared_ptr<const BlockCache::Block>> Builder<D>::DecodedBrick(uint64_t brick) {
-  if (auto hit = brick_cache_->Lookup(brick)) return hit;
+  // The cache is the builder's own: one store, id 0 (NewStoreId never gives 0).
+  const BlockCache::Key key{0, brick};
+  if (auto hit = brick_cache_->Lookup(key)) return hit;
   const IndexEntry& e = index_[layout_.block_count() + brick];
   auto block = std::make_shared<BlockCache::Block>(e.raw_size, 0);
   if (e.encoding != BlockEncoding::kZero) {
@@ -293,7 +295,7 @@ Result<std::shared_ptr<const BlockCache::Block>> Builder<D>::DecodedBrick(uint64
       SDB_RETURN_IF_ERROR(zstd.Decompress(stored, *block, out_ + ": brick " + std::to_string(brick)));
     }
   }
-  return brick_cache_->Insert(brick, std::move(block));
+  return brick_cache_->Insert(key, std::move(block));
 }
 
 template <int D>

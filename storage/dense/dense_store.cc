@@ -44,7 +44,11 @@ double ReadVoxel(VoxelType type, const uint8_t* p) {
 
 }  // namespace
 
-DenseStore::~DenseStore() = default;
+DenseStore::~DenseStore() {
+  // A shared cache outlives the store: leave nothing in it that no one can
+  // look up again. A private cache (only we hold it) goes away with us.
+  if (cache_ && cache_.use_count() > 1) cache_->EraseStore(cache_store_id_);
+}
 
 Result<std::unique_ptr<DenseStore>> DenseStore::Open(const std::string& path,
                                                      const Options& options) {
@@ -78,7 +82,7 @@ Result<std::unique_ptr<DenseStore>> DenseStore::Open(const std::string& path,
           static_cast<int>(std::clamp<size_t>(options.cache_bytes / (4 * block + 1), 1, 16));
       s->cache_ = std::make_shared<BlockCache>(options.cache_bytes, shards);
     }
-    s->cache_space_ = BlockCache::NewStoreId() << 48;
+    s->cache_store_id_ = BlockCache::NewStoreId();
   }
   return s;
 }
@@ -223,7 +227,7 @@ Result<DenseStore::BlockHandle> DenseStore::Block(uint64_t b) const {
       return BlockHandle{data, e.raw_size, nullptr};
     }
     case BlockEncoding::kZstd: {
-      const uint64_t key = cache_space_ | b;
+      const BlockCache::Key key{cache_store_id_, b};
       if (auto hit = cache_->Lookup(key)) return HandleOf(std::move(hit));
       SDB_ASSIGN_OR_RETURN(auto fresh, DecodeBlock(b));
       return HandleOf(cache_->Insert(key, std::move(fresh)));

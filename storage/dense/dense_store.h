@@ -19,7 +19,9 @@
 // caller) plus the few a Reader holds; raw blocks and the block index are
 // read from the mapping (file pages, not anonymous memory). Beyond that a
 // store keeps one byte per block (raw blocks' checksum state). With Options::in_memory every block
-// is decoded into memory at open: the in-core case.
+// is decoded into memory at open: the in-core case. Stores sharing a cache
+// (Options::cache) each have their own never-reused id in it; closing a
+// store erases its blocks from a shared cache (O(blocks cached)).
 //
 // Lifetimes: the store must outlive its Readers and every BlockHandle it
 // hands out keeps its block alive by itself (a handle outlives eviction, not
@@ -175,7 +177,7 @@ class DenseStore {
   std::unique_ptr<MappedFile> file_;
   const uint8_t* index_ = nullptr;  // in the mapping; validated at open
   std::shared_ptr<BlockCache> cache_;
-  uint64_t cache_space_ = 0;  // this store's key space in the cache
+  uint64_t cache_store_id_ = 0;  // this store's keys in the cache: {id, block}
   std::vector<uint8_t> zeros_;
   // in_memory: every block decoded.
   std::vector<std::shared_ptr<const BlockCache::Block>> resident_;

@@ -108,22 +108,23 @@ TEST(Concurrency, ProcessesOpenTheSameStore) {
 
 TEST(BlockCache, EvictsLeastRecentlyUsedWithinBudget) {
   BlockCache cache(10 * 100, /*shards=*/1);
+  const auto K = [](uint64_t block) { return BlockCache::Key{1, block}; };
   const auto block = [](uint8_t v) { return std::make_shared<const BlockCache::Block>(100, v); };
-  for (uint64_t k = 0; k < 10; ++k) cache.Insert(k, block(static_cast<uint8_t>(k)));
+  for (uint64_t k = 0; k < 10; ++k) cache.Insert(K(k), block(static_cast<uint8_t>(k)));
   EXPECT_EQ(cache.charge(), 1000u);
-  ASSERT_NE(cache.Lookup(0), nullptr);  // 0 is now the most recent
-  cache.Insert(10, block(10));          // evicts 1, the least recent
-  EXPECT_EQ(cache.Lookup(1), nullptr);
-  EXPECT_NE(cache.Lookup(0), nullptr);
+  ASSERT_NE(cache.Lookup(K(0)), nullptr);  // 0 is now the most recent
+  cache.Insert(K(10), block(10));          // evicts 1, the least recent
+  EXPECT_EQ(cache.Lookup(K(1)), nullptr);
+  EXPECT_NE(cache.Lookup(K(0)), nullptr);
   EXPECT_EQ(cache.charge(), 1000u);
   // A block held by a reader survives its eviction.
-  std::shared_ptr<const BlockCache::Block> held = cache.Lookup(2);
-  for (uint64_t k = 100; k < 120; ++k) cache.Insert(k, block(1));
-  EXPECT_EQ(cache.Lookup(2), nullptr);
+  std::shared_ptr<const BlockCache::Block> held = cache.Lookup(K(2));
+  for (uint64_t k = 100; k < 120; ++k) cache.Insert(K(k), block(1));
+  EXPECT_EQ(cache.Lookup(K(2)), nullptr);
   EXPECT_EQ((*held)[0], 2);
   // Inserting a key twice keeps the first block.
-  auto first = cache.Insert(500, block(5));
-  auto second = cache.Insert(500, block(6));
+  auto first = cache.Insert(K(500), block(5));
+  auto second = cache.Insert(K(500), block(6));
   EXPECT_EQ(first, second);
   const BlockCache::Stats s = cache.stats();
   EXPECT_GT(s.evictions, 10u);
