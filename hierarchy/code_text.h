@@ -28,7 +28,7 @@ struct CodeText {
 // InvalidArgument naming `text` and `why`.
 inline Status BadCodeText(std::string_view text, const CodeTextWords& words,
                           std::string_view why) {
-  return Status::InvalidArgument("'" + std::string(text) + "' is not a " +
+  return Status::InvalidArgument('\'' + std::string(text) + "' is not a " +
                                  std::string(words.kind) + ": " + std::string(why));
 }
 

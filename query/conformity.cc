@@ -13,9 +13,13 @@ __extension__ typedef unsigned __int128 UInt128;
 
 template <int D>
 std::string DescribePoint(const Point<D>& p) {
-  std::string s = "(";
-  for (int i = 0; i < D; ++i) s += (i ? "," : "") + std::to_string(p[i]);
-  return s + ")";
+  std::string s(1, '(');
+  for (int i = 0; i < D; ++i) {
+    if (i > 0) s += ',';
+    s += std::to_string(p[i]);
+  }
+  s += ')';
+  return s;
 }
 
 }  // namespace

@@ -311,8 +311,10 @@ template <int D>
 SparseStore::Reader<D>::Reader(Reader&&) noexcept = default;
 template <int D>
 SparseStore::Reader<D>& SparseStore::Reader<D>::operator=(Reader&&) noexcept = default;
+// Named through the injected class name: after `Reader<D>::~` the name is
+// looked up where `Reader` was, which finds the template (clang's -Wdtor-name).
 template <int D>
-SparseStore::Reader<D>::~Reader() = default;
+SparseStore::Reader<D>::Reader::~Reader() = default;
 
 template <int D>
 Result<SparseStore::Reader<D>> SparseStore::Reader<D>::Create(const SparseStore& store) {

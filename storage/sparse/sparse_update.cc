@@ -101,7 +101,10 @@ class Updater {
     if (v >= h_.field_min && v <= h_.field_max) return Status::OK();
     if (std::isnan(v)) return Status::OK();  // a missing value
     std::string at;
-    for (int c = 0; c < D; ++c) at += (c ? "," : "") + std::to_string(p[c]);
+    for (int c = 0; c < D; ++c) {
+      if (c > 0) at += ',';
+      at += std::to_string(p[c]);
+    }
     return Status::InvalidArgument(fmt::format(
         "{}: value {} at ({}) is outside the store's field range [{}, {}], which fixes its "
         "error quantum; import the volume again",

@@ -105,7 +105,7 @@ Result<FieldKind> ParseFieldKind(std::string_view name) {
                       FieldKind::kBuckyball}) {
     if (FieldKindName(k) == name) return k;
   }
-  return Status::InvalidArgument("'" + std::string(name) +
+  return Status::InvalidArgument('\'' + std::string(name) +
                                  "' is not a field; expected perlin, sphere, sines, "
                                  "marschner-lobb, constant, ramp or buckyball");
 }

@@ -115,15 +115,21 @@ Result<std::string> ExpandNrrdFormat(std::string_view format, int64_t value) {
                                 "and width) is supported");
   }
   // printf semantics: the 0 flag pads after the sign, spaces before it.
-  std::string digits = std::to_string(value < 0 ? -value : value);
+  const std::string digits = std::to_string(value < 0 ? -value : value);
+  const std::string_view sign = value < 0 ? "-" : "";
+  const size_t length = sign.size() + digits.size();
+  const std::string padding(width > length ? width - length : 0, zero ? '0' : ' ');
+  std::string name(format.substr(0, pct));
   if (zero) {
-    while (digits.size() + (value < 0 ? 1 : 0) < width) digits.insert(0, "0");
-    if (value < 0) digits.insert(0, "-");
+    name += sign;
+    name += padding;
   } else {
-    if (value < 0) digits.insert(0, "-");
-    while (digits.size() < width) digits.insert(0, " ");
+    name += padding;
+    name += sign;
   }
-  return std::string(format.substr(0, pct)) + digits + std::string(format.substr(i + 1));
+  name += digits;
+  name += format.substr(i + 1);
+  return name;
 }
 
 // Axis kinds of a scalar field's sample grid (NRRD section 6, "kinds").
@@ -256,7 +262,7 @@ Result<NrrdFields> ParseNrrdFields(const std::string& path, const NrrdHeaderText
     } else if (name == "sizes") {
       for (std::string_view part : SplitWhitespace(value)) {
         const auto size = ParseInt<uint64_t>(part);
-        if (!size) return bad("'" + std::string(part) + "' is not a size");
+        if (!size) return bad('\'' + std::string(part) + "' is not a size");
         if (*size > std::numeric_limits<uint32_t>::max()) {
           return bad("size " + std::string(part) + " exceeds 2^32 - 1");
         }
@@ -297,7 +303,7 @@ Result<NrrdFields> ParseNrrdFields(const std::string& path, const NrrdHeaderText
     } else if (name == "spacings") {
       for (std::string_view part : SplitWhitespace(value)) {
         const auto spacing = ParseDouble(part);
-        if (!spacing) return bad("'" + std::string(part) + "' is not a spacing");
+        if (!spacing) return bad('\'' + std::string(part) + "' is not a spacing");
         f.spacings.push_back(*spacing);
       }
     } else if (name == "space directions") {

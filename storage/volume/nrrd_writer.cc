@@ -73,10 +73,14 @@ std::string NrrdHeader(int dimension, const std::array<uint32_t, 4>& dims,
   std::string sizes, spacings, kinds;
   for (int i = 0; i < dimension; ++i) {
     const auto a = static_cast<size_t>(i);
-    const char* sep = i == 0 ? "" : " ";
-    sizes += sep + std::to_string(dims[a]);
-    spacings += sep + FormatDouble(spacing[a]);
-    kinds += std::string(sep) + "domain";
+    if (i > 0) {
+      sizes += ' ';
+      spacings += ' ';
+      kinds += ' ';
+    }
+    sizes += std::to_string(dims[a]);
+    spacings += FormatDouble(spacing[a]);
+    kinds += "domain";
   }
   std::string h = "NRRD0004\n# Written by SimplexDB.\n";
   h += "type: " + std::string(NrrdTypeName(type)) + "\n";

@@ -165,7 +165,7 @@ Result<VoxelType> ParseVoxelType(std::string_view name) {
                                   std::string(kSupportedList));
     }
   }
-  return Status::InvalidArgument("'" + std::string(name) +
+  return Status::InvalidArgument('\'' + std::string(name) +
                                  "' is not a voxel type; expected one of " +
                                  std::string(kSupportedList));
 }

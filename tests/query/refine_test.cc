@@ -69,7 +69,11 @@ void CheckAgainstBruteForce(uint32_t side, uint64_t seed, bool check_errors) {
   Fixture<D> s = MakeFixture<D>(dir, side, seed);
   DenseSource<D> source(*s.store);
   const SourceInfo& info = source.info();
-  for (const auto& [name, criteria] : CriteriaCases<D>(s.k, info.field_range(), info.field_min + info.field_range() / 3)) {
+  for (const auto& test_case : CriteriaCases<D>(s.k, info.field_range(), info.field_min + info.field_range() / 3)) {
+    // References, not a structured binding: the lambda below captures
+    // criteria, which clang before 16 does not allow for a binding.
+    const std::string& name = test_case.first;
+    const Criteria<D>& criteria = test_case.second;
     SCOPED_TRACE(name);
     Refiner<D, DenseSource<D>> refiner(source, criteria);
     Mesh<D> df;
