@@ -3,57 +3,26 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
-#include <cmath>
-#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "storage/dense/block_cache.h"
-#include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
-#include "storage/volume/generate.h"
-#include "storage/volume/nrrd_writer.h"
-#include "storage/volume/volume.h"
+#include "tests/storage/dense/smooth_store.h"
 #include "tests/storage/store_test_util.h"
 
 namespace simplexdb {
 namespace {
 
+using testing::SmoothHtStore;
 using testing::TempDir;
 
-// A small HT store of a smooth field (seeded), in 1 KiB zstd blocks, and
-// the error bound of every internal node as read from it alone.
-struct SmallStore {
-  std::string path;
-  std::vector<TetCode> codes;
-  std::vector<double> expected;
-
-  SmallStore(const TempDir& dir, const std::string& name, uint64_t seed) {
-    GenerateOptions g;
-    g.dims = {17, 17, 17, 1};
-    g.seed = seed;
-    const FieldGenerator field(g);
-    std::vector<double> values(17 * 17 * 17);
-    field.Fill(0, values.size(), values.data());
-    for (double& v : values) v = std::round(v);
-    const std::string nrrd = dir.path() + "/" + name + ".nrrd";
-    EXPECT_TRUE(WriteNrrd(nrrd, 3, g.dims, VoxelType::kU8, values).ok());
-    DenseBuildOptions options;
-    options.levels_per_block = 7;  // small blocks that compress
-    path = dir.path() + "/" + name + ".sdb";
-    EXPECT_TRUE(BuildDenseStore(*OpenVolume(nrrd), path, options).ok());
-    auto store = *DenseStore::Open(path);  // a private cache
-    DenseStore::Reader<3> reader(*store);
-    std::function<void(TetCode)> visit = [&](TetCode c) {
-      if (c.level() >= store->header().leaf_level()) return;
-      codes.push_back(c);
-      expected.push_back(*reader.ErrorBound(c));
-      visit(c.child(0));
-      visit(c.child(1));
-    };
-    for (int top = 0; top < 6; ++top) visit(TetCode::Root(top));
-  }
+// A 17^3 HT store of a smooth field (seeded) in small zstd blocks, and the
+// error bound of every internal node as read from it alone.
+struct SmallStore : SmoothHtStore {
+  SmallStore(const TempDir& dir, const std::string& name, uint64_t seed)
+      : SmoothHtStore(dir.path(), name, 17, seed, /*levels_per_block=*/7) {}
 
   // Nodes whose bound read through `store` differs from the store's own.
   int Mismatches(const DenseStore& store) const {

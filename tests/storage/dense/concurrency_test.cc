@@ -5,60 +5,33 @@
 
 #include <gtest/gtest.h>
 
-#include <functional>
+#include <atomic>
 #include <random>
 #include <thread>
 
 #include "storage/dense/block_cache.h"
-#include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
 #include "storage/volume/generate.h"
-#include "storage/volume/nrrd_writer.h"
-#include "storage/volume/volume.h"
+#include "tests/storage/dense/smooth_store.h"
 #include "tests/storage/store_test_util.h"
 
 namespace simplexdb {
 namespace {
 
+using testing::SmoothHtStore;
 using testing::TempDir;
 
+// 33^3, 1 KiB blocks that compress.
 struct Fixture {
   TempDir dir;
-  std::string path;
-  std::vector<TetCode> codes;
-  std::vector<double> expected;
-
-  Fixture() {
-    // A smooth field, so blocks compress and readers decode them.
-    GenerateOptions g;
-    g.dims = {33, 33, 33, 1};
-    const FieldGenerator field(g);
-    std::vector<double> values(33 * 33 * 33);
-    field.Fill(0, values.size(), values.data());
-    for (double& v : values) v = std::round(v);
-    EXPECT_TRUE(WriteNrrd(dir.path() + "/in.nrrd", 3, g.dims, VoxelType::kU8, values).ok());
-    DenseBuildOptions options;
-    options.levels_per_block = 9;  // 1 KiB blocks that compress
-    path = dir.path() + "/s.sdb";
-    EXPECT_TRUE(BuildDenseStore(*OpenVolume(dir.path() + "/in.nrrd"), path, options).ok());
-    auto store = *DenseStore::Open(path);
-    DenseStore::Reader<3> reader(*store);
-    std::function<void(TetCode)> visit = [&](TetCode c) {
-      if (c.level() >= store->header().leaf_level()) return;
-      codes.push_back(c);
-      expected.push_back(*reader.ErrorBound(c));
-      visit(c.child(0));
-      visit(c.child(1));
-    };
-    for (int top = 0; top < 6; ++top) visit(TetCode::Root(top));
-  }
+  SmoothHtStore store{dir.path(), "s", 33, GenerateOptions{}.seed, /*levels_per_block=*/9};
 };
 
 TEST(Concurrency, ThreadsShareAStoreAndASmallCache) {
   const Fixture f;
   DenseStore::Options options;
   options.cache_bytes = 16 << 10;  // far smaller than the store: constant eviction
-  auto store = *DenseStore::Open(f.path, options);
+  auto store = *DenseStore::Open(f.store.path, options);
   std::vector<std::thread> threads;
   std::atomic<int> mismatches{0};
   for (int t = 0; t < 8; ++t) {
@@ -66,9 +39,9 @@ TEST(Concurrency, ThreadsShareAStoreAndASmallCache) {
       DenseStore::Reader<3> reader(*store);
       std::mt19937_64 rng(t);
       for (int i = 0; i < 20000; ++i) {
-        const size_t k = rng() % f.codes.size();
-        const Result<double> e = reader.ErrorBound(f.codes[k]);
-        if (!e.ok() || *e != f.expected[k]) ++mismatches;
+        const size_t k = rng() % f.store.codes.size();
+        const Result<double> e = reader.ErrorBound(f.store.codes[k]);
+        if (!e.ok() || *e != f.store.expected[k]) ++mismatches;
       }
     });
   }
@@ -87,12 +60,12 @@ TEST(Concurrency, ProcessesOpenTheSameStore) {
     ASSERT_GE(pid, 0);
     if (pid == 0) {
       // In the child: no gtest assertions, just an exit status.
-      auto store = DenseStore::Open(f.path);
+      auto store = DenseStore::Open(f.store.path);
       if (!store.ok()) _exit(2);
       DenseStore::Reader<3> reader(**store);
-      for (size_t k = 0; k < f.codes.size(); ++k) {
-        const Result<double> e = reader.ErrorBound(f.codes[k]);
-        if (!e.ok() || *e != f.expected[k]) _exit(1);
+      for (size_t k = 0; k < f.store.codes.size(); ++k) {
+        const Result<double> e = reader.ErrorBound(f.store.codes[k]);
+        if (!e.ok() || *e != f.store.expected[k]) _exit(1);
       }
       _exit((*store)->Verify().ok() ? 0 : 3);
     }
