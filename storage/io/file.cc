@@ -238,6 +238,24 @@ Status TemporaryFile::Commit() {
   return Status::OK();
 }
 
+namespace {
+
+// Maps all of `path` with `mode`; Boost's exceptions become IOError here.
+Status MapWhole(const std::string& path, boost::interprocess::mode_t mode,
+                std::unique_ptr<boost::interprocess::file_mapping>& mapping,
+                std::unique_ptr<boost::interprocess::mapped_region>& region) {
+  try {
+    namespace bip = boost::interprocess;
+    mapping = std::make_unique<bip::file_mapping>(path.c_str(), mode);
+    region = std::make_unique<bip::mapped_region>(*mapping, mode);
+  } catch (const std::exception& e) {
+    return Status::IOError(path + ": cannot map: " + e.what());
+  }
+  return Status::OK();
+}
+
+}  // namespace
+
 MappedFile::~MappedFile() = default;
 
 Result<std::unique_ptr<MappedFile>> MappedFile::Open(const std::string& path) {
@@ -247,13 +265,7 @@ Result<std::unique_ptr<MappedFile>> MappedFile::Open(const std::string& path) {
   std::unique_ptr<MappedFile> f(new MappedFile());
   f->path_ = path;
   if (st.st_size == 0) return f;  // nothing to map; readers see zero bytes
-  try {
-    namespace bip = boost::interprocess;
-    f->mapping_ = std::make_unique<bip::file_mapping>(path.c_str(), bip::read_only);
-    f->region_ = std::make_unique<bip::mapped_region>(*f->mapping_, bip::read_only);
-  } catch (const std::exception& e) {
-    return Status::IOError(path + ": cannot map: " + e.what());
-  }
+  SDB_RETURN_IF_ERROR(MapWhole(path, boost::interprocess::read_only, f->mapping_, f->region_));
   f->bytes_ = std::span<const uint8_t>(static_cast<const uint8_t*>(f->region_->get_address()),
                                        f->region_->get_size());
   return f;
@@ -270,13 +282,7 @@ Result<std::unique_ptr<WritableScratchMapping>> WritableScratchMapping::Create(
   const int err = errno;
   close(fd);
   if (rc != 0) return StatusFromErrno(err, path, "set the size of");
-  try {
-    namespace bip = boost::interprocess;
-    f->mapping_ = std::make_unique<bip::file_mapping>(path.c_str(), bip::read_write);
-    f->region_ = std::make_unique<bip::mapped_region>(*f->mapping_, bip::read_write);
-  } catch (const std::exception& e) {
-    return Status::IOError(path + ": cannot map: " + e.what());
-  }
+  SDB_RETURN_IF_ERROR(MapWhole(path, boost::interprocess::read_write, f->mapping_, f->region_));
   f->data_ = static_cast<std::byte*>(f->region_->get_address());
   return f;
 }
