@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <set>
@@ -22,7 +23,7 @@ namespace simplexdb {
 namespace {
 
 using Encoding = VolumeInfo::Encoding;
-using volume_internal::CheckDataFiles;
+using volume_internal::CheckDataFile;
 using volume_internal::DropSingleTimeStep;
 using volume_internal::Lower;
 using volume_internal::ParseDouble;
@@ -376,7 +377,8 @@ Result<VolumeInfo> NrrdGrid(const std::string& path, const NrrdFields& f) {
 }
 
 // Fills info.files, offsets and description: the attached data, or the
-// "data file:" (one name, LIST or format), after line and byte skips.
+// "data file:" (one name, LIST or format), after line and byte skips;
+// checks each data file (CheckDataFile) as soon as it has its name.
 Status NrrdData(const std::string& path, const NrrdHeaderText& header,
                 const NrrdFields& f, VolumeInfo& info) {
   const size_t d = f.sizes.size();
@@ -387,16 +389,23 @@ Status NrrdData(const std::string& path, const NrrdHeaderText& header,
   };
   size_t subdim = d;  // the dimensions each data file holds
   uint64_t base = 0;  // where each data file's content starts
+  // The data files: `file_count` names, the i-th from name_of(i). A format
+  // ("s%03d.raw 0 16777216 1") is expanded one name at a time, after its
+  // count is checked, so a header cannot make the reader hold millions of
+  // names for files that do not exist.
+  uint64_t file_count = 1;
+  std::function<Result<std::string>(uint64_t)> name_of;
   if (!f.data_file) {
     if (!header.ended_by_blank_line) {
       return Status::InvalidArgument(path +
                                      ": the NRRD header has no 'data file:' field "
                                      "and no blank line before attached data");
     }
-    info.files = {path};
+    name_of = [&](uint64_t) -> Result<std::string> { return path; };
     base = header.data_start;
     info.description = "NRRD file " + path;
   } else {
+    info.description = "NRRD header " + path;
     const auto parts = SplitWhitespace(*f.data_file);
     std::optional<size_t> given_subdim;
     const auto parse_subdim = [&](std::string_view text) -> Status {
@@ -414,7 +423,10 @@ Status NrrdData(const std::string& path, const NrrdHeaderText& header,
         return Status::InvalidArgument(path + ": expected 'data file: LIST [subdim]'");
       }
       if (parts.size() == 2) SDB_RETURN_IF_ERROR(parse_subdim(parts[1]));
-      for (const std::string& name : f.list_files) info.files.push_back(resolve(name));
+      file_count = f.list_files.size();
+      name_of = [&](uint64_t i) -> Result<std::string> {
+        return resolve(f.list_files[static_cast<size_t>(i)]);
+      };
       subdim = given_subdim.value_or(d - 1);
     } else if ((parts.size() == 4 || parts.size() == 5) &&
                parts[0].find('%') != std::string_view::npos) {
@@ -431,22 +443,24 @@ Status NrrdData(const std::string& path, const NrrdHeaderText& header,
                                        "towards max");
       }
       if (parts.size() == 5) SDB_RETURN_IF_ERROR(parse_subdim(parts[4]));
-      for (int64_t v = *lo; *step > 0 ? v <= *hi : v >= *hi; v += *step) {
-        auto name = ExpandNrrdFormat(parts[0], v);
+      file_count = static_cast<uint64_t>((int64_t{*hi} - *lo) / *step + 1);
+      const std::string_view format = parts[0];
+      const int64_t first = *lo, stride = *step;
+      name_of = [&, format, first, stride](uint64_t i) -> Result<std::string> {
+        auto name = ExpandNrrdFormat(format, first + static_cast<int64_t>(i) * stride);
         if (!name.ok()) return Prefixed(name.status(), path + ": ");
-        info.files.push_back(resolve(*name));
-      }
+        return resolve(*name);
+      };
       subdim = given_subdim.value_or(d - 1);
     } else {
-      info.files = {resolve(*f.data_file)};
+      name_of = [&](uint64_t) -> Result<std::string> { return resolve(*f.data_file); };
     }
-    info.description = "NRRD header " + path;
   }
   uint64_t files_needed = 1;
   for (size_t i = subdim; i < d; ++i) files_needed *= f.sizes[i];
-  if (info.files.size() != files_needed) {
+  if (file_count != files_needed) {
     return Status::InvalidArgument(
-        path + ": " + std::to_string(info.files.size()) + " data files, expected " +
+        path + ": " + std::to_string(file_count) + " data files, expected " +
         std::to_string(files_needed) + " (one per " + std::to_string(subdim) +
         "D slab of " + FormatDims(info.dimension, info.dims) + ")");
   }
@@ -455,9 +469,11 @@ Status NrrdData(const std::string& path, const NrrdHeaderText& header,
                                 "' with gzip encoding (a skip inside the "
                                 "decompressed stream) is not supported");
   }
-  const uint64_t bytes_per_file = info.voxels_per_file() * VoxelSize(info.type);
+  const uint64_t bytes_per_file =
+      info.voxel_count() / file_count * VoxelSize(info.type);
   std::vector<uint64_t> offsets;
-  for (const std::string& file : info.files) {
+  for (uint64_t i = 0; i < file_count; ++i) {
+    SDB_ASSIGN_OR_RETURN(std::string file, name_of(i));
     SDB_ASSIGN_OR_RETURN(uint64_t start, SkipLines(file, base, f.line_skip));
     if (f.byte_skip == -1) {  // raw only (checked above)
       SDB_ASSIGN_OR_RETURN(const ReadOnlyFile data, ReadOnlyFile::Open(file));
@@ -472,6 +488,9 @@ Status NrrdData(const std::string& path, const NrrdHeaderText& header,
     } else {
       start += static_cast<uint64_t>(f.byte_skip);
     }
+    // Checked now, so that the first missing or short file ends the loop.
+    SDB_RETURN_IF_ERROR(CheckDataFile(info, file_count, file, start, TruncatedData));
+    info.files.push_back(std::move(file));
     offsets.push_back(start);
   }
   SetOffsets(info, std::move(offsets));
@@ -484,8 +503,8 @@ Result<VolumeInfo> OpenNrrd(const std::string& path) {
   SDB_ASSIGN_OR_RETURN(const NrrdHeaderText header, ReadNrrdHeader(path));
   SDB_ASSIGN_OR_RETURN(const NrrdFields fields, ParseNrrdFields(path, header));
   SDB_ASSIGN_OR_RETURN(VolumeInfo info, NrrdGrid(path, fields));
+  // NrrdData checks each data file (CheckDataFile) as it names it.
   SDB_RETURN_IF_ERROR(NrrdData(path, header, fields, info));
-  SDB_RETURN_IF_ERROR(CheckDataFiles(info, TruncatedData));
   return info;
 }
 

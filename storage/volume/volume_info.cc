@@ -99,68 +99,95 @@ void DropSingleTimeStep(VolumeInfo& info) {
 
 Status CheckDataFiles(const VolumeInfo& info,
                       Status (*truncated)(std::string_view)) {
-  const uint64_t bytes_per_file = info.voxels_per_file() * VoxelSize(info.type);
   for (size_t i = 0; i < info.files.size(); ++i) {
-    const std::string& path = info.files[i];
-    const uint64_t offset = info.offset_of(i);
-    Result<ReadOnlyFile> opened = ReadOnlyFile::Open(path);
-    if (!opened.ok()) {
-      return WithMessage(opened.status(), std::string(opened.status().message()) +
-                                              DataFileContext(info, path));
+    SDB_RETURN_IF_ERROR(
+        CheckDataFile(info, info.files.size(), info.files[i], info.offset_of(i), truncated));
+  }
+  return Status::OK();
+}
+
+Status CheckDataFile(const VolumeInfo& info, uint64_t file_count, const std::string& path,
+                     uint64_t offset, Status (*truncated)(std::string_view)) {
+  const uint64_t bytes_per_file = info.voxel_count() / file_count * VoxelSize(info.type);
+  Result<ReadOnlyFile> opened = ReadOnlyFile::Open(path);
+  if (!opened.ok()) {
+    return WithMessage(opened.status(), std::string(opened.status().message()) +
+                                            DataFileContext(info, path));
+  }
+  const ReadOnlyFile file = std::move(opened).value();
+  SDB_ASSIGN_OR_RETURN(const uint64_t size, file.Size());
+  if (info.encoding == Encoding::kRaw) {
+    // Bytes after the voxels are trailing data we ignore (see volume.h).
+    if (size < offset || size - offset < bytes_per_file) {
+      const std::string what =
+          file_count == 1
+              ? FormatDims(info.dimension, info.dims)
+              : std::to_string(info.voxel_count() / file_count) + " voxels (one of " +
+                    std::to_string(file_count) + " files of " +
+                    FormatDims(info.dimension, info.dims) + ")";
+      return truncated(
+          path + ": has " + std::to_string(size) + " bytes, expected at least " +
+          std::to_string(offset + bytes_per_file) + " (" + what + " " +
+          std::string(VoxelTypeName(info.type)) + " = " +
+          std::to_string(bytes_per_file) + " bytes after offset " +
+          std::to_string(offset) + ")" + DataFileContext(info, path));
     }
-    const ReadOnlyFile file = std::move(opened).value();
-    SDB_ASSIGN_OR_RETURN(const uint64_t size, file.Size());
-    if (info.encoding == Encoding::kRaw) {
-      // Bytes after the voxels are trailing data we ignore (see volume.h).
-      if (size < offset || size - offset < bytes_per_file) {
-        const std::string what =
-            info.files.size() == 1
-                ? FormatDims(info.dimension, info.dims)
-                : std::to_string(info.voxels_per_file()) + " voxels (one of " +
-                      std::to_string(info.files.size()) + " files of " +
-                      FormatDims(info.dimension, info.dims) + ")";
-        return truncated(
-            path + ": has " + std::to_string(size) + " bytes, expected at least " +
-            std::to_string(offset + bytes_per_file) + " (" + what + " " +
-            std::string(VoxelTypeName(info.type)) + " = " +
-            std::to_string(bytes_per_file) + " bytes after offset " +
-            std::to_string(offset) + ")" + DataFileContext(info, path));
-      }
-      continue;
-    }
-    // gzip: magic at the offset, and the trailer's ISIZE (uncompressed size
-    // mod 2^32, RFC 1952) must match. A truncated stream almost surely ends
-    // in other bytes; the stream itself is checked when read.
-    constexpr uint64_t kMinGzip = 18;  // 10-byte header + 8-byte trailer
-    if (size < offset || size - offset < kMinGzip) {
-      return Status::Corruption(path + ": has " + std::to_string(size) +
-                                " bytes, too short for gzip data at byte " +
-                                std::to_string(offset) + DataFileContext(info, path));
-    }
-    std::array<std::byte, 4> b{};
-    SDB_ASSIGN_OR_RETURN(size_t got, file.ReadUpTo(offset, 2, b.data()));
-    if (got != 2 || b[0] != std::byte{0x1f} || b[1] != std::byte{0x8b}) {
-      return Status::Corruption(path + ": encoding gzip, but byte " +
-                                std::to_string(offset) +
-                                " does not start gzip data (magic 1f 8b)" +
-                                DataFileContext(info, path));
-    }
-    SDB_ASSIGN_OR_RETURN(got, file.ReadUpTo(size - 4, 4, b.data()));
-    if (got != 4) return Status::IOError(path + ": cannot read the gzip trailer");
-    const uint32_t isize = static_cast<uint32_t>(b[0]) |
-                           static_cast<uint32_t>(b[1]) << 8 |
-                           static_cast<uint32_t>(b[2]) << 16 |
-                           static_cast<uint32_t>(b[3]) << 24;
-    const auto expected = static_cast<uint32_t>(bytes_per_file);  // mod 2^32
-    if (isize != expected) {
-      return Status::Corruption(
-          path + ": gzip trailer gives " + std::to_string(isize) +
-          " bytes (mod 2^32) of decompressed data, expected " +
-          std::to_string(bytes_per_file) + " (" +
-          FormatDims(info.dimension, info.dims) + " " +
-          std::string(VoxelTypeName(info.type)) +
-          "): truncated or wrong sizes" + DataFileContext(info, path));
-    }
+    return Status::OK();
+  }
+  // gzip: magic at the offset, and the trailer's ISIZE (uncompressed size
+  // mod 2^32, RFC 1952) must match. A truncated stream almost surely ends
+  // in other bytes; the stream itself is checked when read.
+  constexpr uint64_t kMinGzip = 18;  // 10-byte header + 8-byte trailer
+  if (size < offset || size - offset < kMinGzip) {
+    return Status::Corruption(path + ": has " + std::to_string(size) +
+                              " bytes, too short for gzip data at byte " +
+                              std::to_string(offset) + DataFileContext(info, path));
+  }
+  // A claim no gzip data of this size can meet fails here, before a
+  // reader decompresses for minutes: deflate's densest code is a 258-byte
+  // match in 2 bits (a 1-bit length code and a 1-bit distance code,
+  // RFC 1951 3.2.5), so a stream of n bytes decompresses to at most
+  // 1032 n bytes (zlib's documented maximum ratio is 1032:1).
+  constexpr uint64_t kMaxDeflateRatio = 1032;
+  const uint64_t compressed = size - offset;
+  // bytes_per_file > compressed * 1032, without overflow.
+  if ((bytes_per_file + kMaxDeflateRatio - 1) / kMaxDeflateRatio > compressed) {
+    return Status::Corruption(
+        path + ": " + FormatDims(info.dimension, info.dims) + " " +
+        std::string(VoxelTypeName(info.type)) + " claims " +
+        std::to_string(bytes_per_file) + " decompressed bytes" +
+        (file_count == 1 ? std::string()
+                                : " per data file (one of " +
+                                      std::to_string(file_count) + ")") +
+        ", but the file holds " + std::to_string(compressed) +
+        " bytes of gzip data, which decompress to at most " +
+        std::to_string(compressed * kMaxDeflateRatio) +
+        " (deflate's maximum ratio is 1032:1): wrong sizes or truncated" +
+        DataFileContext(info, path));
+  }
+  std::array<std::byte, 4> b{};
+  SDB_ASSIGN_OR_RETURN(size_t got, file.ReadUpTo(offset, 2, b.data()));
+  if (got != 2 || b[0] != std::byte{0x1f} || b[1] != std::byte{0x8b}) {
+    return Status::Corruption(path + ": encoding gzip, but byte " +
+                              std::to_string(offset) +
+                              " does not start gzip data (magic 1f 8b)" +
+                              DataFileContext(info, path));
+  }
+  SDB_ASSIGN_OR_RETURN(got, file.ReadUpTo(size - 4, 4, b.data()));
+  if (got != 4) return Status::IOError(path + ": cannot read the gzip trailer");
+  const uint32_t isize = static_cast<uint32_t>(b[0]) |
+                         static_cast<uint32_t>(b[1]) << 8 |
+                         static_cast<uint32_t>(b[2]) << 16 |
+                         static_cast<uint32_t>(b[3]) << 24;
+  const auto expected = static_cast<uint32_t>(bytes_per_file);  // mod 2^32
+  if (isize != expected) {
+    return Status::Corruption(
+        path + ": gzip trailer gives " + std::to_string(isize) +
+        " bytes (mod 2^32) of decompressed data, expected " +
+        std::to_string(bytes_per_file) + " (" +
+        FormatDims(info.dimension, info.dims) + " " +
+        std::string(VoxelTypeName(info.type)) +
+        "): truncated or wrong sizes" + DataFileContext(info, path));
   }
   return Status::OK();
 }

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -21,7 +22,8 @@ void DropSingleTimeStep(VolumeInfo& info);
 
 // Checks that every data file of `info` exists, is readable and is long
 // enough for its voxels after its offset (raw), or starts gzip data at its
-// offset whose trailer gives the expected size mod 2^32 (gzip). Errors:
+// offset whose trailer gives the expected size mod 2^32 and is large enough
+// to decompress to it at deflate's maximum ratio, 1032:1 (gzip). Errors:
 // those of ReadOnlyFile (storage/io/read_only_file.h; a missing file is
 // NotFound); `truncated(message)` for a raw file too short (its code
 // differs: the caller's dims for raw input, a corrupt file for a header
@@ -31,6 +33,14 @@ void DropSingleTimeStep(VolumeInfo& info);
 // REQUIRES: !info.files.empty(). Cost: one open, one fstat (and two small
 // preads for gzip) per data file.
 Status CheckDataFiles(const VolumeInfo& info, Status (*truncated)(std::string_view));
+
+// CheckDataFiles for one data file, `path`, whose voxels start at `offset`,
+// of `file_count` that split info's voxels evenly: for a reader that checks
+// each file as it learns its name (a NRRD "data file:" format naming
+// millions), and so fails at the first missing or short one.
+// REQUIRES: file_count > 0.
+Status CheckDataFile(const VolumeInfo& info, uint64_t file_count, const std::string& path,
+                     uint64_t offset, Status (*truncated)(std::string_view));
 
 // `truncated` for CheckDataFiles: raw input, whose size is the caller's
 // (InvalidArgument, "... truncated, or the dims or type given are wrong").
