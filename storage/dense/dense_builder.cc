@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -47,6 +48,22 @@ Result<StoredBlock> EncodeBlock(std::vector<uint8_t> raw, Compression compressio
   return StoredBlock{BlockEncoding::kRaw, std::move(raw)};
 }
 
+// a * b, or UINT64_MAX when that overflows: estimates of absurd grids must
+// still compare as too large.
+uint64_t SaturatingMul(uint64_t a, uint64_t b) {
+  return b != 0 && a > std::numeric_limits<uint64_t>::max() / b
+             ? std::numeric_limits<uint64_t>::max()
+             : a * b;
+}
+uint64_t SaturatingAdd(uint64_t a, uint64_t b) {
+  return a > std::numeric_limits<uint64_t>::max() - b ? std::numeric_limits<uint64_t>::max()
+                                                      : a + b;
+}
+
+std::string MiB(uint64_t bytes) {
+  return std::to_string((bytes + (uint64_t{1} << 20) - 1) >> 20) + " MiB";
+}
+
 template <int D>
 class Builder {
  public:
@@ -69,6 +86,11 @@ class Builder {
   Result<DenseBuildReport> Run();
 
  private:
+  // The builder's own allocations, estimated from the grid before any is
+  // made; ResourceExhausted naming each when they and the brick cache
+  // exceed options_.memory_bytes.
+  Status CheckMemory() const;
+
   // Pass 1: the field, one row of bricks (all x) per work item.
   Status WriteBricks();
   Status WriteBrickRow(uint64_t row, VolumeReader& reader, VolumeReader* mask,
@@ -144,6 +166,7 @@ Result<DenseBuildReport> Builder<D>::Run() {
         std::to_string(k_) + ", beyond the deepest level a 64-bit location code holds (2^" +
         std::to_string(max_bits) + " per axis)");
   }
+  SDB_RETURN_IF_ERROR(CheckMemory());
   SDB_ASSIGN_OR_RETURN(writer_, AtomicFileWriter::Create(out_));
   writer_->Reserve(kHeaderSize);
   index_.resize(layout_.block_count() + bricks_.brick_count());
@@ -152,6 +175,67 @@ Result<DenseBuildReport> Builder<D>::Run() {
   DenseBuildReport report;
   SDB_RETURN_IF_ERROR(Finish(report));
   return report;
+}
+
+// --- memory ---------------------------------------------------------------
+
+template <int D>
+Status Builder<D>::CheckMemory() const {
+  const uint64_t threads = static_cast<uint64_t>(threads_);
+  // The block index: one entry per error block and brick, held through the
+  // build, and its serialized copy at the end.
+  const uint64_t index_entries = SaturatingAdd(layout_.block_count(), bricks_.brick_count());
+  const uint64_t index = SaturatingMul(index_entries, sizeof(IndexEntry) + kIndexEntrySize);
+  // Pass 1: per thread, a row of bricks as doubles (all of x, a brick's
+  // side along the other axes) and one brick's bytes.
+  uint64_t row_points = input_.dims[0];
+  for (int a = 1; a < D; ++a) {
+    row_points = SaturatingMul(row_points, std::min(bricks_.side(), input_.dims[a]));
+  }
+  const uint64_t brick_points = uint64_t{1} << (bricks_.brick_bits() * D);
+  const uint64_t rows = SaturatingMul(
+      threads, SaturatingAdd(SaturatingMul(row_points, sizeof(double)),
+                             SaturatingMul(brick_points, sizeof(double) + 8)));
+  // Pass 2: per thread, a unit's region (the bounding box of a deepest-band
+  // block's root, as doubles) and its codes; per thread and once more, the
+  // partial maxima of the nodes above the units (and their availability).
+  const int unit_level = layout_.band_start(layout_.bands() - 1);
+  const GridSimplex<D> unit_grid =
+      GridOf<D>(Vertices(SimplexCode<D>::FromPath(0, 0, unit_level)), k_);
+  uint64_t region_points = 1;
+  for (int c = 0; c < D; ++c) {
+    int64_t lo = unit_grid[0][c], hi = unit_grid[0][c];
+    for (int i = 1; i <= D; ++i) {
+      lo = std::min(lo, unit_grid[i][c]);
+      hi = std::max(hi, unit_grid[i][c]);
+    }
+    region_points = SaturatingMul(region_points, static_cast<uint64_t>(hi - lo + 1));
+  }
+  const uint64_t unit_entries = layout_.entries_in_band(layout_.bands() - 1);
+  const uint64_t units = SaturatingMul(
+      threads, SaturatingAdd(SaturatingMul(region_points, sizeof(double)),
+                             SaturatingMul(unit_entries, sizeof(uint32_t) + 4)));
+  const uint64_t top_nodes = ((uint64_t{1} << unit_level) - 1) * SimplexCode<D>::kRoots;
+  const uint64_t tops =
+      SaturatingMul(SaturatingAdd(threads, 1), SaturatingMul(top_nodes, sizeof(double) + 1));
+  // Half the bound is the brick cache's (ComputeErrors); the rest must
+  // hold everything else.
+  const uint64_t cache = options_.memory_bytes / 2;
+  const uint64_t fixed = SaturatingAdd(SaturatingAdd(index, rows), SaturatingAdd(units, tops));
+  if (fixed <= options_.memory_bytes - cache) return Status::OK();
+  const uint64_t needed = SaturatingAdd(fixed, fixed);  // with a cache as large
+  return Status::ResourceExhausted(
+      input_.description + ": building a store of " + FormatDims(D, input_.dims) +
+      " (a domain of side 2^" + std::to_string(k_) + ") needs about " + MiB(fixed) +
+      " besides the brick cache: the block index of " + std::to_string(index_entries) +
+      " blocks, " + MiB(index) + "; " + std::to_string(threads) + " threads' rows of bricks, " +
+      MiB(rows) + ", and units, " + MiB(units) + "; the error partials of " +
+      std::to_string(top_nodes) + " top nodes, " + MiB(tops) +
+      ". The memory bound (--memory-mb) is " + MiB(options_.memory_bytes) +
+      ", half of it for the brick cache" +
+      (needed == std::numeric_limits<uint64_t>::max()
+           ? std::string(": no memory bound can hold it")
+           : ": give at least " + MiB(needed) + " (or fewer --threads)"));
 }
 
 // --- pass 1 ---------------------------------------------------------------
