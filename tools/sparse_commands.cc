@@ -40,8 +40,9 @@ uint64_t GridPoints(int dimension, const std::array<uint32_t, 4>& dims) {
 }
 
 SparseBuildReport Convert(const DenseStore& dense, const std::string& output,
-                          const std::string& tolerance, bool quiet) {
+                          const std::string& tolerance, bool quiet, uint64_t memory_bytes = 0) {
   SparseBuildOptions options;
+  options.memory_bytes = memory_bytes;
   options.tolerance = ParseAmount(tolerance, "--tolerance",
                                   dense.header().field_max - dense.header().field_min);
   ProgressLine line(!quiet);
@@ -204,7 +205,8 @@ void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuild
   line.Finish();
   if (!built.ok()) Fail(built.status());
   const auto dense = OpenDenseStore(temp.path());
-  SparseBuildReport report = Convert(*dense, output, tolerance, quiet || as_json);
+  SparseBuildReport report =
+      Convert(*dense, output, tolerance, quiet || as_json, options.memory_bytes);
   report.seconds += built->seconds;
   PrintSparseReport(report, output, as_json, quiet);
 }

@@ -4,6 +4,8 @@
 #include <chrono>
 #include <filesystem>
 #include <cmath>
+#include <limits>
+#include <string>
 #include <vector>
 
 #include "hierarchy/geometry.h"
@@ -18,6 +20,9 @@ namespace simplexdb {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// The LMDB write batch of a conversion.
+constexpr uint64_t kBatchBytes = uint64_t{16} << 20;
 
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -48,7 +53,7 @@ class DenseToSparse {
         k_(dense.header().domain_bits),
         leaf_(dense.header().leaf_level()),
         needed_(D, k_),
-        writer_(env, size_t{16} << 20),
+        writer_(env, kBatchBytes),
         layout_(leaf_, dense.header().levels_per_block) {
     ComputeSubtreeMaxima();
     // Every internal node of the complete hierarchy, for progress.
@@ -187,6 +192,36 @@ class DenseToSparse {
   uint64_t nodes_ = 0, sum_ = 0, visited_ = 0, total_ = 0;
 };
 
+// What DenseToSparse allocates, from the dense header alone: one bit per
+// domain vertex (VertexSet), a float per error block (subtree_max_) and the
+// write batch (kBatchBytes). ResourceExhausted with the figures when more
+// than `memory_bytes`, naming the store's source (the input an import
+// names; the dense store may be its scratch file).
+Status CheckSparseMemory(const DenseStore& dense, uint64_t memory_bytes) {
+  constexpr uint64_t kMax = std::numeric_limits<uint64_t>::max();
+  const DenseHeader& h = dense.header();
+  uint64_t points = 1;
+  for (int c = 0; c < h.dimension; ++c) {
+    const uint64_t side = (uint64_t{1} << h.domain_bits) + 1;
+    points = points > kMax / side ? kMax : points * side;
+  }
+  const uint64_t vertices = points / 8 + 8;
+  const uint64_t maxima = h.error_block_count > kMax / 4 ? kMax : h.error_block_count * 4;
+  const uint64_t batch = kBatchBytes;
+  const uint64_t total = vertices > kMax - maxima - batch ? kMax : vertices + maxima + batch;
+  if (total <= memory_bytes) return Status::OK();
+  const auto mib = [](uint64_t b) {
+    return std::to_string((b >> 20) + ((b & ((uint64_t{1} << 20) - 1)) != 0)) + " MiB";
+  };
+  return Status::ResourceExhausted(
+      (h.source.empty() ? dense.path() : h.source) +
+      ": converting its dense store to a sparse store needs about " + mib(total) +
+      ": the vertex set of " + std::to_string(points) + " domain vertices, " + mib(vertices) +
+      "; the subtree maxima of " + std::to_string(h.error_block_count) + " blocks, " +
+      mib(maxima) + "; the write batch, " + mib(batch) + ". The memory bound (--memory-mb) is " +
+      mib(memory_bytes));
+}
+
 }  // namespace
 
 Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
@@ -197,6 +232,7 @@ Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
     return Status::InvalidArgument("tolerance " + std::to_string(options.tolerance) +
                                    ": expected a finite number >= 0");
   }
+  if (options.memory_bytes > 0) SDB_RETURN_IF_ERROR(CheckSparseMemory(dense, options.memory_bytes));
   SDB_RETURN_IF_ERROR(PrepareOutput(out_path));
   TemporaryFile temp(out_path);  // LMDB writes it; renamed into place when complete
   SparseBuildReport report;

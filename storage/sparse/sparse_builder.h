@@ -45,6 +45,11 @@ struct SparseBuildOptions {
   double tolerance = 0;
   // The LMDB map to start with; it doubles whenever it fills (0: 64 MiB).
   uint64_t initial_map_bytes = 0;
+  // Dense -> sparse: a bound on the conversion's own memory (the vertex
+  // set, the subtree maxima, the write batch; not the dense store's cache),
+  // checked before anything is allocated: ResourceExhausted naming each
+  // when the bound is smaller. 0: no bound.
+  uint64_t memory_bytes = 0;
   std::function<void(const BuildProgress&)> progress;
 };
 
