@@ -305,7 +305,7 @@ void RegisterStoreCommands(CLI::App& app) {
                     "become missing values (NaN; integer fields are then stored as float32). NaN "
                     "in a float input is missing too")
         ->check(CLI::ExistingFile);
-    cmd->add_option("--memory-mb", a->memory_mb, "the builder's memory bound")
+    cmd->add_option("--memory-mb", a->memory_mb, "the builder's memory bound, block index included; too small fails at once with the need")
         ->capture_default_str();
     cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")
         ->capture_default_str();

@@ -13,8 +13,12 @@
 // the bounding box of its root's field values) at a time, on every core, and
 // gets the errors of the levels above the units from the same points as
 // partial maxima (the units tile every ancestor), both by the error engine
-// (storage/error/unit_errors.h). Memory is the brick cache and the
-// per-thread units, both sized from `memory_bytes`, not from the input.
+// (storage/error/unit_errors.h). Memory is the brick cache (half of
+// `memory_bytes`) and what the grid sets: the block index (80 bytes per
+// block and brick), each thread's row of bricks and unit, and the error
+// partials of the nodes above the units. These are estimated before
+// anything is allocated, and a build whose estimate exceeds the other half
+// fails at once (ResourceExhausted naming each figure).
 //
 // Crash safety: the store is written under a temporary name, flushed and
 // renamed; a build that fails or is killed leaves nothing under the final
@@ -66,7 +70,9 @@ struct DenseBuildReport {
 // Builds `out_path` from `input` (3D: HT, 4D: HP). Fails with a message
 // naming the input or the output: infinite values, a mask of another grid,
 // unreadable or truncated input, a full disk (ResourceExhausted), a volume
-// too large for the 64-bit location code.
+// too large for the 64-bit location code, a grid whose block index, rows
+// and units need more than half of `memory_bytes` (ResourceExhausted, with
+// the figures; nothing is created).
 Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,
                                          const DenseBuildOptions& options);
 

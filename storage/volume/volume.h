@@ -33,7 +33,9 @@
 //   InvalidArgument  malformed input: bad magic or header field, bad dims, a
 //                    raw file too short for the dims the caller gave.
 //   Corruption       a header is well formed but its data file is shorter
-//                    than the header says, or not gzip data when it should be.
+//                    than the header says, or not gzip data when it should be,
+//                    or gzip data too short to hold the size claimed (more
+//                    than 1032 times its bytes, deflate's maximum ratio).
 //   NotSupported     well-formed input outside what SimplexDB reads: other
 //                    voxel types (int32, RGB, ...), NRRD text/hex/bzip2
 //                    encodings, NIfTI-2, 2D or 5D grids.
@@ -142,8 +144,12 @@ Result<VolumeInfo> OpenRawVolume(const std::string& path, int dimension,
 // or the lengths of "space directions:". Other fields and key/value pairs
 // are ignored, as the specification asks of readers that do not use them.
 // For gzip, the gzip trailer (size mod 2^32) is checked against the
-// expected size; the stream itself is only checked when read.
-// O(header size + lines skipped).
+// expected size, and n bytes of gzip data may claim at most 1032 n bytes
+// (deflate's maximum ratio); the stream itself is only checked when read.
+// Data files are checked as they are named, so a "%d" format naming
+// millions of files fails at the first missing or short one, and its count
+// is checked against the sizes before any name is made.
+// O(header size + lines skipped + data files).
 Result<VolumeInfo> OpenNrrd(const std::string& path);
 
 // A single-file NIfTI-1 volume (.nii, magic "n+1"). The byte order is the
