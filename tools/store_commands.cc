@@ -3,6 +3,7 @@
 // sparse_commands.cc).
 #include <cmath>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -64,6 +65,11 @@ void RunImport(const ImportArgs& a) {
   Result<Compression> c = ParseCompression(a.compression);
   if (!c.ok()) throw CommandError("--compression: " + std::string(c.status().message()), 2);
   options.compression = *c;
+  if (a.memory_mb > (std::numeric_limits<size_t>::max() >> 20)) {  // << 20 would wrap
+    throw CommandError(fmt::format("--memory-mb {} is beyond this machine's address space",
+                                   a.memory_mb),
+                       2);
+  }
   options.memory_bytes = a.memory_mb << 20;
   options.threads = a.threads;
   options.levels_per_block = a.levels_per_block;

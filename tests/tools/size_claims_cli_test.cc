@@ -111,5 +111,17 @@ TEST(SizeClaimsCli, MemoryBoundCoversTheBlockIndex) {
   EXPECT_FALSE(fs::exists(dir.path() + "/w.lmdb"));
 }
 
+// A bound whose bytes do not fit size_t would wrap into a small one.
+TEST(SizeClaimsCli, MemoryBoundBeyondTheAddressSpaceIsAUsageError) {
+  const TempDir dir;
+  const std::string in = dir.path() + "/v.nrrd";
+  ASSERT_EQ(RunCli("generate --dims 5,5,5 -o " + in).exit_code, 0);
+  const CommandResult r =
+      RunCli("import " + in + " --memory-mb 99999999999999 -o " + dir.path() + "/v.sdb");
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("--memory-mb 99999999999999"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path() + "/v.sdb"));
+}
+
 }  // namespace
 }  // namespace simplexdb
