@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <iostream>
+#include <limits>
 #include <memory>
 
 #include <fmt/format.h>
@@ -87,14 +88,20 @@ void PrintSparseReport(const SparseBuildReport& r, const std::string& output, bo
 }
 
 void RunConvert(const std::string& input, const std::string& output, const std::string& to,
-                const std::string& tolerance, const std::string& compression, bool as_json,
-                bool quiet) {
+                const std::string& tolerance, const std::string& compression, size_t memory_mb,
+                bool as_json, bool quiet) {
+  if (memory_mb > (std::numeric_limits<size_t>::max() >> 20)) {  // << 20 would wrap
+    throw CommandError(fmt::format("--memory-mb {} is beyond this machine's address space",
+                                   memory_mb),
+                       2);
+  }
   if (to == "sparse") {
     if (ProbeStoreKind(input) == StoreKind::kSparse) {
       throw CommandError(input + " is already a sparse store; convert it --to dense first", 2);
     }
     const auto dense = OpenDenseStore(input);
-    PrintSparseReport(Convert(*dense, output, tolerance, quiet), output, as_json, quiet);
+    PrintSparseReport(Convert(*dense, output, tolerance, quiet, memory_mb << 20), output,
+                      as_json, quiet);
     return;
   }
   if (tolerance != "0") throw CommandError("--tolerance applies to --to sparse", 2);
@@ -106,6 +113,7 @@ void RunConvert(const std::string& input, const std::string& output, const std::
   Result<Compression> c = ParseCompression(compression);
   if (!c.ok()) throw CommandError("--compression: " + std::string(c.status().message()), 2);
   options.compression = *c;
+  options.memory_bytes = memory_mb << 20;
   ProgressLine line(!quiet);
   options.progress = ProgressTo(line, output);
   const Result<DenseBuildReport> built = ConvertSparseToDense(*sparse, output, options);
@@ -198,6 +206,10 @@ void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuild
   // output (`<output>.tmp.<pid>.dense`), removed on every path out of this
   // function, and by the next run of the same output if this one is killed.
   if (Status s = PrepareOutput(output); !s.ok()) Fail(s);
+  if (Status s = CheckSparseImportMemory(input, options.levels_per_block, options.memory_bytes);
+      !s.ok()) {
+    Fail(s);
+  }
   const TemporaryFile temp(output, "dense");
   ProgressLine line(!quiet);
   options.progress = ProgressTo(line, output);
@@ -214,6 +226,7 @@ void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuild
 void RegisterConvertCommand(CLI::App& app) {
   struct Args {
     std::string input, output, to, tolerance = "0", compression = "zstd";
+    size_t memory_mb = 1024;
     bool json = false, quiet = false;
   };
   auto a = std::make_shared<Args>();
@@ -233,10 +246,15 @@ void RegisterConvertCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--compression", a->compression, "--to dense: blocks as zstd or none")
       ->capture_default_str();
+  cmd->add_option("--memory-mb", a->memory_mb,
+                  "memory bound of the conversion (as import's), block index and vertex set "
+                  "included; too small fails at once with the need")
+      ->capture_default_str();
   cmd->add_flag("--json", a->json, "print the report as JSON");
   cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
   cmd->callback([a] {
-    RunConvert(a->input, a->output, a->to, a->tolerance, a->compression, a->json, a->quiet);
+    RunConvert(a->input, a->output, a->to, a->tolerance, a->compression, a->memory_mb, a->json,
+               a->quiet);
   });
 }
 

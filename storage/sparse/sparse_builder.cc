@@ -192,21 +192,20 @@ class DenseToSparse {
   uint64_t nodes_ = 0, sum_ = 0, visited_ = 0, total_ = 0;
 };
 
-// What DenseToSparse allocates, from the dense header alone: one bit per
-// domain vertex (VertexSet), a float per error block (subtree_max_) and the
-// write batch (kBatchBytes). ResourceExhausted with the figures when more
-// than `memory_bytes`, naming the store's source (the input an import
-// names; the dense store may be its scratch file).
-Status CheckSparseMemory(const DenseStore& dense, uint64_t memory_bytes) {
+// What DenseToSparse allocates: one bit per domain vertex (VertexSet), a
+// float per error block (subtree_max_) and the write batch (kBatchBytes).
+// ResourceExhausted with the figures, under `what`, when more than
+// `memory_bytes`.
+Status CheckConversionMemory(const std::string& what, int dimension, int domain_bits,
+                             uint64_t error_blocks, uint64_t memory_bytes) {
   constexpr uint64_t kMax = std::numeric_limits<uint64_t>::max();
-  const DenseHeader& h = dense.header();
   uint64_t points = 1;
-  for (int c = 0; c < h.dimension; ++c) {
-    const uint64_t side = (uint64_t{1} << h.domain_bits) + 1;
+  for (int c = 0; c < dimension; ++c) {
+    const uint64_t side = (uint64_t{1} << domain_bits) + 1;
     points = points > kMax / side ? kMax : points * side;
   }
   const uint64_t vertices = points / 8 + 8;
-  const uint64_t maxima = h.error_block_count > kMax / 4 ? kMax : h.error_block_count * 4;
+  const uint64_t maxima = error_blocks > kMax / 4 ? kMax : error_blocks * 4;
   const uint64_t batch = kBatchBytes;
   const uint64_t total = vertices > kMax - maxima - batch ? kMax : vertices + maxima + batch;
   if (total <= memory_bytes) return Status::OK();
@@ -214,12 +213,17 @@ Status CheckSparseMemory(const DenseStore& dense, uint64_t memory_bytes) {
     return std::to_string((b >> 20) + ((b & ((uint64_t{1} << 20) - 1)) != 0)) + " MiB";
   };
   return Status::ResourceExhausted(
-      (h.source.empty() ? dense.path() : h.source) +
-      ": converting its dense store to a sparse store needs about " + mib(total) +
+      what + ": converting to a sparse store needs about " + mib(total) +
       ": the vertex set of " + std::to_string(points) + " domain vertices, " + mib(vertices) +
-      "; the subtree maxima of " + std::to_string(h.error_block_count) + " blocks, " +
-      mib(maxima) + "; the write batch, " + mib(batch) + ". The memory bound (--memory-mb) is " +
-      mib(memory_bytes));
+      "; the subtree maxima of " + std::to_string(error_blocks) + " blocks, " + mib(maxima) +
+      "; the write batch, " + mib(batch) + ". The memory bound (--memory-mb) is " +
+      mib(memory_bytes) + ": give at least " + mib(total));
+}
+
+template <int D>
+uint64_t ErrorBlocksFor(const VolumeInfo& input, int levels_per_block, int* domain_bits) {
+  *domain_bits = std::max(1, DomainBitsFor(D, input.dims));
+  return ErrorLayout<D>(D * *domain_bits, levels_per_block).block_count();
 }
 
 }  // namespace
@@ -232,7 +236,14 @@ Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
     return Status::InvalidArgument("tolerance " + std::to_string(options.tolerance) +
                                    ": expected a finite number >= 0");
   }
-  if (options.memory_bytes > 0) SDB_RETURN_IF_ERROR(CheckSparseMemory(dense, options.memory_bytes));
+  if (options.memory_bytes > 0) {
+    // Named by the store's source: the input an import names (the dense
+    // store may be its scratch file).
+    const DenseHeader& h = dense.header();
+    SDB_RETURN_IF_ERROR(CheckConversionMemory(h.source.empty() ? dense.path() : h.source,
+                                              h.dimension, h.domain_bits, h.error_block_count,
+                                              options.memory_bytes));
+  }
   SDB_RETURN_IF_ERROR(PrepareOutput(out_path));
   TemporaryFile temp(out_path);  // LMDB writes it; renamed into place when complete
   SparseBuildReport report;
@@ -294,6 +305,20 @@ Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
                                         report.seconds});
   }
   return report;
+}
+
+Status CheckSparseImportMemory(const VolumeInfo& input, int levels_per_block,
+                               uint64_t memory_bytes) {
+  if (memory_bytes == 0 || (input.dimension != 3 && input.dimension != 4)) return Status::OK();
+  if (levels_per_block < 1 || levels_per_block > 24) return Status::OK();  // the builder says
+  int k = 0;
+  const int max_bits = input.dimension == 3 ? 18 : 13;
+  if (std::max(1, DomainBitsFor(input.dimension, input.dims)) > max_bits) {
+    return Status::OK();  // beyond the location code: the builder says so
+  }
+  const uint64_t blocks = input.dimension == 3 ? ErrorBlocksFor<3>(input, levels_per_block, &k)
+                                               : ErrorBlocksFor<4>(input, levels_per_block, &k);
+  return CheckConversionMemory(input.description, input.dimension, k, blocks, memory_bytes);
 }
 
 namespace {

@@ -61,6 +61,14 @@ struct SparseBuildReport {
   uint64_t file_bytes = 0;
 };
 
+// Checks, before the dense build of an import --sparse, that converting a
+// store of `input`'s grid fits `memory_bytes` (SparseBuildOptions), so a
+// conversion that cannot fit fails before the build rather than after it.
+// ResourceExhausted with the figures; OK for a bound of 0 and for grids the
+// dense builder refuses itself.
+Status CheckSparseImportMemory(const VolumeInfo& input, int levels_per_block,
+                               uint64_t memory_bytes);
+
 // Converts a dense store to a sparse one at `out_path`.
 Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
                                                const std::string& out_path,

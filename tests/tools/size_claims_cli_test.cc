@@ -90,7 +90,20 @@ TEST(SizeClaimsCli, MemoryBoundCoversTheBlockIndex) {
   EXPECT_FALSE(fs::exists(dir.path() + "/w.sdb"));
   // Within the default bound it builds.
   r = RunLimited("import " + in + " --threads 1 -o " + dir.path() + "/w.sdb");
-  EXPECT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // convert takes the same bound, both ways.
+  r = RunLimited("convert " + dir.path() + "/w.sdb --to sparse --memory-mb 1 -o " + dir.path() +
+                 "/c.lmdb");
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("vertex set of 1076890625 domain vertices"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path() + "/c.lmdb"));
+  r = RunLimited("convert " + dir.path() + "/w.sdb --to sparse -o " + dir.path() + "/c.lmdb");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunLimited("convert " + dir.path() + "/c.lmdb --to dense --memory-mb 1 -o " + dir.path() +
+                 "/c.sdb");
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("block index of 393265 blocks"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.path() + "/c.sdb"));
 
   // A 1 MB raw file 200000 voxels wide: a domain of side 2^18, whose block
   // index no bound can hold (61426dc: bad_alloc, exit 70).
