@@ -88,8 +88,9 @@ class Builder {
  private:
   // The builder's own allocations, estimated from the grid before any is
   // made; ResourceExhausted naming each when they and the brick cache
-  // exceed options_.memory_bytes.
-  Status CheckMemory() const;
+  // exceed options_.memory_bytes. With threads 0 (one per core), lowers
+  // threads_ to what the bound holds.
+  Status CheckMemory();
 
   // Pass 1: the field, one row of bricks (all x) per work item.
   Status WriteBricks();
@@ -180,8 +181,7 @@ Result<DenseBuildReport> Builder<D>::Run() {
 // --- memory ---------------------------------------------------------------
 
 template <int D>
-Status Builder<D>::CheckMemory() const {
-  const uint64_t threads = static_cast<uint64_t>(threads_);
+Status Builder<D>::CheckMemory() {
   // The block index: one entry per error block and brick, held through the
   // build, and its serialized copy at the end.
   const uint64_t index_entries = SaturatingAdd(layout_.block_count(), bricks_.brick_count());
@@ -193,9 +193,8 @@ Status Builder<D>::CheckMemory() const {
     row_points = SaturatingMul(row_points, std::min(bricks_.side(), input_.dims[a]));
   }
   const uint64_t brick_points = uint64_t{1} << (bricks_.brick_bits() * D);
-  const uint64_t rows = SaturatingMul(
-      threads, SaturatingAdd(SaturatingMul(row_points, sizeof(double)),
-                             SaturatingMul(brick_points, sizeof(double) + 8)));
+  const uint64_t row = SaturatingAdd(SaturatingMul(row_points, sizeof(double)),
+                                     SaturatingMul(brick_points, sizeof(double) + 8));
   // Pass 2: per thread, a unit's region (the bounding box of a deepest-band
   // block's root, as doubles) and its codes; per thread and once more, the
   // partial maxima of the nodes above the units (and their availability).
@@ -212,30 +211,40 @@ Status Builder<D>::CheckMemory() const {
     region_points = SaturatingMul(region_points, static_cast<uint64_t>(hi - lo + 1));
   }
   const uint64_t unit_entries = layout_.entries_in_band(layout_.bands() - 1);
-  const uint64_t units = SaturatingMul(
-      threads, SaturatingAdd(SaturatingMul(region_points, sizeof(double)),
-                             SaturatingMul(unit_entries, sizeof(uint32_t) + 4)));
+  const uint64_t unit = SaturatingAdd(SaturatingMul(region_points, sizeof(double)),
+                                      SaturatingMul(unit_entries, sizeof(uint32_t) + 4));
   const uint64_t top_nodes = ((uint64_t{1} << unit_level) - 1) * SimplexCode<D>::kRoots;
-  const uint64_t tops =
-      SaturatingMul(SaturatingAdd(threads, 1), SaturatingMul(top_nodes, sizeof(double) + 1));
+  const uint64_t top = SaturatingMul(top_nodes, sizeof(double) + 1);
   // Half the bound is the brick cache's (ComputeErrors); the rest must
-  // hold everything else.
-  const uint64_t cache = options_.memory_bytes / 2;
-  const uint64_t fixed = SaturatingAdd(SaturatingAdd(index, rows), SaturatingAdd(units, tops));
-  if (fixed <= options_.memory_bytes - cache) return Status::OK();
+  // hold the index, the final maxima, and each thread's share.
+  const uint64_t avail = options_.memory_bytes - options_.memory_bytes / 2;
+  const uint64_t shared = SaturatingAdd(index, top);
+  const uint64_t per_thread = SaturatingAdd(SaturatingAdd(row, unit), top);
+  const auto need = [&](uint64_t t) { return SaturatingAdd(shared, SaturatingMul(t, per_thread)); };
+  uint64_t threads = static_cast<uint64_t>(threads_);
+  if (options_.threads <= 0 && need(threads) > avail && need(1) <= avail) {
+    // One per core was not asked for: use as many as the bound holds.
+    threads = (avail - shared) / per_thread;
+    threads_ = static_cast<int>(threads);
+  }
+  const uint64_t fixed = need(threads);
+  if (fixed <= avail) return Status::OK();
   const uint64_t needed = SaturatingAdd(fixed, fixed);  // with a cache as large
   return Status::ResourceExhausted(
       input_.description + ": building a store of " + FormatDims(D, input_.dims) +
       " (a domain of side 2^" + std::to_string(k_) + ") needs about " + MiB(fixed) +
       " besides the brick cache: the block index of " + std::to_string(index_entries) +
-      " blocks, " + MiB(index) + "; " + std::to_string(threads) + " threads' rows of bricks, " +
-      MiB(rows) + ", and units, " + MiB(units) + "; the error partials of " +
-      std::to_string(top_nodes) + " top nodes, " + MiB(tops) +
-      ". The memory bound (--memory-mb) is " + MiB(options_.memory_bytes) +
-      ", half of it for the brick cache" +
+      " blocks, " + MiB(index) + "; the error maxima of " + std::to_string(top_nodes) +
+      " top nodes, " + MiB(top) + " once and per thread; " + std::to_string(threads) +
+      " threads' rows of bricks and units, " + MiB(SaturatingMul(threads, row)) + " and " +
+      MiB(SaturatingMul(threads, unit)) + ". The memory bound (--memory-mb) is " +
+      MiB(options_.memory_bytes) + ", half of it for the brick cache" +
       (needed == std::numeric_limits<uint64_t>::max()
            ? std::string(": no memory bound can hold it")
-           : ": give at least " + MiB(needed) + " (or fewer --threads)"));
+           : ": give at least " + MiB(needed) +
+                 (need(1) <= avail
+                      ? " (or --threads " + std::to_string((avail - shared) / per_thread) + ")"
+                      : std::string())));
 }
 
 // --- pass 1 ---------------------------------------------------------------

@@ -47,7 +47,7 @@ struct DenseBuildOptions {
   Compression compression = Compression::kZstd;
   int zstd_level = 3;
   size_t memory_bytes = size_t{1} << 30;  // the builder's memory bound
-  int threads = 0;                         // 0: one per core
+  int threads = 0;  // 0: one per core, or fewer if memory_bytes holds fewer
   int levels_per_block = 14;               // B
   int brick_bits = 0;                      // 0: 5 (32^3) in 3D, 4 (16^4) in 4D
   // Where the field is available: a volume of the input's grid, 0 (or NaN)
