@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -125,9 +126,14 @@ Status CheckDataFile(const VolumeInfo& info, uint64_t file_count, const std::str
               : std::to_string(info.voxel_count() / file_count) + " voxels (one of " +
                     std::to_string(file_count) + " files of " +
                     FormatDims(info.dimension, info.dims) + ")";
+      // offset + bytes_per_file may not fit 64 bits (an offset given by hand).
+      const std::string expected =
+          offset > std::numeric_limits<uint64_t>::max() - bytes_per_file
+              ? "more than 2^64 - 1"
+              : "at least " + std::to_string(offset + bytes_per_file);
       return truncated(
-          path + ": has " + std::to_string(size) + " bytes, expected at least " +
-          std::to_string(offset + bytes_per_file) + " (" + what + " " +
+          path + ": has " + std::to_string(size) + " bytes, expected " + expected +
+          " (" + what + " " +
           std::string(VoxelTypeName(info.type)) + " = " +
           std::to_string(bytes_per_file) + " bytes after offset " +
           std::to_string(offset) + ")" + DataFileContext(info, path));

@@ -151,5 +151,19 @@ TEST(SizeClaims, DetachedNrrdFormatNamingMillionsOfFilesFailsAtOnce) {
       << run.text;
 }
 
+// A raw offset near 2^64: the bytes it needs are said without wrapping.
+TEST(SizeClaims, RawOffsetNearTwoToTheSixtyFourSaysTheNeedUnwrapped) {
+  const TempDir dir;
+  WriteFile(dir / "v.raw", std::string(100, '\0'));
+  const uint64_t offset = ~uint64_t{0} - 5;
+  const Result<VolumeInfo> info = OpenRawVolume(dir / "v.raw", 3, {2, 2, 2, 1}, VoxelType::kU8,
+                                                ByteOrder::kLittle, offset);
+  ASSERT_FALSE(info.ok());
+  const std::string msg(info.status().message());
+  EXPECT_NE(msg.find("has 100 bytes, expected more than 2^64 - 1"), std::string::npos)
+      << msg;
+  EXPECT_NE(msg.find("8 bytes after offset " + std::to_string(offset)), std::string::npos) << msg;
+}
+
 }  // namespace
 }  // namespace simplexdb
