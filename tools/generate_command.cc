@@ -37,6 +37,7 @@ struct GenerateArgs {
   double constant = 0.0;
   int threads = 0;
   bool quiet = false;
+  bool force = false;
 };
 
 // Rounds to the nearest value `type` holds, clamping integers to its range.
@@ -141,6 +142,7 @@ struct To4dArgs {
   uint32_t subgrid = 4;
   uint32_t steps = 0;
   bool quiet = false;
+  bool force = false;
 };
 
 void RunTo4d(const To4dArgs& a) {
@@ -178,7 +180,11 @@ void RegisterTo4dCommand(CLI::App& app) {
                   "time steps, 2..S^3 (default: the longest output axis, at most S^3)");
   AddRawInputOptions(cmd, &a->raw, "raw input: X,Y,Z (x fastest)");
   cmd->add_flag("-q,--quiet", a->quiet, "no summary");
-  cmd->callback([a] { RunTo4d(*a); });
+  AddForceOption(cmd, &a->force);
+  cmd->callback([a] {
+    a->output = CheckOutput(a->output, {a->input}, a->force);
+    RunTo4d(*a);
+  });
 }
 
 void RegisterGenerateCommand(CLI::App& app) {
@@ -202,7 +208,11 @@ void RegisterGenerateCommand(CLI::App& app) {
   cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")->capture_default_str();
   cmd->add_option("-o,--output", a->output, "the NRRD file to write")->required();
   cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
-  cmd->callback([a] { RunGenerate(*a); });
+  AddForceOption(cmd, &a->force);
+  cmd->callback([a] {
+    a->output = CheckOutput(a->output, {}, a->force);
+    RunGenerate(*a);
+  });
 }
 
 }  // namespace simplexdb::tools
