@@ -145,8 +145,11 @@ struct To4dArgs {
   bool force = false;
 };
 
-void RunTo4d(const To4dArgs& a) {
+void RunTo4d(To4dArgs a) {
   const VolumeInfo in = OpenInputs({a.input}, a.raw);
+  std::vector<std::string> inputs = in.files;  // a detached header's data file too
+  inputs.push_back(a.input);
+  a.output = CheckOutput(a.output, inputs, a.force);
   uint32_t steps = a.steps;
   if (steps == 0) {  // a 4D cube when the subgrid holds enough points
     for (int i = 0; i < 3; ++i) steps = std::max(steps, SubgridAxis(in.dims[i], a.subgrid));
@@ -181,10 +184,7 @@ void RegisterTo4dCommand(CLI::App& app) {
   AddRawInputOptions(cmd, &a->raw, "raw input: X,Y,Z (x fastest)");
   cmd->add_flag("-q,--quiet", a->quiet, "no summary");
   AddForceOption(cmd, &a->force);
-  cmd->callback([a] {
-    a->output = CheckOutput(a->output, {a->input}, a->force);
-    RunTo4d(*a);
-  });
+  cmd->callback([a] { RunTo4d(*a); });
 }
 
 void RegisterGenerateCommand(CLI::App& app) {

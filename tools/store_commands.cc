@@ -50,9 +50,6 @@ struct ImportArgs {
 
 void RunImport(ImportArgs a) {
   if (!a.sparse && a.tolerance != "0") throw CommandError("--tolerance needs --sparse", 2);
-  std::vector<std::string> inputs = a.inputs;
-  if (!a.mask.empty()) inputs.push_back(a.mask);
-  a.output = CheckOutput(a.output, inputs, a.force);
   const VolumeInfo input = OpenInputs(a.inputs, a.raw);
   const std::string expected = HierarchyName(input.dimension);
   if (!a.hierarchy.empty() && a.hierarchy != expected) {
@@ -77,6 +74,15 @@ void RunImport(ImportArgs a) {
     if (!mask.ok()) Fail(mask.status());
     options.mask = *std::move(mask);
   }
+  // Before anything is written: the output is none of the files read, the
+  // data files a detached header names included.
+  std::vector<std::string> inputs = a.inputs;
+  inputs.insert(inputs.end(), input.files.begin(), input.files.end());
+  if (options.mask) {
+    inputs.push_back(a.mask);
+    inputs.insert(inputs.end(), options.mask->files.begin(), options.mask->files.end());
+  }
+  a.output = CheckOutput(a.output, inputs, a.force);
   if (a.sparse) {
     ImportSparse(input, a.output, options, a.tolerance, a.json, a.quiet);
     return;

@@ -118,6 +118,14 @@ TEST_F(OutputRefusal, TheInputItselfByAnyName) {
   ExpectRefused("extract " + d + "/v.sdb --error 5% --format json -o " + d + "/v.sdb",
                 d + "/v.sdb", "is the input", d + "/v.sdb");
   ExpectRefused("to4d " + v + " -q -o " + v, v, "is the input", v);
+  // The data file a detached header names is an input too.
+  ASSERT_EQ(RunCli("export " + d + "/v.sdb -o " + d + "/e.raw").exit_code, 0);
+  ExpectRefused("import " + d + "/e.nhdr -q -o " + d + "/e.raw", d + "/e.raw", "is the input",
+                d + "/e.raw");
+  ExpectRefused("to4d " + d + "/e.nhdr -q -o " + d + "/e.raw", d + "/e.raw", "is the input",
+                d + "/e.raw");
+  ExpectRefused("import " + v + " --mask " + d + "/e.nhdr -q -o " + d + "/e.raw", d + "/e.raw",
+                "is the input", d + "/e.raw");
 }
 
 TEST_F(OutputRefusal, AFifoADirectoryAndADanglingSymlink) {
