@@ -156,7 +156,7 @@ Status CheckOutputKind(const std::string& path) {
   struct stat st;
   if (lstat(path.c_str(), &st) != 0) {
     if (errno == ENOENT) return Status::OK();  // a new name
-    return StatusFromErrno(errno, path, "inspect");
+    return StatusFromErrno(errno, path, "create");
   }
   if (S_ISLNK(st.st_mode)) {
     struct stat target;
