@@ -88,7 +88,7 @@ class ProgressLine {
 };
 
 // The path a command writes for its output `path`, checked before the
-// command reads or writes anything (ResolveOutput, storage/io/file.h):
+// command writes anything (ResolveOutput, storage/io/file.h):
 // `path` itself, or with `force` the regular file the symlink `path` points
 // to (replaced atomically; the link stays). Fail()s (exit 1, nothing
 // touched) when `path` is one of `inputs` by any name, a device, a FIFO, a

@@ -1,4 +1,4 @@
-// Outputs that writing would destroy are refused before anything is read or
+// Outputs that writing would destroy are refused before anything is
 // written (tools/cli_util.h CheckOutput, storage/io/file.h ResolveOutput):
 // an input of the command by any name, a device, a FIFO, a directory, a
 // symlink (written through with --force when it points to a regular file,
