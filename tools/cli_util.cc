@@ -1,14 +1,55 @@
 #include "tools/cli_util.h"
 
+#include "storage/io/file.h"
+
 #include <sys/resource.h>
 
+#include <cerrno>
 #include <charconv>
+#include <iostream>
+#include <system_error>
 #include <fstream>
 #include <limits>
 #include <cmath>
 #include <cstdlib>
 
 namespace simplexdb::tools {
+
+std::string CheckOutput(const std::string& path, const std::vector<std::string>& inputs,
+                        bool force) {
+  OutputOptions options;
+  options.force = force;
+  options.inputs = inputs;
+  Result<std::string> resolved = ResolveOutput(path, options);
+  if (!resolved.ok()) Fail(resolved.status());
+  return *std::move(resolved);
+}
+
+void AddForceOption(CLI::App* cmd, bool* force) {
+  cmd->add_flag("--force", *force,
+                "when the output is a symlink to a regular file, replace that file (atomically) "
+                "and keep the link; without --force a symlink output is refused. An output that "
+                "is an input, a device, a FIFO, a socket, a directory or a dangling symlink is "
+                "always refused");
+}
+
+Status FinishStandardOutput(int earlier_errno) {
+  std::cout.flush();
+  errno = 0;
+  const bool flush_failed = std::fflush(stdout) != 0;
+  int err = errno;
+  if (!flush_failed && !std::ferror(stdout) && !std::cout.fail()) return Status::OK();
+  if (!flush_failed || err == 0) {
+    // The failed write was during the command and its errno is gone. A write
+    // of nothing reports the reason for a device (ENOSPC for /dev/full) or a
+    // closed descriptor (EBADF), and writes nothing.
+    errno = 0;
+    err = write(STDOUT_FILENO, "", 0) < 0 ? errno : 0;
+    if (err == 0) err = earlier_errno != 0 ? earlier_errno : EIO;
+  }
+  return Status::IOError("cannot write to standard output: " +
+                         std::generic_category().message(err));
+}
 
 std::vector<double> ParseNumberList(std::string_view text, const char* option, size_t min_count,
                                     size_t max_count) {

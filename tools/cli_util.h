@@ -87,6 +87,28 @@ class ProgressLine {
   std::chrono::steady_clock::time_point last_{};
 };
 
+// The path a command writes for its output `path`, checked before the
+// command writes anything (ResolveOutput, storage/io/file.h):
+// `path` itself, or with `force` the regular file the symlink `path` points
+// to (replaced atomically; the link stays). Fail()s (exit 1, nothing
+// touched) when `path` is one of `inputs` by any name, a device, a FIFO, a
+// socket, a directory, a dangling symlink, or a symlink without `force`.
+std::string CheckOutput(const std::string& path, const std::vector<std::string>& inputs,
+                        bool force);
+
+// Adds --force, bound to `force`, with the one help text for it.
+void AddForceOption(CLI::App* cmd, bool* force);
+
+// Flushes stdout (std::cout writes through it) and returns the error of any
+// write to it that failed: "cannot write to standard output: <reason>".
+// The reason is the failed flush's errno; when the write failed during the
+// command (stdio keeps no errno of its own), that of a write of nothing to
+// stdout (a device, a closed descriptor), else `earlier_errno` (errno as the
+// command left it), else EIO. OK when everything reached stdout.
+// tools/main.cc calls it once, after the command ran, so no command checks
+// its own prints.
+Status FinishStandardOutput(int earlier_errno);
+
 // Opens a dense store, or Fail()s with the reason.
 std::unique_ptr<DenseStore> OpenDenseStore(const std::string& path);
 

@@ -43,6 +43,7 @@ struct ExtractArgs {
   bool in_memory = false;
   size_t cache_mb = 256;
   bool check = false;
+  bool force = false;
 };
 
 // The codes in `path`, "T:bits" per line (blank lines skipped).
@@ -219,7 +220,12 @@ void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nul
   if (check && !check->ok) throw CommandError("the extracted mesh is not conforming: " + check->problem, 3);
 }
 
-void RunExtract(const ExtractArgs& a) {
+void RunExtract(ExtractArgs a) {
+  if (a.output != "-") {
+    std::vector<std::string> inputs = {a.store};
+    if (!a.from.empty()) inputs.push_back(a.from);
+    a.output = CheckOutput(a.output, inputs, a.force);
+  }
   // A usage error (exit 2) before anything is opened, as --in-memory names
   // the option; AnyStore::Open would refuse it too.
   if (a.in_memory && ProbeStoreKind(a.store) == StoreKind::kSparse) {
@@ -283,6 +289,7 @@ void RegisterExtractCommand(CLI::App& app) {
   cmd->add_option("--cache-mb", args->cache_mb, "Block cache budget of a dense store, MiB (out-of-core)")
       ->capture_default_str();
   cmd->add_flag("--check", args->check, "Check the result's conformity from geometry (exit 3 if not)");
+  AddForceOption(cmd, &args->force);
   cmd->callback([args] { RunExtract(*args); });
 
   auto path = std::make_shared<std::string>();

@@ -37,6 +37,7 @@ struct GenerateArgs {
   double constant = 0.0;
   int threads = 0;
   bool quiet = false;
+  bool force = false;
 };
 
 // Rounds to the nearest value `type` holds, clamping integers to its range.
@@ -141,10 +142,14 @@ struct To4dArgs {
   uint32_t subgrid = 4;
   uint32_t steps = 0;
   bool quiet = false;
+  bool force = false;
 };
 
-void RunTo4d(const To4dArgs& a) {
+void RunTo4d(To4dArgs a) {
   const VolumeInfo in = OpenInputs({a.input}, a.raw);
+  std::vector<std::string> inputs = in.files;  // a detached header's data file too
+  inputs.push_back(a.input);
+  a.output = CheckOutput(a.output, inputs, a.force);
   uint32_t steps = a.steps;
   if (steps == 0) {  // a 4D cube when the subgrid holds enough points
     for (int i = 0; i < 3; ++i) steps = std::max(steps, SubgridAxis(in.dims[i], a.subgrid));
@@ -178,6 +183,7 @@ void RegisterTo4dCommand(CLI::App& app) {
                   "time steps, 2..S^3 (default: the longest output axis, at most S^3)");
   AddRawInputOptions(cmd, &a->raw, "raw input: X,Y,Z (x fastest)");
   cmd->add_flag("-q,--quiet", a->quiet, "no summary");
+  AddForceOption(cmd, &a->force);
   cmd->callback([a] { RunTo4d(*a); });
 }
 
@@ -202,7 +208,11 @@ void RegisterGenerateCommand(CLI::App& app) {
   cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")->capture_default_str();
   cmd->add_option("-o,--output", a->output, "the NRRD file to write")->required();
   cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
-  cmd->callback([a] { RunGenerate(*a); });
+  AddForceOption(cmd, &a->force);
+  cmd->callback([a] {
+    a->output = CheckOutput(a->output, {}, a->force);
+    RunGenerate(*a);
+  });
 }
 
 }  // namespace simplexdb::tools

@@ -1,9 +1,11 @@
 // simplexdb: the command-line front end of SimplexDB.
+#include <cerrno>
 #include <cstdio>
 #include <exception>
 
 #include <CLI/CLI.hpp>
 
+#include "tools/cli_util.h"
 #include "tools/commands.h"
 
 int main(int argc, char** argv) {
@@ -24,11 +26,11 @@ int main(int argc, char** argv) {
   simplexdb::tools::RegisterConvertCommand(app);
   simplexdb::tools::RegisterUpdateCommand(app);
   simplexdb::tools::RegisterExtractCommand(app);
+  int code = 0;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : 2;  // --help is success; usage errors are 2
+    code = app.exit(e) == 0 ? 0 : 2;  // --help is success; usage errors are 2
   } catch (const simplexdb::tools::CommandError& e) {
     std::fprintf(stderr, "simplexdb: %s\n", e.what());
     return e.exit_code();
@@ -36,5 +38,13 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "simplexdb: internal error: %s\n", e.what());
     return 70;
   }
-  return 0;
+  // Every result printed to stdout is checked here, once: a full disk or a
+  // closed stdout is an error, not a success with lost output. (A pipe whose
+  // reader left ends the process by SIGPIPE, as for other Unix tools.)
+  const simplexdb::Status out = simplexdb::tools::FinishStandardOutput(errno);
+  if (!out.ok()) {
+    std::fprintf(stderr, "simplexdb: %s\n", std::string(out.message()).c_str());
+    return code == 0 ? 1 : code;
+  }
+  return code;
 }

@@ -227,7 +227,7 @@ void RegisterConvertCommand(CLI::App& app) {
   struct Args {
     std::string input, output, to, tolerance = "0", compression = "zstd";
     size_t memory_mb = 1024;
-    bool json = false, quiet = false;
+    bool json = false, quiet = false, force = false;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand(
@@ -252,7 +252,9 @@ void RegisterConvertCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--json", a->json, "print the report as JSON");
   cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
+  AddForceOption(cmd, &a->force);
   cmd->callback([a] {
+    a->output = CheckOutput(a->output, {a->input}, a->force);
     RunConvert(a->input, a->output, a->to, a->tolerance, a->compression, a->memory_mb, a->json,
                a->quiet);
   });

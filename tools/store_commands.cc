@@ -46,9 +46,10 @@ struct ImportArgs {
   int zstd_level = 3;
   bool json = false;
   bool quiet = false;
+  bool force = false;
 };
 
-void RunImport(const ImportArgs& a) {
+void RunImport(ImportArgs a) {
   if (!a.sparse && a.tolerance != "0") throw CommandError("--tolerance needs --sparse", 2);
   const VolumeInfo input = OpenInputs(a.inputs, a.raw);
   const std::string expected = HierarchyName(input.dimension);
@@ -79,6 +80,15 @@ void RunImport(const ImportArgs& a) {
     if (!mask.ok()) Fail(mask.status());
     options.mask = *std::move(mask);
   }
+  // Before anything is written: the output is none of the files read, the
+  // data files a detached header names included.
+  std::vector<std::string> inputs = a.inputs;
+  inputs.insert(inputs.end(), input.files.begin(), input.files.end());
+  if (options.mask) {
+    inputs.push_back(a.mask);
+    inputs.insert(inputs.end(), options.mask->files.begin(), options.mask->files.end());
+  }
+  a.output = CheckOutput(a.output, inputs, a.force);
   if (a.sparse) {
     ImportSparse(input, a.output, options, a.tolerance, a.json, a.quiet);
     return;
@@ -218,6 +228,7 @@ struct ExportArgs {
   std::string output;
   std::string roi;
   int step = 1;
+  bool force = false;
 };
 
 template <int D>
@@ -269,7 +280,8 @@ void ExportField(const DenseStore& store, const ExportArgs& a) {
   } else {
     const std::string base = ends_with(".raw") ? a.output.substr(0, a.output.size() - 4) : a.output;
     written = a.output + " and " + base + ".nhdr";
-    s = WriteRawWithNhdr(a.output, base + ".nhdr", D, dims, h.voxel_type, values, spacing);
+    const std::string nhdr = CheckOutput(base + ".nhdr", {a.store, a.output}, false);
+    s = WriteRawWithNhdr(a.output, nhdr, D, dims, h.voxel_type, values, spacing);
   }
   if (!s.ok()) Fail(s);
   fmt::print("{}: {} {} values ({}) written to {}\n", a.store, count, VoxelTypeName(h.voxel_type),
@@ -321,6 +333,7 @@ void RegisterStoreCommands(CLI::App& app) {
     cmd->add_option("--zstd-level", a->zstd_level, "zstd compression level")->capture_default_str();
     cmd->add_flag("--json", a->json, "print the build report as JSON");
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
+    AddForceOption(cmd, &a->force);
     cmd->callback([a] { RunImport(*a); });
   }
   {
@@ -356,7 +369,9 @@ void RegisterStoreCommands(CLI::App& app) {
     cmd->add_option("--roi", a->roi, "x0,y0,z0[,t0],x1,y1,z1[,t1]: a box of the grid, inclusive");
     cmd->add_option("--step", a->step, "every step-th point along each axis (a coarser resolution)")
         ->capture_default_str();
+    AddForceOption(cmd, &a->force);
     cmd->callback([a] {
+      a->output = CheckOutput(a->output, {a->store}, a->force);
       if (ProbeStoreKind(a->store) == StoreKind::kSparse) {
         throw CommandError(a->store + " is a sparse store: convert it --to dense to export", 2);
       }

@@ -121,14 +121,95 @@ void RemoveStaleTemporaries(const std::string& final_path) {
   closedir(d);
 }
 
-Status PrepareOutput(const std::string& final_path) {
+namespace {
+
+// The folder `final_path` is to be created in exists.
+Status CheckOutputFolder(const std::string& final_path) {
   struct stat st;
   if (stat(DirectoryOf(final_path).c_str(), &st) != 0) {
     return StatusFromErrno(errno, final_path, "create");
   }
   if (!S_ISDIR(st.st_mode)) return StatusFromErrno(ENOTDIR, final_path, "create");
+  return Status::OK();
+}
+
+// What a file of `mode` is, for a file that an output must not replace;
+// nullptr for a regular file.
+const char* KindNotToReplace(mode_t mode) {
+  if (S_ISREG(mode)) return nullptr;
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISLNK(mode)) return "a symlink";
+  return "not a regular file";
+}
+
+Status Refuse(const std::string& path, const std::string& why) {
+  return Status::InvalidArgument(path + ": cannot write: " + why);
+}
+
+// `path` is a new name or a regular file, not a symlink; a symlink is
+// described by what it points to.
+Status CheckOutputKind(const std::string& path) {
+  struct stat st;
+  if (lstat(path.c_str(), &st) != 0) {
+    if (errno == ENOENT) return Status::OK();  // a new name
+    return StatusFromErrno(errno, path, "create");
+  }
+  if (S_ISLNK(st.st_mode)) {
+    struct stat target;
+    if (stat(path.c_str(), &target) != 0) {
+      if (errno == ENOENT) return Refuse(path, "is a dangling symlink (it points to no file)");
+      return StatusFromErrno(errno, path, "follow the symlink");
+    }
+    if (const char* kind = KindNotToReplace(target.st_mode)) {
+      return Refuse(path, std::string("is a symlink to ") + kind);
+    }
+    return Refuse(path,
+                  "is a symlink (writing would replace the link by a file; --force writes the "
+                  "file it points to and keeps the link)");
+  }
+  if (const char* kind = KindNotToReplace(st.st_mode)) return Refuse(path, std::string("is ") + kind);
+  return Status::OK();
+}
+
+}  // namespace
+
+Status PrepareOutput(const std::string& final_path) {
+  SDB_RETURN_IF_ERROR(CheckOutputFolder(final_path));
+  SDB_RETURN_IF_ERROR(CheckOutputKind(final_path));
   RemoveStaleTemporaries(final_path);
   return Status::OK();
+}
+
+Result<std::string> ResolveOutput(const std::string& path, const OutputOptions& options) {
+  SDB_RETURN_IF_ERROR(CheckOutputFolder(path));
+  // stat() follows a symlink: a link to an input is that input too.
+  struct stat out;
+  if (stat(path.c_str(), &out) == 0) {
+    for (const std::string& input : options.inputs) {
+      struct stat in;
+      if (stat(input.c_str(), &in) == 0 && in.st_dev == out.st_dev && in.st_ino == out.st_ino) {
+        return Refuse(path, input == path ? "is the input" : "is the input " + input);
+      }
+    }
+  }
+  struct stat st;
+  if (options.force && lstat(path.c_str(), &st) == 0 && S_ISLNK(st.st_mode)) {
+    struct stat target;
+    if (stat(path.c_str(), &target) == 0 && S_ISREG(target.st_mode)) {
+      char* resolved = realpath(path.c_str(), nullptr);
+      if (resolved == nullptr) return StatusFromErrno(errno, path, "follow the symlink");
+      std::string real = resolved;
+      std::free(resolved);
+      SDB_RETURN_IF_ERROR(CheckOutputKind(real));
+      return real;
+    }
+  }
+  SDB_RETURN_IF_ERROR(CheckOutputKind(path));
+  return path;
 }
 
 Status RenameDurably(const std::string& from, const std::string& to) {

@@ -56,6 +56,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "util/status.h"
 
@@ -88,9 +89,38 @@ void RemoveStaleTemporaries(const std::string& final_path);
 // What a command does before it writes anything for `final_path`: checks
 // that its folder exists, so that a missing one is reported by the output's
 // name and not a temporary's (NotFound: "<final_path>: cannot create: No
-// such file or directory"; ENOTDIR when a component is a regular file), and
-// removes the stale temporaries of `final_path`.
+// such file or directory"; ENOTDIR when a component is a regular file);
+// checks that `final_path` is nothing but a regular file or a new name, as
+// ResolveOutput does without inputs or force (InvalidArgument otherwise:
+// replacing a device, a FIFO, a socket, a folder or a symlink by a regular
+// file destroys what was there); then removes the stale temporaries of
+// `final_path`. Nothing is touched when it fails.
 Status PrepareOutput(const std::string& final_path);
+
+// How a command may write its output (ResolveOutput).
+struct OutputOptions {
+  // A symlink to a regular file is written through: its target is replaced
+  // (atomically, as any output) and the link stays. Without it a symlink is
+  // refused.
+  bool force = false;
+  // The files the command reads (every file of a time series): the output
+  // must be none of them, by any name (hard link, symlink, `./x` for `x`).
+  std::vector<std::string> inputs;
+};
+
+// The check a command makes on its output `path` before it writes anything
+// (after opening its inputs, to know every file they name): returns the path to write, `path` itself, or with
+// options.force and `path` a symlink to a regular file, the file the link
+// resolves to (absolute); write that path and the link stays a link.
+// Errors (InvalidArgument, naming `path`, nothing touched):
+//   "<path>: cannot write: is the input [<input>]"      same device and inode
+//   "<path>: cannot write: is a character device"       and block device,
+//                                                       FIFO, socket, folder
+//   "<path>: cannot write: is a symlink (--force ...)"   without force
+//   "<path>: cannot write: is a dangling symlink"       with or without force
+// and the folder checks of PrepareOutput. An input that cannot be stat()ed
+// is not compared (its reader reports it).
+Result<std::string> ResolveOutput(const std::string& path, const OutputOptions& options);
 
 // Renames `from` to `to` and flushes the directory (best effort: some file
 // systems cannot sync a directory): after it returns, the file is durable

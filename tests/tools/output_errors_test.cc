@@ -52,7 +52,7 @@ class OutputErrors : public ::testing::Test {
         {"extract " + d + "/v.sdb --error 5% --format codes -o OUT/m.codes", "OUT/m.codes"},
         {"extract " + d + "/v.sdb --error 5% --format json -o OUT/m.json", "OUT/m.json"},
         {"extract " + d + "/v4.sdb --error 5% --format pvd --slices 0,2 -o OUT/m.pvd",
-         "OUT/m_0.vtu"},
+         "OUT/m.pvd"},
     };
     const auto with_folder = [&](std::string text) {
       for (size_t at; (at = text.find("OUT")) != std::string::npos;) text.replace(at, 3, folder);

@@ -3,6 +3,9 @@
 #include "storage/io/file.h"
 
 #include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -150,6 +153,124 @@ TEST(AtomicFileWriter, AMissingFolderIsReportedByTheOutputsName) {
   EXPECT_EQ(s.message(), under_file + ": cannot create: Not a directory");
   EXPECT_TRUE(PrepareOutput(out).IsNotFound());
   EXPECT_TRUE(PrepareOutput(dir.path() + "/fine.sdb").ok());
+}
+
+// Replacing anything but a regular file by the output destroys it: a device
+// (`-o /dev/full` as root replaced the device), a FIFO, a socket, a folder,
+// a symlink (the link would become a file). PrepareOutput, and so every
+// writer, refuses them before it creates or removes anything.
+TEST(PrepareOutput, RefusesWhatIsNotARegularFile) {
+  TempDir dir;
+  const std::string d = dir.path();
+  ASSERT_EQ(mkfifo((d + "/fifo").c_str(), 0644), 0);
+  Touch(d + "/target");
+  fs::create_symlink("target", d + "/link");
+  fs::create_symlink("nowhere", d + "/dangling");
+  fs::create_directory(d + "/folder");
+  const int sock = socket(AF_UNIX, SOCK_STREAM, 0);
+  ASSERT_GE(sock, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  const std::string sock_path = d + "/sock";
+  ASSERT_LT(sock_path.size(), sizeof(addr.sun_path));
+  std::copy(sock_path.begin(), sock_path.end(), addr.sun_path);
+  ASSERT_EQ(bind(sock, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)), 0);
+  const std::vector<std::string> before = Names(d);
+  const struct {
+    std::string path, words;
+  } cases[] = {
+      {d + "/fifo", "is a FIFO"},
+      {d + "/sock", "is a socket"},
+      {d + "/folder", "is a directory"},
+      {d + "/link", "is a symlink"},
+      {d + "/dangling", "is a dangling symlink"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.path);
+    const Status s = PrepareOutput(c.path);
+    ASSERT_TRUE(s.IsInvalidArgument()) << s.ToString();
+    EXPECT_EQ(s.message().substr(0, c.path.size() + 16 + c.words.size()),
+              c.path + ": cannot write: " + c.words);
+    const auto writer = AtomicFileWriter::Create(c.path);
+    EXPECT_TRUE(writer.status().IsInvalidArgument()) << writer.status().ToString();
+    EXPECT_TRUE(WriteFileAtomically(c.path, "y").IsInvalidArgument());
+  }
+  close(sock);
+  EXPECT_EQ(Names(d), before);  // no temporary, nothing replaced
+  EXPECT_TRUE(fs::is_fifo(d + "/fifo"));
+  EXPECT_TRUE(fs::is_symlink(d + "/link"));
+  EXPECT_EQ(ReadAll(d + "/target"), "x");
+}
+
+// A character device, checked on /dev/null: the refusal comes before any
+// temporary, and no writer here is ever committed, so even a broken check
+// would leave the device as it is (CI runs as root).
+TEST(PrepareOutput, RefusesACharacterDevice) {
+  const Status s = PrepareOutput("/dev/null");
+  ASSERT_TRUE(s.IsInvalidArgument()) << s.ToString();
+  EXPECT_EQ(s.message(), "/dev/null: cannot write: is a character device");
+  const auto writer = AtomicFileWriter::Create("/dev/null");
+  EXPECT_TRUE(writer.status().IsInvalidArgument()) << writer.status().ToString();
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+}
+
+TEST(ResolveOutput, RefusesAnInputByAnyName) {
+  TempDir dir;
+  const std::string d = dir.path();
+  Touch(d + "/in");
+  ASSERT_EQ(link((d + "/in").c_str(), (d + "/hard").c_str()), 0);
+  fs::create_symlink("in", d + "/soft");
+  OutputOptions options;
+  options.inputs = {d + "/other", d + "/in"};  // a missing input is not compared
+  for (const std::string& out : {d + "/in", d + "/./in", d + "/hard", d + "/soft"}) {
+    SCOPED_TRACE(out);
+    const Result<std::string> r = ResolveOutput(out, options);
+    ASSERT_TRUE(r.status().IsInvalidArgument()) << r.status().ToString();
+    EXPECT_NE(r.status().message().find(out + ": cannot write: is the input"), std::string::npos)
+        << r.status().ToString();
+    options.force = true;  // through a symlink too
+    EXPECT_TRUE(ResolveOutput(out, options).status().IsInvalidArgument());
+    options.force = false;
+  }
+  // A time series: any of its files.
+  options.inputs = {d + "/t0", d + "/t1", d + "/in"};
+  Touch(d + "/t0");
+  Touch(d + "/t1");
+  EXPECT_TRUE(ResolveOutput(d + "/t1", options).status().IsInvalidArgument());
+  const Result<std::string> fresh = ResolveOutput(d + "/new", options);
+  ASSERT_TRUE(fresh.ok()) << fresh.status().ToString();
+  EXPECT_EQ(*fresh, d + "/new");
+  EXPECT_EQ(ReadAll(d + "/in"), "x");
+}
+
+TEST(ResolveOutput, ForceWritesThroughASymlinkToAFileAndKeepsTheLink) {
+  TempDir dir;
+  const std::string d = dir.path();
+  fs::create_directory(d + "/real");
+  Touch(d + "/real/target");
+  fs::create_symlink("real/target", d + "/link");
+  fs::create_symlink("real/none", d + "/dangling");
+  fs::create_symlink("real", d + "/to_folder");
+  OutputOptions options;
+  EXPECT_TRUE(ResolveOutput(d + "/link", options).status().IsInvalidArgument());
+  options.force = true;
+  const Result<std::string> target = ResolveOutput(d + "/link", options);
+  ASSERT_TRUE(target.ok()) << target.status().ToString();
+  EXPECT_TRUE(fs::equivalent(*target, d + "/real/target"));
+  ASSERT_TRUE(WriteFileAtomically(*target, "new contents").ok());
+  EXPECT_TRUE(fs::is_symlink(d + "/link"));
+  EXPECT_EQ(fs::read_symlink(d + "/link"), "real/target");
+  EXPECT_EQ(ReadAll(d + "/link"), "new contents");
+  EXPECT_EQ(Names(d + "/real"), std::vector<std::string>{"target"});  // no temporary left
+  // Never through a dangling symlink or one to something not a file.
+  const Result<std::string> dangling = ResolveOutput(d + "/dangling", options);
+  ASSERT_TRUE(dangling.status().IsInvalidArgument());
+  EXPECT_NE(dangling.status().message().find("dangling symlink"), std::string::npos);
+  const Result<std::string> folder = ResolveOutput(d + "/to_folder", options);
+  ASSERT_TRUE(folder.status().IsInvalidArgument());
+  EXPECT_NE(folder.status().message().find("is a symlink to a directory"), std::string::npos);
+  // Without force PrepareOutput still refuses the link itself.
+  EXPECT_TRUE(PrepareOutput(d + "/link").IsInvalidArgument());
 }
 
 TEST(TemporaryFile, CommitsOrRemovesItselfAndLmdbsLock) {
