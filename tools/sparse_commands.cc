@@ -221,6 +221,10 @@ void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuild
       Convert(*dense, output, tolerance, quiet || as_json, options.memory_bytes);
   report.seconds += built->seconds;
   PrintSparseReport(report, output, as_json, quiet);
+  if (input.scaled() && !quiet && !as_json) {
+    fmt::print("  scaled: {} -> {}\n", FormatScaling(input),
+               VoxelTypeName(dense->header().voxel_type));
+  }
 }
 
 void RegisterConvertCommand(CLI::App& app) {

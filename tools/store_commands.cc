@@ -104,12 +104,16 @@ void RunImport(const ImportArgs& a) {
     j["grid_points_per_second"] = points_per_second;
     j["peak_memory_bytes"] = peak;
     j["file_bytes"] = h.file_size;
+    if (input.scaled()) j["scaling"] = {{"slope", input.scale}, {"intercept", input.shift}};
     std::cout << j.dump() << "\n";
   } else if (!a.quiet) {
     fmt::print("{}: {} over {} {} (domain 2^{} + 1 per axis, {} levels), {} errors, {}\n",
                a.output, h.dimension == 3 ? "HT" : "HP", FormatDims(h.dimension, h.dims),
                VoxelTypeName(h.voxel_type), h.domain_bits, h.leaf_level(),
                QuantizationName(h.quantization), a.compression);
+    if (input.scaled()) {
+      fmt::print("  scaled: {} -> {}\n", FormatScaling(input), VoxelTypeName(h.voxel_type));
+    }
     fmt::print("  built in {:.2f} s: {:.3g} grid points/s, {} nodes, peak memory {}\n",
                built->seconds, points_per_second, built->nodes, HumanBytes(peak));
     fmt::print("  {} on disk ({:.2f} bytes per grid point)\n", HumanBytes(h.file_size),
