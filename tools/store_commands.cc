@@ -292,6 +292,9 @@ void RegisterStoreCommands(CLI::App& app) {
         "builds a Hierarchy of Tetrahedra, a 4D one (or several 3D volumes, a time\n"
         "series) a Hierarchy of Pentatopes. Any grid size: the domain is the\n"
         "smallest cube of side 2^k + 1 points covering it (see README: padding).\n"
+        "NIfTI scl_slope/scl_inter are applied (a scaled integer volume is stored as\n"
+        "float32). NaN marks a missing value; Inf or a value beyond float32's range\n"
+        "(+-3.4e38) is an error naming the voxel, and nothing is written.\n"
         "Example: simplexdb import tooth.raw --dims 103,94,161 --type uint8 -o tooth.sdb");
     cmd->add_option("input", a->inputs, "volume file(s); several 3D files form a time series")
         ->required();

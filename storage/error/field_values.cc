@@ -30,7 +30,7 @@ Status CheckStorableValues(const VolumeInfo& volume, uint64_t first, const doubl
         "{}: value {} at voxel ({}){} is {}; a store holds finite float32 values (NaN marks a "
         "missing one)",
         file, v, at, volume.scaled() ? " (after scaling, " + FormatScaling(volume) + ")" : "",
-        std::isinf(v) ? "infinite" : fmt::format("beyond float32's range (+-{})", kMax)));
+        std::isinf(v) ? "infinite" : fmt::format("beyond float32's range (+-{:.6g})", kMax)));
   }
   return Status::OK();
 }
