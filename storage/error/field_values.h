@@ -9,6 +9,7 @@
 // writer's tests) want them as they are.
 //
 // Thread safety: pure functions; reentrant.
+// Lifetimes: nothing is kept.
 // Errors: InvalidArgument (below).
 #pragma once
 
