@@ -221,6 +221,10 @@ void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuild
       Convert(*dense, output, tolerance, quiet || as_json, options.memory_bytes);
   report.seconds += built->seconds;
   PrintSparseReport(report, output, as_json, quiet);
+  if (input.scaled() && !quiet && !as_json) {
+    fmt::print("  scaled: {} -> {}\n", FormatScaling(input),
+               VoxelTypeName(dense->header().voxel_type));
+  }
 }
 
 void RegisterConvertCommand(CLI::App& app) {
@@ -326,9 +330,9 @@ void RegisterUpdateCommand(CLI::App& app) {
       "see the old store or the new one, never a mix. Every node whose simplex meets the\n"
       "box is recomputed from VOLUME (a whole simplex, so the top levels read all of it),\n"
       "nodes appear or vanish by the store's tolerance, vertex values in the box follow.\n"
-      "VOLUME must have the store's grid and voxel type (or, with --mask, the integer type\n"
-      "the store was imported from), and its values in the box must lie in the store's\n"
-      "field range (it fixes the error quantum).\n"
+      "VOLUME must have the store's grid and voxel type (or, with --mask or NIfTI scaling,\n"
+      "the integer type the store was imported from), and its values in the box must lie\n"
+      "in the store's field range (it fixes the error quantum).\n"
       "Example: simplexdb update tooth.lmdb tooth-fixed.nrrd --box 10,10,10,40,40,40");
   cmd->add_option("store", a->store, "the sparse store to update")->required();
   cmd->add_option("volume", a->input, "the new volume (NRRD or NIfTI-1)")->required();

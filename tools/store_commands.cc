@@ -114,12 +114,16 @@ void RunImport(ImportArgs a) {
     j["grid_points_per_second"] = points_per_second;
     j["peak_memory_bytes"] = peak;
     j["file_bytes"] = h.file_size;
+    if (input.scaled()) j["scaling"] = {{"slope", input.scale}, {"intercept", input.shift}};
     std::cout << j.dump() << "\n";
   } else if (!a.quiet) {
     fmt::print("{}: {} over {} {} (domain 2^{} + 1 per axis, {} levels), {} errors, {}\n",
                a.output, h.dimension == 3 ? "HT" : "HP", FormatDims(h.dimension, h.dims),
                VoxelTypeName(h.voxel_type), h.domain_bits, h.leaf_level(),
                QuantizationName(h.quantization), a.compression);
+    if (input.scaled()) {
+      fmt::print("  scaled: {} -> {}\n", FormatScaling(input), VoxelTypeName(h.voxel_type));
+    }
     fmt::print("  built in {:.2f} s: {:.3g} grid points/s, {} nodes, peak memory {}\n",
                built->seconds, points_per_second, built->nodes, HumanBytes(peak));
     fmt::print("  {} on disk ({:.2f} bytes per grid point)\n", HumanBytes(h.file_size),
@@ -300,6 +304,9 @@ void RegisterStoreCommands(CLI::App& app) {
         "builds a Hierarchy of Tetrahedra, a 4D one (or several 3D volumes, a time\n"
         "series) a Hierarchy of Pentatopes. Any grid size: the domain is the\n"
         "smallest cube of side 2^k + 1 points covering it (see README: padding).\n"
+        "NIfTI scl_slope/scl_inter are applied (a scaled integer volume is stored as\n"
+        "float32). NaN marks a missing value; Inf or a value beyond float32's range\n"
+        "(+-3.4e38) is an error naming the voxel, and nothing is written.\n"
         "Example: simplexdb import tooth.raw --dims 103,94,161 --type uint8 -o tooth.sdb");
     cmd->add_option("input", a->inputs, "volume file(s); several 3D files form a time series")
         ->required();

@@ -19,6 +19,7 @@
 #include "storage/io/file.h"
 #include "storage/dense/layout.h"
 #include "storage/dense/parallel_run.h"
+#include "storage/error/field_values.h"
 #include "storage/error/mask.h"
 #include "storage/error/quantize.h"
 #include "storage/error/unit_errors.h"
@@ -79,7 +80,7 @@ class Builder {
         k_(std::max(1, DomainBitsFor(D, input.dims))),
         layout_(D * k_, options.levels_per_block),
         bricks_(D, input.dims, options.brick_bits > 0 ? options.brick_bits : (D == 3 ? 5 : 4)),
-        store_type_(StoredVoxelType(input.type, options.mask.has_value())),
+        store_type_(StoredVoxelType(input, options.mask.has_value())),
         exact_(!IsFloatType(store_type_)),
         start_(Clock::now()) {}
 
@@ -307,13 +308,8 @@ Status Builder<D>::WriteBrickRow(uint64_t row, VolumeReader& reader, VolumeReade
       SDB_RETURN_IF_ERROR(mask->Read(first, x_size, mask_row.data()));
       ApplyMask(mask_row.data(), x_size, out);
     }
+    SDB_RETURN_IF_ERROR(CheckStorableValues(input_, first, out, x_size));
     for (uint32_t x = 0; x < x_size; ++x) {
-      if (std::isinf(out[x])) {
-        return Status::InvalidArgument(
-            input_.description + ": voxel (" + std::to_string(x) + ", " + std::to_string(y) +
-            ", " + std::to_string(z) + (D == 4 ? ", " + std::to_string(t) : std::string()) +
-            ") is infinite; a store needs finite values (NaN marks a missing one)");
-      }
       // NaN: a missing value. The range and the minima below skip it (a
       // comparison with NaN is false).
       missing = missing || std::isnan(out[x]);

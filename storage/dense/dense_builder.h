@@ -68,7 +68,8 @@ struct DenseBuildReport {
 };
 
 // Builds `out_path` from `input` (3D: HT, 4D: HP). Fails with a message
-// naming the input or the output: infinite values, a mask of another grid,
+// naming the input or the output: infinite values or values beyond
+// float32's range (storage/error/field_values.h), a mask of another grid,
 // unreadable or truncated input, a full disk (ResourceExhausted), a volume
 // too large for the 64-bit location code, a grid whose block index, rows
 // and units need more than half of `memory_bytes` (ResourceExhausted, with

@@ -9,6 +9,10 @@ VoxelType StoredVoxelType(VoxelType input, bool masked) {
   return masked && !IsFloatType(input) ? VoxelType::kF32 : input;
 }
 
+VoxelType StoredVoxelType(const VolumeInfo& input, bool masked) {
+  return StoredVoxelType(input.type, masked || input.scaled());
+}
+
 void ApplyMask(const double* mask, size_t count, double* values) {
   for (size_t i = 0; i < count; ++i) {
     if (mask[i] == 0 || std::isnan(mask[i])) values[i] = std::numeric_limits<double>::quiet_NaN();

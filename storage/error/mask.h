@@ -24,6 +24,9 @@ namespace simplexdb {
 // with a mask, so masked points can hold NaN (exact for every 8- and 16-bit
 // value); `input` otherwise.
 VoxelType StoredVoxelType(VoxelType input, bool masked);
+// The same for a volume: also float32 for a scaled() integer volume (its
+// values are not integers any more); a scaled float64 volume stays float64.
+VoxelType StoredVoxelType(const VolumeInfo& input, bool masked);
 
 // values[i] becomes NaN where mask[i] is 0 or NaN, for i < count.
 // REQUIRES: both buffers hold `count` values.

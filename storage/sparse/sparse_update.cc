@@ -12,6 +12,7 @@
 #include "hierarchy/cluster.h"
 #include "hierarchy/geometry.h"
 #include "storage/io/lmdb.h"
+#include "storage/error/field_values.h"
 #include "storage/error/mask.h"
 #include "storage/error/quantize.h"
 #include "storage/error/unit_errors.h"
@@ -115,11 +116,12 @@ class Updater {
   // builder stores them).
   Status Read(uint64_t first, size_t count, double* out) {
     SDB_RETURN_IF_ERROR(reader_.Read(first, count, out));
-    if (mask_ == nullptr) return Status::OK();
-    mask_row_.resize(count);
-    SDB_RETURN_IF_ERROR(mask_->Read(first, count, mask_row_.data()));
-    ApplyMask(mask_row_.data(), count, out);
-    return Status::OK();
+    if (mask_ != nullptr) {
+      mask_row_.resize(count);
+      SDB_RETURN_IF_ERROR(mask_->Read(first, count, mask_row_.data()));
+      ApplyMask(mask_row_.data(), count, out);
+    }
+    return CheckStorableValues(volume_, first, out, count);
   }
 
   // Reads a unit's region (its box set), clamped to the real grid, row by
@@ -572,14 +574,17 @@ Result<SparseUpdateReport> UpdateSparseStore(const std::string& path, const Volu
     h = store->header();
   }
   const int d = h.dimension;
-  const VoxelType type = StoredVoxelType(volume.type, options.mask.has_value());
+  const VoxelType type = StoredVoxelType(volume, options.mask.has_value());
   bool same = volume.dimension == d && type == h.voxel_type;
   for (int c = 0; c < d && same; ++c) same = volume.dims[c] == h.dims[c];
   if (!same) {
     return Status::InvalidArgument(fmt::format(
         "{} is {}D {} of {}{}, but the store {} holds {}D {} of {}", volume.description,
         volume.dimension, VoxelTypeName(volume.type), FormatDims(volume.dimension, volume.dims),
-        options.mask ? " (masked: float32)" : "", path, d, VoxelTypeName(h.voxel_type),
+        options.mask      ? " (masked: float32)"
+        : volume.scaled() ? " (scaled: " + FormatScaling(volume) + ")"
+                          : "",
+        path, d, VoxelTypeName(h.voxel_type),
         FormatDims(d, h.dims)));
   }
   if (options.mask) {

@@ -29,6 +29,8 @@ constexpr size_t kNiftiDatatype = 70;   // int16
 constexpr size_t kNiftiBitpix = 72;     // int16
 constexpr size_t kNiftiPixdim = 76;     // float32 pixdim[8]
 constexpr size_t kNiftiVoxOffset = 108; // float32
+constexpr size_t kNiftiSclSlope = 112;  // float32
+constexpr size_t kNiftiSclInter = 116;  // float32
 constexpr size_t kNiftiMagic = 344;     // char[4]
 
 // Reads integers and floats of the header in its byte order.
@@ -193,6 +195,12 @@ Result<VolumeInfo> OpenNifti(const std::string& path) {
   info.files = {path};
   info.offset = static_cast<uint64_t>(vox_offset);
   info.description = "NIfTI-1 file " + path;
+  // value = scl_slope * stored + scl_inter; slope 0 means no scaling.
+  const float slope = f.F32(kNiftiSclSlope), inter = f.F32(kNiftiSclInter);
+  if (std::isfinite(slope) && slope != 0) {
+    info.scale = static_cast<double>(slope);
+    info.shift = std::isfinite(inter) ? static_cast<double>(inter) : 0.0;
+  }
   DropSingleTimeStep(info);
   SDB_RETURN_IF_ERROR(ValidateGrid(path, info.dimension, info.dims));
   SDB_RETURN_IF_ERROR(CheckDataFiles(info, TruncatedData));

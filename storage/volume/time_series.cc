@@ -55,6 +55,8 @@ Result<VolumeInfo> OpenTimeSeries(const std::vector<std::string>& paths) {
     } else if (v.encoding != series.encoding) {
       return mismatch("encoding", v.encoding == Encoding::kGzip ? "gzip" : "raw",
                       series.encoding == Encoding::kGzip ? "gzip" : "raw");
+    } else if (v.scale != series.scale || v.shift != series.shift) {
+      return mismatch("scaling", FormatScaling(v), FormatScaling(series));
     } else if (v.files.size() != files_per_step) {
       // Every data file of a volume holds as many voxels (VolumeInfo), so
       // every time step must be split into as many files as the first.

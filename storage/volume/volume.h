@@ -101,6 +101,10 @@ struct VolumeInfo {
   // files whose headers differ in length). Use offset_of().
   std::vector<uint64_t> file_offsets;
   std::array<double, 4> spacing = {1, 1, 1, 1};  // metadata only
+  // Values are scale * stored + shift (NIfTI scl_slope and scl_inter);
+  // VolumeReader applies them. Identity (1, 0) for every other format.
+  double scale = 1;
+  double shift = 0;
   std::string description;  // e.g. "NIfTI-1 file example4d.nii", for messages
 
   // Product of the dims. O(1).
@@ -110,10 +114,17 @@ struct VolumeInfo {
   uint64_t voxels_per_file() const;
   // Where the voxels of files[i] start. REQUIRES: i < files.size().
   uint64_t offset_of(size_t i) const;
+  // True when scale/shift change the stored values: the values are then
+  // not of `type` but doubles (stores keep them as float32 or float64).
+  bool scaled() const { return scale != 1 || shift != 0; }
 };
 
 // "128x96x24x2" (the used axes only).
 std::string FormatDims(int dimension, const std::array<uint32_t, 4>& dims);
+
+// "slope 2.5, intercept -1" (the shortest text of each that reads back
+// exactly): a volume's scale and shift, for messages.
+std::string FormatScaling(const VolumeInfo& info);
 
 // Checks the grid rules above for a volume named `what` (prefixed to the
 // message): InvalidArgument for dims of 0 or 1 in a used axis, unused axes
@@ -157,7 +168,10 @@ Result<VolumeInfo> OpenNrrd(const std::string& path);
 // 64 float64, 256 int8, 512 uint16; others (int32, RGB, complex, ...) are
 // NotSupported naming the code. dim[0] must be 3 or 4 (higher with trailing
 // dims of 1). Voxels start at vox_offset (>= 352). scl_slope and scl_inter
-// are ignored: values are returned as stored in the file, unscaled. The
+// scale the values as the NIfTI-1 standard says: value = scl_slope * stored
+// + scl_inter, unless scl_slope is 0 (no scaling); a slope that is not
+// finite means no scaling and an intercept that is not finite means 0 (as
+// nibabel reads them). They become VolumeInfo::scale and shift. The
 // orientation (qform/sform) is ignored; spacing is |pixdim[1..4]|.
 // .nii.gz is not read (NotSupported from OpenVolume: gunzip it first).
 // O(1): reads the 348-byte header.
@@ -176,7 +190,10 @@ Result<VolumeInfo> OpenTimeSeries(const std::vector<std::string>& paths);
 // --type.
 Result<VolumeInfo> OpenVolume(const std::string& path);
 
-// Streams voxels as doubles (lossless for all six types).
+// Streams voxels as doubles (lossless for all six types), scaled by
+// VolumeInfo::scale and shift when scaled(). Values are returned as they are
+// (NaN, infinities, any float64); builders check what a store can hold
+// (storage/error/field_values.h).
 //
 // Sequential reads are the fast path: raw files are read through a 1 MiB
 // read-ahead buffer (so reading x-rows one by one costs about one system

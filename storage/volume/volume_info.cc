@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <charconv>
 #include <limits>
 #include <string>
 #include <utility>
@@ -36,6 +37,15 @@ std::string FormatDims(int dimension, const std::array<uint32_t, 4>& dims) {
     s += std::to_string(dims[static_cast<size_t>(i)]);
   }
   return s;
+}
+
+std::string FormatScaling(const VolumeInfo& info) {
+  const auto shortest = [](double v) {
+    char buf[64];
+    const auto r = std::to_chars(buf, buf + sizeof(buf), v);
+    return std::string(buf, r.ptr);
+  };
+  return "slope " + shortest(info.scale) + ", intercept " + shortest(info.shift);
 }
 
 Status ValidateGrid(const std::string& what, int dimension,

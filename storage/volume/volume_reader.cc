@@ -214,6 +214,9 @@ Status VolumeReader::Read(uint64_t first, size_t count, double* out) {
       return s;
     }
     DecodeVoxels(info_.type, info_.order, bytes_.data(), n, out);
+    if (info_.scaled()) {
+      for (size_t i = 0; i < n; ++i) out[i] = info_.scale * out[i] + info_.shift;
+    }
     out += n;
     first += n;
     count -= n;

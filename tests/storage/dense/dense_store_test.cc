@@ -232,6 +232,46 @@ TEST(DenseStore, RejectsInfiniteInput) {
   }
 }
 
+// A float32 store's block statistics cannot hold a float64 beyond float32's
+// range: the build fails naming the file, value and voxel, before writing.
+TEST(DenseStore, RejectsValuesBeyondFloat32) {
+  const TempDir dir;
+  struct Bad {
+    int dimension;
+    size_t at;
+    double value;
+    std::string expected;
+  };
+  const Bad cases[] = {
+      {3, 42, 1e39, "value 1e+39 at voxel (2, 3, 1) is beyond float32's range"},
+      {3, 124, -4e38, "value -4e+38 at voxel (4, 4, 4) is beyond float32's range"},
+      // 4D (HP): x, y, z, t.
+      {4, 3 + 4 * (1 + 4 * (2 + 4 * 1)), 1e300,
+       "value 1e+300 at voxel (3, 1, 2, 1) is beyond float32's range"},
+      {4, 5, std::numeric_limits<double>::infinity(), "value inf at voxel (1, 1, 0, 0) is infinite"},
+  };
+  for (const Bad& c : cases) {
+    SCOPED_TRACE(c.expected);
+    const std::array<uint32_t, 4> dims =
+        c.dimension == 3 ? std::array<uint32_t, 4>{5, 5, 5, 1} : std::array<uint32_t, 4>{4, 4, 4, 2};
+    TestVolume volume = TestVolume::Random(c.dimension, dims, VoxelType::kF64, 7);
+    volume.values[c.at] = c.value;
+    const std::string input = dir.path() + "/big.nrrd";
+    ASSERT_TRUE(volume.WriteNrrd(input).ok());
+    const Result<DenseBuildReport> r =
+        BuildDenseStore(*OpenVolume(input), dir.path() + "/s.sdb", {});
+    ASSERT_FALSE(r.ok());
+    EXPECT_TRUE(r.status().IsInvalidArgument()) << r.status().ToString();
+    EXPECT_NE(r.status().message().find("NRRD file " + input + ": " + c.expected),
+              std::string_view::npos)
+        << r.status().ToString();
+    EXPECT_FALSE(std::filesystem::exists(dir.path() + "/s.sdb"));
+    for (const auto& e : std::filesystem::directory_iterator(dir.path())) {
+      EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << e.path();
+    }
+  }
+}
+
 // A mask is the same as NaN: an integer volume with a mask builds the store
 // a float32 volume with NaN at the masked points builds (whose errors the
 // brute-force test above checks), entry for entry.

@@ -15,8 +15,10 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace simplexdb {
@@ -167,6 +169,8 @@ struct NiftiSpec {
   float vox_offset = 352;
   std::array<float, 8> pixdim = {1, 1, 1, 1, 1, 1, 1, 1};
   std::string magic = std::string("n+1\0", 4);
+  float scl_slope = 0;  // 0: no scaling
+  float scl_inter = 0;
 };
 
 std::string MakeNifti(const NiftiSpec& s, const std::string& data) {
@@ -183,8 +187,8 @@ std::string MakeNifti(const NiftiSpec& s, const std::string& data) {
   put(72, static_cast<uint16_t>(s.bitpix), 2);
   for (size_t i = 0; i < 8; ++i) put(76 + 4 * i, std::bit_cast<uint32_t>(s.pixdim[i]), 4);
   put(108, std::bit_cast<uint32_t>(s.vox_offset), 4);
-  put(112, std::bit_cast<uint32_t>(2.0f), 4);  // scl_slope: ignored by design
-  put(116, std::bit_cast<uint32_t>(10.0f), 4);  // scl_inter: ignored by design
+  put(112, std::bit_cast<uint32_t>(s.scl_slope), 4);
+  put(116, std::bit_cast<uint32_t>(s.scl_inter), 4);
   std::memcpy(h.data() + 344, s.magic.data(), 4);
   h.resize(static_cast<size_t>(s.vox_offset), '\0');
   return h + data;
@@ -813,9 +817,100 @@ TEST(Nifti, BothByteOrdersAndUnscaledValues) {
     EXPECT_EQ(info->type, VoxelType::kF32);
     EXPECT_EQ(info->offset, 368u);
     EXPECT_EQ(info->spacing, (std::array<double, 4>{0.5, 0.75, 2, 3}));
-    // scl_slope 2 and scl_inter 10 are in the header; values come back raw.
+    // scl_slope 0 means no scaling, whatever scl_inter says.
+    EXPECT_FALSE(info->scaled());
     EXPECT_EQ(ReadAll(*info), values);
   }
+}
+
+TEST(Nifti, SclSlopeAndSclInterScaleTheValues) {
+  TempDir dir;
+  // int16 stored values and, worked out by hand, 0.5 * stored + 10.
+  const std::vector<double> stored = {-32768, -21, -1, 0, 1, 3, 100, 32767};
+  const std::vector<double> scaled = {-16374, -0.5, 9.5, 10, 10.5, 11.5, 60, 16393.5};
+  for (ByteOrder order : {ByteOrder::kLittle, ByteOrder::kBig}) {
+    SCOPED_TRACE(std::string(ByteOrderName(order)));
+    NiftiSpec spec;
+    spec.order = order;
+    spec.scl_slope = 0.5f;
+    spec.scl_inter = 10.0f;
+    const std::string path = dir / ("s_" + std::string(ByteOrderName(order)) + ".nii");
+    WriteFile(path, MakeNifti(spec, Encode(VoxelType::kI16, order, stored)));
+    auto info = OpenNifti(path);
+    ASSERT_TRUE(info.ok()) << info.status().ToString();
+    EXPECT_EQ(info->type, VoxelType::kI16);  // as stored; the values are doubles
+    EXPECT_TRUE(info->scaled());
+    EXPECT_EQ(info->scale, 0.5);
+    EXPECT_EQ(info->shift, 10.0);
+    EXPECT_EQ(FormatScaling(*info), "slope 0.5, intercept 10");
+    EXPECT_EQ(ReadAll(*info), scaled);
+    // A read from the middle scales too.
+    auto reader = VolumeReader::Open(*info);
+    ASSERT_TRUE(reader.ok()) << reader.status().ToString();
+    double v = 0;
+    ASSERT_TRUE((*reader)->Read(5, 1, &v).ok());
+    EXPECT_EQ(v, 11.5);
+  }
+}
+
+TEST(Nifti, SlopeOneInterceptZeroAndBadSlopesAreNoScaling) {
+  TempDir dir;
+  const std::vector<double> stored = {0, 1, 2, 3, 4, 5, 6, 7};
+  const std::pair<float, float> cases[] = {
+      {1.0f, 0.0f},  // the identity
+      {0.0f, 5.0f},  // slope 0: no scaling, the intercept is not applied
+      {std::numeric_limits<float>::quiet_NaN(), 5.0f},
+      {std::numeric_limits<float>::infinity(), 5.0f},
+  };
+  for (const auto& [slope, inter] : cases) {
+    SCOPED_TRACE(std::to_string(slope) + " " + std::to_string(inter));
+    NiftiSpec spec;
+    spec.scl_slope = slope;
+    spec.scl_inter = inter;
+    const std::string path = dir / "n.nii";
+    WriteFile(path, MakeNifti(spec, Encode(VoxelType::kI16, ByteOrder::kLittle, stored)));
+    auto info = OpenNifti(path);
+    ASSERT_TRUE(info.ok()) << info.status().ToString();
+    EXPECT_FALSE(info->scaled());
+    EXPECT_EQ(ReadAll(*info), stored);
+  }
+  // A slope with an intercept that is not finite: the intercept is 0.
+  NiftiSpec spec;
+  spec.scl_slope = -2.0f;
+  spec.scl_inter = std::numeric_limits<float>::quiet_NaN();
+  const std::string path = dir / "m.nii";
+  WriteFile(path, MakeNifti(spec, Encode(VoxelType::kI16, ByteOrder::kLittle, stored)));
+  auto info = OpenNifti(path);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(ReadAll(*info), (std::vector<double>{0, -2, -4, -6, -8, -10, -12, -14}));
+}
+
+TEST(Nifti, TimeSeriesStepsMustScaleAlike) {
+  TempDir dir;
+  const std::vector<double> stored = {0, 1, 2, 3, 4, 5, 6, 7};
+  const auto write = [&](const std::string& name, float slope, float inter) {
+    NiftiSpec spec;
+    spec.scl_slope = slope;
+    spec.scl_inter = inter;
+    const std::string path = dir / name;
+    WriteFile(path, MakeNifti(spec, Encode(VoxelType::kI16, ByteOrder::kLittle, stored)));
+    return path;
+  };
+  const std::string a = write("a.nii", 2, 1), b = write("b.nii", 2, 1), c = write("c.nii", 3, 1);
+  auto same = OpenTimeSeries({a, b});
+  ASSERT_TRUE(same.ok()) << same.status().ToString();
+  std::vector<double> expected;
+  for (int step = 0; step < 2; ++step) {
+    for (double v : stored) expected.push_back(2 * v + 1);
+  }
+  EXPECT_EQ(ReadAll(*same), expected);
+  auto mixed = OpenTimeSeries({a, c});
+  ASSERT_FALSE(mixed.ok());
+  EXPECT_TRUE(mixed.status().IsInvalidArgument()) << mixed.status().ToString();
+  EXPECT_NE(mixed.status().message().find(c + ": time step 1 has scaling slope 3, intercept 1, "
+                                          "expected slope 2, intercept 1"),
+            std::string::npos)
+      << mixed.status().ToString();
 }
 
 TEST(Nifti, EverySupportedDatatypeCode) {
