@@ -66,7 +66,8 @@ struct DenseBuildReport {
 // Builds `out_path` from `input` (3D: HT, 4D: HP). Fails with a message
 // naming the input or the output: infinite values, a mask of another grid,
 // unreadable or truncated input, a full disk (ResourceExhausted), a volume
-// too large for the 64-bit location code.
+// too large for the 64-bit location code, not enough memory for the buffers
+// (ResourceExhausted "not enough memory for ...").
 Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,
                                          const DenseBuildOptions& options);
 
