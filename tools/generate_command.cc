@@ -151,7 +151,11 @@ void RunTo4d(const To4dArgs& a) {
     steps = std::min(steps, a.subgrid * a.subgrid * a.subgrid);
   }
   Result<SubgridTimeVolume> out = SubgridsToTime(in, a.subgrid, steps);
-  if (!out.ok()) throw CommandError(std::string(out.status().message()), 2);
+  if (!out.ok()) {
+    // Bad --subgrid/--steps are usage errors; no memory or a bad read are not.
+    throw CommandError(std::string(out.status().message()),
+                       out.status().IsInvalidArgument() ? 2 : 1);
+  }
   if (Status s = WriteNrrd(a.output, 4, out->dims, in.type, out->values); !s.ok()) Fail(s);
   if (!a.quiet) {
     fmt::print("{}: {} from {} ({}), {}^3 subgrids as {} time steps\n", a.output,
