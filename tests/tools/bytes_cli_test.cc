@@ -257,5 +257,31 @@ TEST(BytesCli, To4dUnderAnAddressSpaceLimitSaysWhatDidNotFit) {
   EXPECT_TRUE(named);
 }
 
+// generate's worker threads: an exception there used to abort (exit 134).
+TEST(BytesCli, GenerateUnderAnAddressSpaceLimitSaysWhatDidNotFit) {
+#if defined(SDB_TEST_SANITIZED)
+  GTEST_SKIP() << "sanitizers reserve terabytes of address space: RLIMIT_AS cannot apply";
+#endif
+  const TempDir dir;
+  bool named = false, succeeded = false;
+  for (uint64_t mib = 16; mib <= 2048 && !succeeded; mib += 4) {
+    SCOPED_TRACE("address space limit " + std::to_string(mib) + " MiB");
+    std::string err;
+    const int code = RunCliWithAddressLimit(
+        {"generate", "--field", "perlin", "--dims", "129,129,129", "--type", "float32",
+         "--threads", "2", "-o", dir.path() + "/g.nrrd"},
+        mib << 20, dir.path() + "/err.txt", &err);
+    if (code == 0) {
+      succeeded = true;
+      continue;
+    }
+    ASSERT_EQ(code, 1) << err;
+    EXPECT_NE(err.find("not enough memory"), std::string::npos) << err;
+    named = named || err.find("not enough memory for a generated chunk") != std::string::npos;
+  }
+  EXPECT_TRUE(succeeded);
+  EXPECT_TRUE(named);
+}
+
 }  // namespace
 }  // namespace simplexdb
