@@ -18,6 +18,7 @@
 #include "hierarchy/tri_code.h"
 #include "hierarchy/tri_geometry.h"
 #include "hierarchy/tri_neighbors.h"
+#include "tools/cli_util.h"
 #include "tools/commands.h"
 
 namespace simplexdb::tools {
@@ -115,6 +116,10 @@ json DescribeJson(TriCode<P> code) {
   return j;
 }
 
+// Far longer than any code ("T:" and at most 56 bits): a longer line is
+// reported by its length, not quoted whole.
+constexpr size_t kMaxCodeLineBytes = 256;
+
 template <class Code>
 void RunCodes() {
   std::string line;
@@ -124,12 +129,20 @@ void RunCodes() {
     ++line_number;
     const std::string_view text = Trim(line);
     if (text.empty()) continue;
-    const Result<Code> code = Code::Parse(text);
+    const Result<Code> code = text.size() <= kMaxCodeLineBytes
+                                  ? Code::Parse(text)
+                                  : Result<Code>(Status::InvalidArgument(fmt::format(
+                                        "a line of {} bytes is too long to be a location code",
+                                        text.size())));
     if (!code.ok()) {
       // Keep the output aligned with the input: one object per code line.
+      // Any bytes may come in; the JSON stays valid UTF-8 (SetJsonBytes).
       ++bad;
       const std::string why = std::string(code.status().message());
-      std::cout << json{{"code", std::string(text)}, {"error", why}}.dump() << '\n';
+      json j;
+      SetJsonBytes(j, "code", text.substr(0, Utf8PrefixLength(text, kMaxCodeLineBytes)));
+      j["error"] = ToValidUtf8(why);
+      std::cout << j.dump() << '\n';
       std::cerr << fmt::format("simplexdb codes: line {}: {}\n", line_number, why);
       continue;
     }
@@ -292,7 +305,9 @@ void RegisterCodesCommand(CLI::App& app) {
       "right on the solid inscribed in the unit sphere; neighbors left, right,\n"
       "vertical; four children (null at level 27 on the icosahedron, 28 on the\n"
       "others); an empty cluster. A line that is not a code gets\n"
-      "{\"code\",\"error\"} and the exit status is 1.");
+      "{\"code\",\"error\"} (and \"code_hex\", its bytes in hex, when the\n"
+      "line is not UTF-8; a line over 256 bytes is cut there) and the exit\n"
+      "status is 1.");
   auto hierarchy = AddHierarchyOption(cmd, /*required=*/true);
   cmd->callback(
       [hierarchy] { WithCodeType(*hierarchy, []<class Code>() { RunCodes<Code>(); }); });

@@ -3,6 +3,7 @@
 // leaf codes.
 #include <cstdio>
 #include <memory>
+#include <new>
 #include <optional>
 #include <string>
 #include <vector>
@@ -21,6 +22,7 @@
 #include "storage/io/file.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
+#include "util/out_of_memory.h"
 
 namespace simplexdb::tools {
 namespace {
@@ -139,7 +141,12 @@ void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nul
   options.max_seconds = a.time_limit;
   Refiner<D, Source> refiner(source, *criteria);
   QueryStats stats;
-  if (Status s = refiner.Run(options, mesh, stats); !s.ok()) Fail(s);
+  try {
+    if (Status s = refiner.Run(options, mesh, stats); !s.ok()) Fail(s);
+  } catch (const std::bad_alloc&) {
+    Fail(NotEnoughMemory("the mesh refined from " + info.path,
+                         fmt::format("{} simplices so far", mesh.leaf_count())));
+  }
 
   std::optional<ConformityReport> check;
   std::vector<SimplexCode<D>> leaves;
@@ -171,7 +178,7 @@ void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nul
     if constexpr (D == 4) WriteSliceSeries(mesh, source, slices, a.output);
   }
   json j;
-  j["store"] = info.path;
+  SetJsonBytes(j, "store", info.path);
   j["hierarchy"] = D == 3 ? "ht" : "hp";
   j["algorithm"] = AlgorithmName(*algorithm);
   j["threshold"] = criteria->threshold;
@@ -236,8 +243,16 @@ void RunExtract(ExtractArgs a) {
   options.cache_bytes = a.cache_mb << 20;
   Result<AnyStore> store = AnyStore::Open(a.store, options);
   if (!store.ok()) Fail(store.status());
-  const Status s =
-      store->Visit([&]<int D, class Source>(Source& source) { Extract<D>(source, a, store->dense()); });
+  Status s;
+  try {
+    s = store->Visit(
+        [&]<int D, class Source>(Source& source) { Extract<D>(source, a, store->dense()); });
+  } catch (const std::bad_alloc&) {
+    // After the refinement (which names itself): the leaves, the slice,
+    // the output's cells.
+    Fail(NotEnoughMemory("the mesh extracted from " + a.store + " and its output",
+                         "size not known"));
+  }
   if (!s.ok()) Fail(s);
 }
 
@@ -246,7 +261,7 @@ void RunConformity(const std::string& path) {
   const std::vector<SimplexCode<D>> leaves = ReadCodes<D>(path);
   const ConformityReport r = CheckConformity<D>(leaves);
   json j;
-  j["file"] = path;
+  SetJsonBytes(j, "file", path);
   j["simplices"] = r.simplices;
   j["conforming"] = r.ok;
   j["interior_faces"] = r.interior_faces;

@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <new>
 #include <string>
 #include <thread>
 #include <vector>
@@ -22,6 +24,7 @@
 #include "storage/volume/voxel_type.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
+#include "util/out_of_memory.h"
 
 namespace simplexdb::tools {
 namespace {
@@ -98,28 +101,47 @@ void RunGenerate(const GenerateArgs& a) {
   std::string failure;
   std::mutex mu;
   const int threads = a.threads > 0 ? a.threads : std::max(1u, std::thread::hardware_concurrency());
+  const auto fail = [&](std::string why) {
+    std::lock_guard<std::mutex> lock(mu);
+    if (!failed.exchange(true)) failure = std::move(why);
+  };
   std::vector<std::thread> pool;
-  for (int w = 0; w < threads; ++w) {
-    pool.emplace_back([&] {
-      std::vector<double> values;
-      std::vector<uint8_t> bytes;
-      for (uint64_t c; !failed && (c = next.fetch_add(1)) < chunks;) {
-        const uint64_t first = c * kChunk;
-        const size_t count = static_cast<size_t>(std::min(kChunk, total - first));
+  pool.reserve(static_cast<size_t>(threads));
+  const auto worker = [&] {
+    std::vector<double> values;
+    std::vector<uint8_t> bytes;
+    for (uint64_t c; !failed && (c = next.fetch_add(1)) < chunks;) {
+      const uint64_t first = c * kChunk;
+      const size_t count = static_cast<size_t>(std::min(kChunk, total - first));
+      try {  // out of a thread an exception would abort the process
         values.resize(count);
-        generator.Fill(first, count, values.data());
-        for (double& v : values) v = Representable(*type, v);
         bytes.resize(count * vsize);
-        EncodeVoxels(*type, ByteOrder::kLittle, values.data(), count,
-                     reinterpret_cast<std::byte*>(bytes.data()));
-        Status s = out.WriteAt(header.size() + first * vsize, bytes);
-        if (!s.ok()) {
-          std::lock_guard<std::mutex> lock(mu);
-          if (!failed.exchange(true)) failure = std::string(s.message());
-        }
-        done.fetch_add(1);
+      } catch (const std::bad_alloc&) {
+        fail(std::string(NotEnoughMemory("a generated chunk of " + std::to_string(count) +
+                                             " values",
+                                         count * (sizeof(double) + vsize))
+                             .message()));
+        break;
       }
-    });
+      generator.Fill(first, count, values.data());
+      for (double& v : values) v = Representable(*type, v);
+      EncodeVoxels(*type, ByteOrder::kLittle, values.data(), count,
+                   reinterpret_cast<std::byte*>(bytes.data()));
+      Status s = out.WriteAt(header.size() + first * vsize, bytes);
+      if (!s.ok()) fail(std::string(s.message()));
+      done.fetch_add(1);
+    }
+  };
+  for (int w = 0; w < threads; ++w) {
+    try {
+      pool.emplace_back(worker);
+    } catch (const std::exception&) {  // system_error or bad_alloc: no room for a thread
+      fail(std::string(NotEnoughMemory("generator thread " + std::to_string(w + 1) + " of " +
+                                           std::to_string(threads),
+                                       "its stack")
+                           .message()));
+      break;
+    }
   }
   ProgressLine line(!a.quiet);
   while (done.load() < chunks && !failed.load()) {
@@ -156,7 +178,11 @@ void RunTo4d(To4dArgs a) {
     steps = std::min(steps, a.subgrid * a.subgrid * a.subgrid);
   }
   Result<SubgridTimeVolume> out = SubgridsToTime(in, a.subgrid, steps);
-  if (!out.ok()) throw CommandError(std::string(out.status().message()), 2);
+  if (!out.ok()) {
+    // Bad --subgrid/--steps are usage errors; no memory or a bad read are not.
+    throw CommandError(std::string(out.status().message()),
+                       out.status().IsInvalidArgument() ? 2 : 1);
+  }
   if (Status s = WriteNrrd(a.output, 4, out->dims, in.type, out->values); !s.ok()) Fail(s);
   if (!a.quiet) {
     fmt::print("{}: {} from {} ({}), {}^3 subgrids as {} time steps\n", a.output,

@@ -2,6 +2,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <exception>
+#include <new>
 
 #include <CLI/CLI.hpp>
 
@@ -34,6 +35,11 @@ int main(int argc, char** argv) {
   } catch (const simplexdb::tools::CommandError& e) {
     std::fprintf(stderr, "simplexdb: %s\n", e.what());
     return e.exit_code();
+  } catch (const std::bad_alloc&) {
+    // A last resort: the large allocations report what they were for
+    // ("not enough memory for <what> (<size>)") themselves.
+    std::fprintf(stderr, "simplexdb: not enough memory to finish this command\n");
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "simplexdb: internal error: %s\n", e.what());
     return 70;

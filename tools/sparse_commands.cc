@@ -60,7 +60,7 @@ void PrintSparseReport(const SparseBuildReport& r, const std::string& output, bo
   const uint64_t points = GridPoints(h.dimension, h.dims);
   if (as_json) {
     json j;
-    j["store"] = output;
+    SetJsonBytes(j, "store", output);
     j["kind"] = h.dimension == 3 ? "ht-sparse" : "hp-sparse";
     j["nodes"] = h.nodes;
     j["vertices"] = h.vertices;
@@ -121,7 +121,7 @@ void RunConvert(const std::string& input, const std::string& output, const std::
   if (!built.ok()) Fail(built.status());
   if (as_json) {
     json j;
-    j["store"] = output;
+    SetJsonBytes(j, "store", output);
     j["kind"] = sparse->dimension() == 3 ? "ht-dense" : "hp-dense";
     j["nodes"] = built->nodes;
     j["seconds"] = built->seconds;
@@ -144,7 +144,7 @@ void RunSparseInfo(const std::string& path, bool as_json) {
   const double complete = CompleteNodes(h.dimension, h.leaf_level());
   if (as_json) {
     json j;
-    j["store"] = path;
+    SetJsonBytes(j, "store", path);
     j["kind"] = h.dimension == 3 ? "ht-sparse" : "hp-sparse";
     j["hierarchy"] = h.dimension == 3 ? "ht" : "hp";
     j["format_version"] = h.version;
@@ -166,7 +166,7 @@ void RunSparseInfo(const std::string& path, bool as_json) {
     j["content_sum"] = h.content_sum;
     j["file_bytes"] = bytes;
     j["bytes_per_grid_point"] = static_cast<double>(bytes) / static_cast<double>(points);
-    j["source"] = h.source;
+    SetJsonBytes(j, "source", h.source);
     std::cout << j.dump() << "\n";
     return;
   }
@@ -298,7 +298,7 @@ void RunUpdate(const std::string& store, const std::string& input, const std::st
   if (!r.ok()) Fail(r.status());
   if (as_json) {
     json j;
-    j["store"] = store;
+    SetJsonBytes(j, "store", store);
     j["nodes_recomputed"] = r->nodes_recomputed;
     j["nodes_written"] = r->nodes_written;
     j["nodes_deleted"] = r->nodes_deleted;

@@ -103,7 +103,7 @@ void RunImport(ImportArgs a) {
   const uint64_t peak = PeakResidentBytes();
   if (a.json) {
     json j;
-    j["store"] = a.output;
+    SetJsonBytes(j, "store", a.output);
     j["hierarchy"] = HierarchyName(h.dimension);
     j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
     j["domain_bits"] = h.domain_bits;
@@ -156,7 +156,7 @@ void RunInfo(const std::string& path, bool as_json) {
   const double ratio = static_cast<double>(logical) / static_cast<double>(h.file_size);
   if (as_json) {
     json j;
-    j["store"] = path;
+    SetJsonBytes(j, "store", path);
     j["kind"] = h.dimension == 3 ? "ht-dense" : "hp-dense";
     j["hierarchy"] = HierarchyName(h.dimension);
     j["format_version"] = h.version;
@@ -185,7 +185,7 @@ void RunInfo(const std::string& path, bool as_json) {
     j["stored_field_bytes"] = stored_field;
     j["compression_ratio"] = ratio;
     j["bytes_per_grid_point"] = static_cast<double>(h.file_size) / static_cast<double>(points);
-    j["source"] = h.source;
+    SetJsonBytes(j, "source", h.source);
     std::cout << j.dump() << "\n";
     return;
   }

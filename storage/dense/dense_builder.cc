@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 #include <mutex>
+#include <new>
 #include <string>
 #include <thread>
 #include <vector>
@@ -24,6 +25,7 @@
 #include "storage/error/quantize.h"
 #include "storage/error/unit_errors.h"
 #include "storage/volume/voxel_type.h"
+#include "util/out_of_memory.h"
 
 namespace simplexdb {
 namespace {
@@ -655,9 +657,20 @@ Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::str
     return Status::InvalidArgument("levels per block must be 1..24, not " +
                                    std::to_string(options.levels_per_block));
   }
-  if (input.dimension == 3) return Builder<3>(input, out_path, options).Run();
-  if (input.dimension == 4) return Builder<4>(input, out_path, options).Run();
-  return Status::InvalidArgument(input.description + ": volumes must be 3D or 4D");
+  if (input.dimension != 3 && input.dimension != 4) {
+    return Status::InvalidArgument(input.description + ": volumes must be 3D or 4D");
+  }
+  // The builder's buffers are bounded by options.memory_bytes, but a budget
+  // can exceed what the machine (or ulimit -v) gives; the partial output is
+  // removed as the builder unwinds.
+  try {
+    if (input.dimension == 3) return Builder<3>(input, out_path, options).Run();
+    return Builder<4>(input, out_path, options).Run();
+  } catch (const std::bad_alloc&) {
+    return NotEnoughMemory("building " + out_path + " from " + input.description,
+                           "the volume rows, bricks, error blocks and block index; the memory "
+                           "budget is " + DescribeByteCount(options.memory_bytes));
+  }
 }
 
 }  // namespace simplexdb

@@ -73,7 +73,8 @@ struct DenseBuildReport {
 // unreadable or truncated input, a full disk (ResourceExhausted), a volume
 // too large for the 64-bit location code, a grid whose block index, rows
 // and units need more than half of `memory_bytes` (ResourceExhausted, with
-// the figures; nothing is created).
+// the figures; nothing is created), an allocation the system refuses even
+// so (ResourceExhausted "not enough memory for ...").
 Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,
                                          const DenseBuildOptions& options);
 

@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <new>
 
 #include "storage/io/checksum.h"
 #include "storage/io/codec.h"
 #include "util/little_endian.h"
+#include "util/out_of_memory.h"
 
 namespace simplexdb {
 namespace {
@@ -194,7 +196,12 @@ Result<std::shared_ptr<const BlockCache::Block>> DenseStore::DecodeBlock(uint64_
   if (Checksum(stored) != e.checksum) {
     return Status::Corruption(path_ + ": " + DescribeBlock(b) + ": checksum mismatch");
   }
-  auto block = std::make_shared<BlockCache::Block>(e.raw_size);
+  std::shared_ptr<BlockCache::Block> block;
+  try {
+    block = std::make_shared<BlockCache::Block>(e.raw_size);
+  } catch (const std::bad_alloc&) {
+    return NotEnoughMemory(path_ + ": " + DescribeBlock(b) + " decoded", e.raw_size);
+  }
   SDB_RETURN_IF_ERROR(ThreadDecompressor().Decompress(stored, *block,
                                                       path_ + ": " + DescribeBlock(b)));
   decoded_.fetch_add(1, std::memory_order_relaxed);
@@ -237,10 +244,24 @@ Result<DenseStore::BlockHandle> DenseStore::Block(uint64_t b) const {
 }
 
 Status DenseStore::LoadAll() {
-  resident_.resize(block_count());
+  uint64_t total = 0;  // what this holds: every block decoded
+  for (uint64_t b = 0; b < block_count(); ++b) total += entry(b).raw_size;
+  const std::string all_blocks =
+      "all " + std::to_string(block_count()) + " blocks of " + path_ + " decoded in memory";
+  // Partly loaded blocks are freed when the store is (Open fails).
+  try {
+    resident_.resize(block_count());
+  } catch (const std::bad_alloc&) {
+    return NotEnoughMemory(all_blocks, total);
+  }
   for (uint64_t b = 0; b < block_count(); ++b) {
     const IndexEntry e = entry(b);
-    auto block = std::make_shared<BlockCache::Block>(e.raw_size, 0);
+    std::shared_ptr<BlockCache::Block> block;
+    try {
+      block = std::make_shared<BlockCache::Block>(e.raw_size, 0);
+    } catch (const std::bad_alloc&) {
+      return NotEnoughMemory(all_blocks, total);
+    }
     if (e.encoding == BlockEncoding::kRaw) {
       const std::span<const uint8_t> stored = file_->bytes().subspan(e.offset, e.stored_size);
       if (Checksum(stored) != e.checksum) {
@@ -248,7 +269,12 @@ Status DenseStore::LoadAll() {
       }
       std::memcpy(block->data(), stored.data(), stored.size());
     } else if (e.encoding == BlockEncoding::kZstd) {
-      SDB_ASSIGN_OR_RETURN(resident_[b], DecodeBlock(b));
+      const Result<std::shared_ptr<const BlockCache::Block>> decoded = DecodeBlock(b);
+      if (!decoded.ok()) {
+        if (decoded.status().code() != Status::Code::kResourceExhausted) return decoded.status();
+        return NotEnoughMemory(all_blocks, total);
+      }
+      resident_[b] = decoded.value();
       continue;
     }
     resident_[b] = std::move(block);

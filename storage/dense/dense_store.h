@@ -31,7 +31,9 @@
 // Errors: Open returns NotFound, InvalidArgument (not a store), NotSupported
 // (another format version) or Corruption; lookups return Corruption naming
 // the block when a block fails its checksum or does not decode, and
-// InvalidArgument for a block number out of range.
+// InvalidArgument for a block number out of range. Both return
+// ResourceExhausted "not enough memory for ..." when decoded blocks do not
+// fit in memory (Open with in_memory: all of them; lookups: the one block).
 #pragma once
 
 #include <array>
@@ -61,7 +63,8 @@ class DenseStore {
   };
 
   // Opens and validates a store. Errors: NotFound, InvalidArgument (not a
-  // store), NotSupported (another format version), Corruption (damaged).
+  // store), NotSupported (another format version), Corruption (damaged),
+  // ResourceExhausted (in_memory, and the decoded blocks do not fit).
   static Result<std::unique_ptr<DenseStore>> Open(const std::string& path,
                                                   const Options& options);
   static Result<std::unique_ptr<DenseStore>> Open(const std::string& path) {

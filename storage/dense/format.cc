@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "storage/io/checksum.h"
+#include "util/utf8.h"
 
 namespace simplexdb {
 namespace {
@@ -92,7 +93,9 @@ std::array<uint8_t, kHeaderSize> SerializeHeader(const DenseHeader& h) {
   Put64(b.data() + kOffIndexOffset, h.index_offset);
   Put64(b.data() + kOffFileSize, h.file_size);
   Put64(b.data() + kOffIndexChecksum, h.index_checksum);
-  const size_t n = std::min(h.source.size(), kMaxSource);
+  // Never cut a multi-byte character in half: a valid UTF-8 source stays
+  // valid (readers that need valid UTF-8, like JSON, then get all of it).
+  const size_t n = Utf8PrefixLength(h.source, kMaxSource);
   Put8(b.data() + kOffSourceLength, static_cast<uint8_t>(n));
   std::memcpy(b.data() + kOffSource, h.source.data(), n);
   Put64(b.data() + kOffChecksum, Checksum(std::span<const uint8_t>(b.data(), kOffChecksum)));

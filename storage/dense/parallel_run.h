@@ -8,7 +8,9 @@
 // thread only, a few times a second and once at the end (done == count)
 // when every item succeeded.
 // Lifetimes: nothing is kept after the call returns; the workers are joined.
-// Errors: the first failed item's Status; the workers stop taking items
+// Errors: the first failed item's Status (ResourceExhausted "not enough
+// memory for ..." when an item throws std::bad_alloc or a worker thread
+// cannot start); the workers stop taking items
 // after a failure (items already running finish).
 #pragma once
 

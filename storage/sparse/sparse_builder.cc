@@ -15,6 +15,7 @@
 #include "storage/io/lmdb.h"
 #include "storage/sparse/vertex_set.h"
 #include "storage/volume/voxel_type.h"
+#include "util/utf8.h"
 
 namespace simplexdb {
 namespace {
@@ -275,7 +276,7 @@ Result<SparseBuildReport> ConvertDenseToSparse(const DenseStore& dense,
     h.error_max = dh.error_max;
     h.tolerance = options.tolerance;
     h.source = "dense store " + dense.path() + " (" + dh.source + ")";
-    if (h.source.size() > 1000) h.source.resize(1000);
+    h.source.resize(Utf8PrefixLength(h.source, 1000));
     if (dh.dimension == 3) {
       DenseToSparse<3> run(dense, *env, errors, field, options, start);
       SDB_RETURN_IF_ERROR(run.Run(&h));

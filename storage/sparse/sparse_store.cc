@@ -14,6 +14,7 @@
 #include "storage/io/lmdb.h"
 #include "storage/sparse/vertex_set.h"
 #include "util/little_endian.h"
+#include "util/utf8.h"
 
 namespace simplexdb {
 
@@ -34,7 +35,8 @@ std::string SerializeSparseHeader(const SparseHeader& h) {
   j["nodes"] = h.nodes;
   j["vertices"] = h.vertices;
   j["content_sum"] = h.content_sum;
-  j["source"] = h.source;
+  // A path is bytes, JSON text is UTF-8: without this dump() throws.
+  j["source"] = ToValidUtf8(h.source);
   return j.dump();
 }
 

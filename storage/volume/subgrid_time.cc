@@ -1,8 +1,11 @@
 #include "storage/volume/subgrid_time.h"
 
 #include <algorithm>
+#include <exception>
 #include <memory>
 #include <string>
+
+#include "util/out_of_memory.h"
 
 namespace simplexdb {
 
@@ -22,7 +25,13 @@ Result<SubgridTimeVolume> SubgridsToTime(const VolumeInfo& in, uint32_t s, uint3
   }
   Result<std::unique_ptr<VolumeReader>> reader = VolumeReader::Open(in);
   if (!reader.ok()) return reader.status();
-  std::vector<double> input(in.voxel_count());
+  // The whole volume in memory, twice (in and out): the tool's limit.
+  std::vector<double> input;
+  try {
+    input.resize(in.voxel_count());
+  } catch (const std::exception&) {  // bad_alloc, or length_error past max_size()
+    return NotEnoughMemory(in.description + " as float64 values", in.voxel_count() * 8);
+  }
   constexpr uint64_t kChunk = uint64_t{1} << 20;
   for (uint64_t first = 0; first < input.size(); first += kChunk) {
     const size_t count = static_cast<size_t>(std::min<uint64_t>(kChunk, input.size() - first));
@@ -32,7 +41,13 @@ Result<SubgridTimeVolume> SubgridsToTime(const VolumeInfo& in, uint32_t s, uint3
   const auto& n = in.dims;
   SubgridTimeVolume out;
   out.dims = {SubgridAxis(n[0], s), SubgridAxis(n[1], s), SubgridAxis(n[2], s), steps};
-  out.values.resize(uint64_t{out.dims[0]} * out.dims[1] * out.dims[2] * steps);
+  const uint64_t out_count = uint64_t{out.dims[0]} * out.dims[1] * out.dims[2] * steps;
+  try {
+    out.values.resize(out_count);
+  } catch (const std::exception&) {  // bad_alloc, or length_error past max_size()
+    return NotEnoughMemory("the 4D volume made from " + in.description + " as float64 values",
+                           out_count * 8);
+  }
   size_t o = 0;
   for (uint32_t t = 0; t < steps; ++t) {
     const uint32_t dx = t % s, dy = t / s % s, dz = t / (s * s);

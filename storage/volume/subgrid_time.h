@@ -44,7 +44,8 @@ constexpr uint32_t SubgridAxis(uint32_t n, uint32_t s) { return (n - 1) / s + 1;
 // Reads all of `in` (a 3D volume) and builds the 4D volume above. Memory:
 // 8 bytes per input point plus 8 per output point.
 // Errors: InvalidArgument if `in` is not 3D, s is not in [2, 64], or steps
-// is not in [2, s^3]; the reader's errors (naming the file) otherwise.
+// is not in [2, s^3]; ResourceExhausted "not enough memory for ..." when
+// either volume does not fit; the reader's errors (naming the file) otherwise.
 Result<SubgridTimeVolume> SubgridsToTime(const VolumeInfo& in, uint32_t s, uint32_t steps);
 
 }  // namespace simplexdb

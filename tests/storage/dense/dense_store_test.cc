@@ -15,6 +15,7 @@
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
+#include "util/utf8.h"
 
 namespace simplexdb {
 namespace {
@@ -269,6 +270,33 @@ TEST(DenseStore, RejectsValuesBeyondFloat32) {
     for (const auto& e : std::filesystem::directory_iterator(dir.path())) {
       EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << e.path();
     }
+  }
+}
+
+// The header holds 255 bytes of the source: a longer one is cut between
+// characters, so a UTF-8 path stays UTF-8 (JSON output needs it).
+TEST(DenseStore, SourceIsCutAtACharacterBoundary) {
+  const TempDir dir;
+  std::string name;
+  for (int i = 0; i < 120; ++i) name += "\xC3\xA9";  // é
+  const std::string path = dir.path() + "/" + name + ".nrrd";
+  const TestVolume volume = TestVolume::Random(3, {5, 5, 5, 1}, VoxelType::kU8, 1);
+  ASSERT_TRUE(volume.WriteNrrd(path).ok());
+  // Both parities of where byte 255 falls.
+  for (const std::string prefix : {"", "x"}) {
+    SCOPED_TRACE("prefix '" + prefix + "'");
+    Result<VolumeInfo> in = OpenVolume(path);
+    ASSERT_TRUE(in.ok()) << in.status().ToString();
+    in->description = prefix + in->description;
+    const std::string store = dir.path() + "/s" + prefix + ".sdb";
+    ASSERT_TRUE(BuildDenseStore(*in, store, {}).ok());
+    const auto opened = DenseStore::Open(store);
+    ASSERT_TRUE(opened.ok()) << opened.status().ToString();
+    const std::string& source = (*opened)->header().source;
+    EXPECT_TRUE(IsValidUtf8(source)) << source;
+    EXPECT_GE(source.size(), 254u);
+    EXPECT_LE(source.size(), 255u);
+    EXPECT_EQ(source, in->description.substr(0, source.size()));
   }
 }
 

@@ -245,6 +245,21 @@ INSTANTIATE_TEST_SUITE_P(
 // has a value at some point (brute force over its points), and a node with
 // values and holes is present (the field range is its error), so the holes'
 // boundary is resolved to the finest level.
+// The header is JSON, the source a path's bytes: bytes that are not UTF-8
+// are written as U+FFFD instead of failing the conversion.
+TEST(SparseStore, HeaderWithASourceThatIsNotUtf8RoundTrips) {
+  SparseHeader h;
+  h.dims = {5, 5, 5, 1};
+  h.domain_bits = 2;
+  h.quantum = 1;
+  h.source = "dense store a.sdb (raw file bad\xff" "name.raw)";
+  std::string text;
+  ASSERT_NO_THROW(text = SerializeSparseHeader(h));
+  const Result<SparseHeader> back = ParseSparseHeader(text, "x");
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->source, "dense store a.sdb (raw file bad\xEF\xBF\xBDname.raw)");
+}
+
 TEST(SparseStore, MissingRegionsStoreNothing) {
   const TempDir dir;
   const Case c{"holes", 3, {17, 17, 17, 1}, VoxelType::kF32, Quantization::kU16, "holes"};

@@ -1,0 +1,287 @@
+// Any bytes in a path or on stdin, and too little memory, end the CLI with a
+// clear error or carry through: never "internal error" (exit 70).
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "tests/storage/store_test_util.h"
+#include "tests/tools/cli_runner.h"
+#include "util/utf8.h"
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || \
+    __has_feature(memory_sanitizer)
+#define SDB_TEST_SANITIZED 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define SDB_TEST_SANITIZED 1
+#endif
+
+namespace simplexdb {
+namespace {
+
+using testing::ReadWholeFile;
+using testing::RunCli;
+using testing::TempDir;
+
+std::string Quote(const std::string& s) { return "'" + s + "'"; }  // no ' in our paths
+
+std::string FromHex(const std::string& hex) {
+  std::string out;
+  for (size_t i = 0; i + 1 < hex.size(); i += 2) {
+    out += static_cast<char>(std::stoi(hex.substr(i, 2), nullptr, 16));
+  }
+  return out;
+}
+
+// A small NRRD volume at `path`.
+void Generate(const std::string& path) {
+  const auto r = RunCli("generate --field perlin --dims 17,13,9 --type int16 --seed 3 -o " +
+                        Quote(path));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+}
+
+TEST(BytesCli, PathThatIsNotUtf8IsCarriedThroughInfoJsonAndConvert) {
+  const TempDir dir;
+  const std::string in = dir.path() + "/bad\xff" "name.nrrd";
+  const std::string store = dir.path() + "/s.sdb";
+  const std::string sparse = dir.path() + "/sp\xfe.lmdb";
+  ASSERT_NO_FATAL_FAILURE(Generate(in));
+  auto r = RunCli("import " + Quote(in) + " -o " + store + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+
+  // JSON: readable with U+FFFD, exact in "source_hex".
+  r = RunCli("info " + store + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto info = nlohmann::json::parse(r.out);
+  EXPECT_EQ(info["source"], "NRRD file " + dir.path() + "/bad\xEF\xBF\xBDname.nrrd");
+  ASSERT_TRUE(info.contains("source_hex")) << r.out;
+  EXPECT_EQ(FromHex(info["source_hex"]), "NRRD file " + in);
+  EXPECT_FALSE(info.contains("store_hex"));  // a UTF-8 path gets no hex
+
+  // Text: the bytes as they are.
+  r = RunCli("info " + store);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("NRRD file " + in), std::string::npos) << r.out;
+
+  r = RunCli("convert " + store + " --to sparse -o " + Quote(sparse) + " --json --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto report = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(report.contains("store_hex")) << r.out;
+  EXPECT_EQ(FromHex(report["store_hex"]), sparse);
+
+  // The sparse header is JSON: invalid bytes are stored as U+FFFD.
+  r = RunCli("info " + Quote(sparse) + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto sparse_info = nlohmann::json::parse(r.out);
+  EXPECT_EQ(FromHex(sparse_info["store_hex"]), sparse);
+  EXPECT_NE(sparse_info["source"].get<std::string>().find("bad\xEF\xBF\xBDname.nrrd"),
+            std::string::npos)
+      << r.out;
+  EXPECT_EQ(RunCli("verify " + Quote(sparse)).exit_code, 0);
+}
+
+TEST(BytesCli, SourceLongerThanTheHeaderFieldIsCutBetweenCharacters) {
+  const TempDir dir;
+  // The dense header holds 255 bytes of "NRRD file <path>": put a two-byte
+  // character across byte 255, in a path of two components of é (a name
+  // has at most 255 bytes).
+  std::string e100;
+  for (int i = 0; i < 100; ++i) e100 += "\xC3\xA9";  // é
+  std::string sub, in, full;
+  for (const std::string pad : {"", "x"}) {
+    sub = dir.path() + "/" + pad + e100;
+    in = sub + "/" + e100 + ".nrrd";
+    full = "NRRD file " + in;
+    if (Utf8SequenceLength(std::string_view(full).substr(254)) == 2) break;  // cut inside
+  }
+  ASSERT_EQ(Utf8SequenceLength(std::string_view(full).substr(254)), 2u)
+      << "temporary directory too deep for this test";
+  std::filesystem::create_directory(sub);
+  const std::string store = dir.path() + "/s.sdb";
+  ASSERT_NO_FATAL_FAILURE(Generate(in));
+  auto r = RunCli("import " + Quote(in) + " -o " + store + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+
+  r = RunCli("info " + store + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto info = nlohmann::json::parse(r.out);
+  EXPECT_EQ(info["source"], full.substr(0, 254));  // the whole characters that fit
+  EXPECT_FALSE(info.contains("source_hex"));
+  r = RunCli("info " + store);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find(full.substr(0, 254)), std::string::npos);
+  r = RunCli("convert " + store + " --to sparse -o " + dir.path() + "/s.lmdb --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli("info " + dir.path() + "/s.lmdb --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(nlohmann::json::parse(r.out)["source"].get<std::string>().find(full.substr(0, 254)),
+            std::string::npos);
+}
+
+TEST(BytesCli, CodesReportsBinaryLinesByNumberAndKeepsJsonValid) {
+  std::string input;
+  input += "0:1\xff\n";                    // line 1: invalid UTF-8
+  input += std::string("0:\0" "1\n", 5);   // line 2: a NUL
+  input += "0:1\r\n";                      // line 3: CRLF, a good code
+  input += std::string(100000, 'A') + "\n";  // line 4: far too long
+  input += "\xfe\xff\x80\n";               // line 5: no code at all
+  input += "0:0\n";                        // line 6: a good code
+  const auto r = RunCli("codes --hierarchy ht", input);
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  std::vector<nlohmann::json> lines;
+  std::istringstream out(r.out);
+  std::string line;
+  while (std::getline(out, line)) {
+    ASSERT_TRUE(IsValidUtf8(line)) << line;
+    lines.push_back(nlohmann::json::parse(line));
+  }
+  ASSERT_EQ(lines.size(), 6u) << r.out;
+  EXPECT_TRUE(lines[0].contains("error"));
+  EXPECT_EQ(FromHex(lines[0]["code_hex"]), "0:1\xff");
+  EXPECT_TRUE(lines[1].contains("error"));
+  EXPECT_EQ(lines[1]["code"], std::string("0:\0" "1", 4));
+  EXPECT_EQ(lines[2]["code"], "0:1");
+  EXPECT_FALSE(lines[2].contains("error"));
+  EXPECT_NE(lines[3]["error"].get<std::string>().find("100000 bytes"), std::string::npos);
+  EXPECT_LE(lines[3]["code"].get<std::string>().size(), 256u);
+  EXPECT_EQ(FromHex(lines[4]["code_hex"]), "\xfe\xff\x80");
+  EXPECT_EQ(lines[5]["code"], "0:0");
+  for (const char* number : {"line 1:", "line 2:", "line 4:", "line 5:"}) {
+    EXPECT_NE(r.err.find(number), std::string::npos) << number << " in " << r.err;
+  }
+  EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
+}
+
+// Runs the CLI with its address space limited to `limit_bytes`; stdout is
+// dropped, stderr returned in `err`.
+int RunCliWithAddressLimit(const std::vector<std::string>& args, uint64_t limit_bytes,
+                           const std::string& err_path, std::string* err) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const rlimit limit{limit_bytes, limit_bytes};
+    setrlimit(RLIMIT_AS, &limit);
+    const int null = open("/dev/null", O_WRONLY);
+    const int e = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (null < 0 || e < 0) _exit(127);
+    dup2(null, 1);
+    dup2(e, 2);
+    std::vector<char*> argv;
+    argv.push_back(const_cast<char*>(SIMPLEXDB_CLI));
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(SIMPLEXDB_CLI, argv.data());
+    _exit(127);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  *err = ReadWholeFile(err_path);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+TEST(BytesCli, InMemoryUnderAnAddressSpaceLimitSaysWhatDidNotFit) {
+#if defined(SDB_TEST_SANITIZED)
+  GTEST_SKIP() << "sanitizers reserve terabytes of address space: RLIMIT_AS cannot apply";
+#endif
+  const TempDir dir;
+  const std::string in = dir.path() + "/m.nrrd", store = dir.path() + "/m.sdb";
+  auto r = RunCli("generate --field perlin --dims 97,97,97 --type float32 --seed 3 -o " + in);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli("import " + in + " -o " + store + " --quiet");  // ~28 MB of decoded blocks
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // Raise the limit until the extract fits. Below that every run must fail
+  // cleanly, and some limit falls between mapping the store and holding
+  // its decoded blocks.
+  bool named_the_load = false, succeeded = false;
+  for (uint64_t mib = 16; mib <= 1024 && !succeeded; mib += 4) {
+    SCOPED_TRACE("address space limit " + std::to_string(mib) + " MiB");
+    std::string err;
+    const int code = RunCliWithAddressLimit(
+        {"extract", store, "--in-memory", "--error", "5%", "--format", "json"}, mib << 20,
+        dir.path() + "/err.txt", &err);
+    if (code == 0) {
+      succeeded = true;
+      continue;
+    }
+    ASSERT_EQ(code, 1) << err;
+    EXPECT_EQ(err.find("internal error"), std::string::npos) << err;
+    // Near an edge any small allocation may fail: main's last resort says
+    // "not enough memory" without naming it.
+    EXPECT_TRUE(err.find("not enough memory") != std::string::npos ||
+                err.find("cannot map: Cannot allocate memory") != std::string::npos)
+        << err;
+    if (err.find("not enough memory for all ") != std::string::npos &&
+        err.find(store + " decoded in memory") != std::string::npos) {
+      named_the_load = true;
+    }
+  }
+  EXPECT_TRUE(succeeded);
+  EXPECT_TRUE(named_the_load);
+}
+
+TEST(BytesCli, To4dUnderAnAddressSpaceLimitSaysWhatDidNotFit) {
+#if defined(SDB_TEST_SANITIZED)
+  GTEST_SKIP() << "sanitizers reserve terabytes of address space: RLIMIT_AS cannot apply";
+#endif
+  const TempDir dir;
+  const std::string in = dir.path() + "/m.nrrd";
+  auto r = RunCli("generate --field perlin --dims 129,129,129 --type float32 --seed 3 -o " + in);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  bool named = false, succeeded = false;
+  for (uint64_t mib = 16; mib <= 1024 && !succeeded; mib += 2) {
+    SCOPED_TRACE("address space limit " + std::to_string(mib) + " MiB");
+    std::string err;
+    const int code = RunCliWithAddressLimit({"to4d", in, "-o", dir.path() + "/out.nrrd"},
+                                            mib << 20, dir.path() + "/err.txt", &err);
+    if (code == 0) {
+      succeeded = true;
+      continue;
+    }
+    ASSERT_EQ(code, 1) << err;
+    // Near the edge any small allocation may fail: main's last resort.
+    EXPECT_NE(err.find("not enough memory"), std::string::npos) << err;
+    named = named || err.find(" as float64 values (") != std::string::npos;
+  }
+  EXPECT_TRUE(succeeded);
+  EXPECT_TRUE(named);
+}
+
+// generate's worker threads: an exception there used to abort (exit 134).
+TEST(BytesCli, GenerateUnderAnAddressSpaceLimitSaysWhatDidNotFit) {
+#if defined(SDB_TEST_SANITIZED)
+  GTEST_SKIP() << "sanitizers reserve terabytes of address space: RLIMIT_AS cannot apply";
+#endif
+  const TempDir dir;
+  bool named = false, succeeded = false;
+  for (uint64_t mib = 16; mib <= 2048 && !succeeded; mib += 4) {
+    SCOPED_TRACE("address space limit " + std::to_string(mib) + " MiB");
+    std::string err;
+    const int code = RunCliWithAddressLimit(
+        {"generate", "--field", "perlin", "--dims", "129,129,129", "--type", "float32",
+         "--threads", "2", "-o", dir.path() + "/g.nrrd"},
+        mib << 20, dir.path() + "/err.txt", &err);
+    if (code == 0) {
+      succeeded = true;
+      continue;
+    }
+    ASSERT_EQ(code, 1) << err;
+    EXPECT_NE(err.find("not enough memory"), std::string::npos) << err;
+    named = named || err.find("not enough memory for a generated chunk") != std::string::npos;
+  }
+  EXPECT_TRUE(succeeded);
+  EXPECT_TRUE(named);
+}
+
+}  // namespace
+}  // namespace simplexdb
