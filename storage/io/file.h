@@ -109,9 +109,10 @@ struct OutputOptions {
 };
 
 // The check a command makes on its output `path` before it writes anything
-// (after opening its inputs, to know every file they name): returns the path to write, `path` itself, or with
-// options.force and `path` a symlink to a regular file, the file the link
-// resolves to (absolute); write that path and the link stays a link.
+// (after opening its inputs, to know every file they name). Returns the
+// path to write: `path` itself or, with options.force and `path` a symlink
+// to a regular file, the file the link resolves to (absolute); write that
+// path and the link stays a link.
 // Errors (InvalidArgument, naming `path`, nothing touched):
 //   "<path>: cannot write: is the input [<input>]"      same device and inode
 //   "<path>: cannot write: is a character device"       and block device,
