@@ -121,6 +121,17 @@ void RemoveStaleTemporaries(const std::string& final_path) {
   closedir(d);
 }
 
+const char* KindOfNonRegularFile(mode_t mode) {
+  if (S_ISREG(mode)) return nullptr;
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISLNK(mode)) return "a symlink";
+  return "not a regular file";
+}
+
 namespace {
 
 // The folder `final_path` is to be created in exists.
@@ -131,19 +142,6 @@ Status CheckOutputFolder(const std::string& final_path) {
   }
   if (!S_ISDIR(st.st_mode)) return StatusFromErrno(ENOTDIR, final_path, "create");
   return Status::OK();
-}
-
-// What a file of `mode` is, for a file that an output must not replace;
-// nullptr for a regular file.
-const char* KindNotToReplace(mode_t mode) {
-  if (S_ISREG(mode)) return nullptr;
-  if (S_ISCHR(mode)) return "a character device";
-  if (S_ISBLK(mode)) return "a block device";
-  if (S_ISFIFO(mode)) return "a FIFO";
-  if (S_ISSOCK(mode)) return "a socket";
-  if (S_ISDIR(mode)) return "a directory";
-  if (S_ISLNK(mode)) return "a symlink";
-  return "not a regular file";
 }
 
 Status Refuse(const std::string& path, const std::string& why) {
@@ -164,14 +162,14 @@ Status CheckOutputKind(const std::string& path) {
       if (errno == ENOENT) return Refuse(path, "is a dangling symlink (it points to no file)");
       return StatusFromErrno(errno, path, "follow the symlink");
     }
-    if (const char* kind = KindNotToReplace(target.st_mode)) {
+    if (const char* kind = KindOfNonRegularFile(target.st_mode)) {
       return Refuse(path, std::string("is a symlink to ") + kind);
     }
     return Refuse(path,
                   "is a symlink (writing would replace the link by a file; --force writes the "
                   "file it points to and keeps the link)");
   }
-  if (const char* kind = KindNotToReplace(st.st_mode)) return Refuse(path, std::string("is ") + kind);
+  if (const char* kind = KindOfNonRegularFile(st.st_mode)) return Refuse(path, std::string("is ") + kind);
   return Status::OK();
 }
 
@@ -342,7 +340,9 @@ MappedFile::~MappedFile() = default;
 Result<std::unique_ptr<MappedFile>> MappedFile::Open(const std::string& path) {
   struct stat st;
   if (stat(path.c_str(), &st) != 0) return StatusFromErrno(errno, path, "open");
-  if (!S_ISREG(st.st_mode)) return Status::InvalidArgument(path + ": not a regular file");
+  if (const char* kind = KindOfNonRegularFile(st.st_mode)) {
+    return Status::InvalidArgument(path + ": cannot read: is " + kind + " (expected a regular file)");
+  }
   std::unique_ptr<MappedFile> f(new MappedFile());
   f->path_ = path;
   if (st.st_size == 0) return f;  // nothing to map; readers see zero bytes

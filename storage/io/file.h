@@ -49,6 +49,8 @@
 // belongs to one thread. MappedFile is immutable.
 #pragma once
 
+#include <sys/types.h>
+
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -80,6 +82,11 @@ std::string TemporaryPathFor(const std::string& final_path);
 // True when `name` (a file name, no folder) is one of the temporaries of
 // the output named `final_name` (no folder either), of any process.
 bool IsTemporaryOf(std::string_view name, std::string_view final_name);
+
+// What a file of `mode` (stat's st_mode) is when it is not a regular file
+// ("a FIFO", "a character device", "a directory", ...), for messages that
+// refuse it as an input or an output; nullptr for a regular file.
+const char* KindOfNonRegularFile(mode_t mode);
 
 // Removes the temporaries of `final_path` (every pattern above) left by
 // processes that no longer run. Best effort: what cannot be listed or

@@ -13,7 +13,8 @@ namespace simplexdb {
 Result<ReadOnlyFile> ReadOnlyFile::Open(const std::string& path) {
   int fd;
   do {
-    fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    // O_NONBLOCK: opening a FIFO for reading would wait for a writer.
+    fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   } while (fd < 0 && errno == EINTR);
   if (fd < 0) return StatusFromErrno(errno, path, "open");
   ReadOnlyFile file(path, fd);
@@ -22,6 +23,17 @@ Result<ReadOnlyFile> ReadOnlyFile::Open(const std::string& path) {
   // open(2) accepts a directory; read(2) would fail with EISDIR. Say so
   // now, in the words of the one errno table.
   if (S_ISDIR(st.st_mode)) return StatusFromErrno(EISDIR, path, "read");
+  // The readers read at positions and check sizes against the file: a
+  // FIFO, a socket or a device (whose size is 0, or which never ends)
+  // cannot be read so.
+  if (const char* kind = KindOfNonRegularFile(st.st_mode)) {
+    return Status::InvalidArgument(path + ": cannot read: is " + kind +
+                                   " (expected a regular file)");
+  }
+  const int flags = ::fcntl(fd, F_GETFL);
+  if (flags < 0 || ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0) {
+    return StatusFromErrno(errno, path, "open");
+  }
   return file;
 }
 

@@ -31,7 +31,9 @@ class ReadOnlyFile {
   // Opens `path` read-only (close-on-exec). Errors: StatusFromErrno(errno,
   // path, "open" or "stat") when the system refuses (a missing file is
   // NotFound); StatusFromErrno(EISDIR, path, "read") for a directory, which
-  // open(2) accepts but read(2) refuses.
+  // open(2) accepts but read(2) refuses; InvalidArgument "<path>: cannot
+  // read: is a FIFO (expected a regular file)" for a FIFO, a socket or a
+  // device, without waiting for a FIFO's writer.
   static Result<ReadOnlyFile> Open(const std::string& path);
 
   ReadOnlyFile(ReadOnlyFile&& other) noexcept;

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <type_traits>
 #include <nlohmann/json.hpp>
 
@@ -12,6 +11,7 @@
 #include "storage/io/checksum.h"
 #include "storage/io/file.h"
 #include "storage/io/lmdb.h"
+#include "storage/io/read_only_file.h"
 #include "storage/sparse/vertex_set.h"
 #include "util/little_endian.h"
 #include "util/utf8.h"
@@ -113,9 +113,12 @@ uint64_t SparseEntryHash(int db, std::span<const uint8_t> key, std::span<const u
 bool LooksLikeLmdb(const std::string& path) {
   // LMDB's first page is a meta page: a 16-byte page header, then the meta
   // record, whose first field is the magic 0xBEEFC0DE (native order).
-  std::ifstream in(path, std::ios::binary);
+  // ReadOnlyFile: a FIFO or a device is refused at once, not waited on.
+  Result<ReadOnlyFile> file = ReadOnlyFile::Open(path);
+  if (!file.ok()) return false;
   uint8_t head[20] = {};
-  if (!in.read(reinterpret_cast<char*>(head), sizeof head)) return false;
+  const Result<size_t> got = file->ReadUpTo(0, sizeof head, reinterpret_cast<std::byte*>(head));
+  if (!got.ok() || *got != sizeof head) return false;
   const uint32_t magic = LoadLittle<uint32_t>(head + 16);
   return magic == 0xBEEFC0DEu;
 }

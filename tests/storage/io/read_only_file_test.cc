@@ -1,15 +1,21 @@
 // ReadOnlyFile (storage/io/read_only_file.h): open, size, reads that stop
 // only at the end of the file, seek and hand-over of the descriptor, and the
-// errors a reader meets (a missing file, a directory).
+// errors a reader meets (a missing file, a directory, a FIFO or a device).
 #include "storage/io/read_only_file.h"
 
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <array>
+#include <chrono>
+#include <thread>
 #include <cerrno>
 #include <cstddef>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <utility>
 
@@ -115,6 +121,53 @@ TEST(ReadOnlyFile, MoveTransfersTheDescriptor) {
   auto got = b.ReadUpTo(0, 2, buf.data());
   ASSERT_TRUE(got.ok());
   EXPECT_EQ(AsText(buf.data(), 2), "01");
+}
+
+// Runs `open` in a child process and returns its exit status, or -1 when
+// it is still running after 20 s (then it is killed): a reader that waits
+// on a FIFO for a writer fails the test instead of hanging it.
+int ExitStatusWithin20s(const std::function<int()>& open) {
+  const pid_t child = fork();
+  if (child == 0) _exit(open());
+  for (int i = 0; i < 2000; ++i) {
+    int status = 0;
+    if (waitpid(child, &status, WNOHANG) == child) {
+      return WIFEXITED(status) ? WEXITSTATUS(status) : 100;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  kill(child, SIGKILL);
+  waitpid(child, nullptr, 0);
+  return -1;
+}
+
+// The readers read at positions and check sizes: a FIFO (no writer), a
+// character device and a socket are refused at once, by their kind.
+TEST(ReadOnlyFile, RefusesAFifoAndADeviceWithoutWaiting) {
+  TempDir dir;
+  const std::string fifo = dir.path() + "/fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const auto refused = [](const std::string& path, const std::string& kind) {
+    auto file = ReadOnlyFile::Open(path);
+    if (file.ok()) return 1;
+    if (!file.status().IsInvalidArgument()) return 2;
+    if (file.status().message() !=
+        path + ": cannot read: is " + kind + " (expected a regular file)") {
+      return 3;
+    }
+    return 0;
+  };
+  EXPECT_EQ(ExitStatusWithin20s([&] { return refused(fifo, "a FIFO"); }), 0);
+  EXPECT_EQ(ExitStatusWithin20s([&] { return refused("/dev/null", "a character device"); }), 0);
+  // A regular file still opens, and reads as before.
+  const std::string plain = dir.path() + "/plain";
+  WriteFile(plain, "abc");
+  auto file = ReadOnlyFile::Open(plain);
+  ASSERT_TRUE(file.ok()) << file.status().ToString();
+  std::array<std::byte, 3> bytes{};
+  auto got = file->ReadUpTo(0, 3, bytes.data());
+  ASSERT_TRUE(got.ok());
+  EXPECT_EQ(AsText(bytes.data(), *got), "abc");
 }
 
 }  // namespace
