@@ -8,29 +8,22 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "tests/storage/address_space_limit.h"
 #include "tests/storage/store_test_util.h"
 #include "tests/tools/cli_runner.h"
 #include "util/utf8.h"
 
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || \
-    __has_feature(memory_sanitizer)
-#define SDB_TEST_SANITIZED 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define SDB_TEST_SANITIZED 1
-#endif
-
 namespace simplexdb {
 namespace {
 
+using testing::kAddressSpaceLimited;
 using testing::ReadWholeFile;
 using testing::RunCli;
 using testing::TempDir;
@@ -190,10 +183,35 @@ int RunCliWithAddressLimit(const std::vector<std::string>& args, uint64_t limit_
   return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
 
+// Runs `args` under address-space limits from 16 MiB up by `step_mib` until
+// a run fits (exit 0), at most `max_mib`. Every run below that must fail
+// cleanly: exit 1 and `check(stderr)`, which EXPECTs what it must say and
+// returns whether it named what did not fit. Expects a run to fit and one
+// to have named it.
+void ExpectCleanFailuresUntilItFits(const std::vector<std::string>& args, uint64_t max_mib,
+                                    uint64_t step_mib, const std::string& err_path,
+                                    const std::function<bool(const std::string&)>& check) {
+  bool named = false, succeeded = false;
+  for (uint64_t mib = 16; mib <= max_mib && !succeeded; mib += step_mib) {
+    SCOPED_TRACE("address space limit " + std::to_string(mib) + " MiB");
+    std::string err;
+    const int code = RunCliWithAddressLimit(args, mib << 20, err_path, &err);
+    if (code == 0) {
+      succeeded = true;
+      continue;
+    }
+    ASSERT_EQ(code, 1) << err;
+    named = check(err) || named;
+  }
+  EXPECT_TRUE(succeeded);
+  EXPECT_TRUE(named);
+}
+
+constexpr const char* kSanitized =
+    "sanitizers reserve terabytes of address space: RLIMIT_AS cannot apply";
+
 TEST(BytesCli, InMemoryUnderAnAddressSpaceLimitSaysWhatDidNotFit) {
-#if defined(SDB_TEST_SANITIZED)
-  GTEST_SKIP() << "sanitizers reserve terabytes of address space: RLIMIT_AS cannot apply";
-#endif
+  if (!kAddressSpaceLimited) GTEST_SKIP() << kSanitized;
   const TempDir dir;
   const std::string in = dir.path() + "/m.nrrd", store = dir.path() + "/m.sdb";
   auto r = RunCli("generate --field perlin --dims 97,97,97 --type float32 --seed 3 -o " + in);
@@ -203,84 +221,47 @@ TEST(BytesCli, InMemoryUnderAnAddressSpaceLimitSaysWhatDidNotFit) {
   // Raise the limit until the extract fits. Below that every run must fail
   // cleanly, and some limit falls between mapping the store and holding
   // its decoded blocks.
-  bool named_the_load = false, succeeded = false;
-  for (uint64_t mib = 16; mib <= 1024 && !succeeded; mib += 4) {
-    SCOPED_TRACE("address space limit " + std::to_string(mib) + " MiB");
-    std::string err;
-    const int code = RunCliWithAddressLimit(
-        {"extract", store, "--in-memory", "--error", "5%", "--format", "json"}, mib << 20,
-        dir.path() + "/err.txt", &err);
-    if (code == 0) {
-      succeeded = true;
-      continue;
-    }
-    ASSERT_EQ(code, 1) << err;
-    EXPECT_EQ(err.find("internal error"), std::string::npos) << err;
-    // Near an edge any small allocation may fail: main's last resort says
-    // "not enough memory" without naming it.
-    EXPECT_TRUE(err.find("not enough memory") != std::string::npos ||
-                err.find("cannot map: Cannot allocate memory") != std::string::npos)
-        << err;
-    if (err.find("not enough memory for all ") != std::string::npos &&
-        err.find(store + " decoded in memory") != std::string::npos) {
-      named_the_load = true;
-    }
-  }
-  EXPECT_TRUE(succeeded);
-  EXPECT_TRUE(named_the_load);
+  ExpectCleanFailuresUntilItFits(
+      {"extract", store, "--in-memory", "--error", "5%", "--format", "json"}, 1024, 4,
+      dir.path() + "/err.txt", [&](const std::string& err) {
+        EXPECT_EQ(err.find("internal error"), std::string::npos) << err;
+        // Near an edge any small allocation may fail: main's last resort
+        // says "not enough memory" without naming it.
+        EXPECT_TRUE(err.find("not enough memory") != std::string::npos ||
+                    err.find("cannot map: Cannot allocate memory") != std::string::npos)
+            << err;
+        return err.find("not enough memory for all ") != std::string::npos &&
+               err.find(store + " decoded in memory") != std::string::npos;
+      });
 }
 
 TEST(BytesCli, To4dUnderAnAddressSpaceLimitSaysWhatDidNotFit) {
-#if defined(SDB_TEST_SANITIZED)
-  GTEST_SKIP() << "sanitizers reserve terabytes of address space: RLIMIT_AS cannot apply";
-#endif
+  if (!kAddressSpaceLimited) GTEST_SKIP() << kSanitized;
   const TempDir dir;
   const std::string in = dir.path() + "/m.nrrd";
   auto r = RunCli("generate --field perlin --dims 129,129,129 --type float32 --seed 3 -o " + in);
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  bool named = false, succeeded = false;
-  for (uint64_t mib = 16; mib <= 1024 && !succeeded; mib += 2) {
-    SCOPED_TRACE("address space limit " + std::to_string(mib) + " MiB");
-    std::string err;
-    const int code = RunCliWithAddressLimit({"to4d", in, "-o", dir.path() + "/out.nrrd"},
-                                            mib << 20, dir.path() + "/err.txt", &err);
-    if (code == 0) {
-      succeeded = true;
-      continue;
-    }
-    ASSERT_EQ(code, 1) << err;
-    // Near the edge any small allocation may fail: main's last resort.
-    EXPECT_NE(err.find("not enough memory"), std::string::npos) << err;
-    named = named || err.find(" as float64 values (") != std::string::npos;
-  }
-  EXPECT_TRUE(succeeded);
-  EXPECT_TRUE(named);
+  ExpectCleanFailuresUntilItFits({"to4d", in, "-o", dir.path() + "/out.nrrd"}, 1024, 2,
+                                 dir.path() + "/err.txt", [](const std::string& err) {
+                                   // Near the edge any small allocation may fail: main's
+                                   // last resort.
+                                   EXPECT_NE(err.find("not enough memory"), std::string::npos)
+                                       << err;
+                                   return err.find(" as float64 values (") != std::string::npos;
+                                 });
 }
 
 // generate's worker threads: an exception there used to abort (exit 134).
 TEST(BytesCli, GenerateUnderAnAddressSpaceLimitSaysWhatDidNotFit) {
-#if defined(SDB_TEST_SANITIZED)
-  GTEST_SKIP() << "sanitizers reserve terabytes of address space: RLIMIT_AS cannot apply";
-#endif
+  if (!kAddressSpaceLimited) GTEST_SKIP() << kSanitized;
   const TempDir dir;
-  bool named = false, succeeded = false;
-  for (uint64_t mib = 16; mib <= 2048 && !succeeded; mib += 4) {
-    SCOPED_TRACE("address space limit " + std::to_string(mib) + " MiB");
-    std::string err;
-    const int code = RunCliWithAddressLimit(
-        {"generate", "--field", "perlin", "--dims", "129,129,129", "--type", "float32",
-         "--threads", "2", "-o", dir.path() + "/g.nrrd"},
-        mib << 20, dir.path() + "/err.txt", &err);
-    if (code == 0) {
-      succeeded = true;
-      continue;
-    }
-    ASSERT_EQ(code, 1) << err;
-    EXPECT_NE(err.find("not enough memory"), std::string::npos) << err;
-    named = named || err.find("not enough memory for a generated chunk") != std::string::npos;
-  }
-  EXPECT_TRUE(succeeded);
-  EXPECT_TRUE(named);
+  ExpectCleanFailuresUntilItFits(
+      {"generate", "--field", "perlin", "--dims", "129,129,129", "--type", "float32",
+       "--threads", "2", "-o", dir.path() + "/g.nrrd"},
+      2048, 4, dir.path() + "/err.txt", [](const std::string& err) {
+        EXPECT_NE(err.find("not enough memory"), std::string::npos) << err;
+        return err.find("not enough memory for a generated chunk") != std::string::npos;
+      });
 }
 
 }  // namespace
