@@ -33,6 +33,7 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using testing::RunCli;
+using testing::SortedNames;
 using testing::TempDir;
 
 // Starts SIMPLEXDB_CLI with `args` (no shell), its output thrown away.
@@ -72,13 +73,6 @@ bool Ended(pid_t pid, int* code) {
   return true;
 }
 
-std::vector<std::string> Names(const std::string& dir) {
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
-
 // True when `name` is `output`.tmp.<digits>, maybe followed by a suffix
 // that begins with '.' or '-' (the pattern storage/io/file.h documents,
 // spelled out here rather than taken from the code under test).
@@ -104,7 +98,7 @@ struct Case {
 std::vector<std::string> Strangers(const std::string& folder,
                                    const std::vector<std::string>& outputs) {
   std::vector<std::string> strangers;
-  for (const std::string& name : Names(folder)) {
+  for (const std::string& name : SortedNames(folder)) {
     if (std::find(outputs.begin(), outputs.end(), name) != outputs.end()) continue;
     const bool temporary = std::any_of(outputs.begin(), outputs.end(), [&](const std::string& o) {
       return LooksLikeTemporaryOf(name, o);
@@ -141,7 +135,7 @@ class KillNine : public ::testing::Test {
     const Clock::time_point t0 = Clock::now();
     ASSERT_EQ(Wait(Start(c.args(ref))), 0) << "a complete run fails";
     const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-    ASSERT_EQ(Names(ref), c.outputs);
+    ASSERT_EQ(SortedNames(ref), c.outputs);
     fs::remove_all(ref);
 
     const std::string out = dir_.path() + "/out";
@@ -152,12 +146,12 @@ class KillNine : public ::testing::Test {
       // The last trial kills just after a temporary of its own appears,
       // again until one is left (a short write may end first).
       for (int attempt = 0; attempt < (trial < 3 ? 1 : 20); ++attempt) {
-        const std::vector<std::string> before = Names(out);
+        const std::vector<std::string> before = SortedNames(out);
         const pid_t pid = Start(c.args(out));
         int code = 0;
         bool ended = false;
         const auto fresh = [&] {  // a name this run made
-          for (const std::string& n : Names(out)) {
+          for (const std::string& n : SortedNames(out)) {
             if (!std::binary_search(before.begin(), before.end(), n)) return true;
           }
           return false;
@@ -188,7 +182,7 @@ class KillNine : public ::testing::Test {
         if (code != 0 && fresh()) break;
       }
     }
-    const std::vector<std::string> left = Names(out);
+    const std::vector<std::string> left = SortedNames(out);
     EXPECT_FALSE(left.empty()) << "no kill left a temporary: the test proved nothing";
 
     // The next complete run removes them and succeeds.
@@ -198,7 +192,7 @@ class KillNine : public ::testing::Test {
       return RunCli(line);
     }();
     EXPECT_EQ(done.exit_code, 0) << done.err;
-    EXPECT_EQ(Names(out), c.outputs) << "left before: " << ::testing::PrintToString(left);
+    EXPECT_EQ(SortedNames(out), c.outputs) << "left before: " << ::testing::PrintToString(left);
   }
 
   TempDir dir_;

@@ -27,14 +27,8 @@ namespace {
 namespace fs = std::filesystem;
 using testing::ReadWholeFile;
 using testing::RunCli;
+using testing::SortedNames;
 using testing::TempDir;
-
-std::vector<std::string> Names(const std::string& dir) {
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
 
 class OutputRefusal : public ::testing::Test {
  protected:
@@ -59,12 +53,12 @@ class OutputRefusal : public ::testing::Test {
   void ExpectRefused(const std::string& args, const std::string& output, const std::string& words,
                      const std::string& kept) {
     SCOPED_TRACE(args);
-    const std::vector<std::string> before = Names(dir_.path());
+    const std::vector<std::string> before = SortedNames(dir_.path());
     const std::string bytes = ReadWholeFile(kept);
     const testing::CommandResult r = RunCli(args);
     EXPECT_EQ(r.exit_code, 1) << r.err;
     EXPECT_NE(r.err.find(output + ": cannot write: " + words), std::string::npos) << r.err;
-    EXPECT_EQ(Names(dir_.path()), before);  // no temporary, nothing new
+    EXPECT_EQ(SortedNames(dir_.path()), before);  // no temporary, nothing new
     EXPECT_EQ(ReadWholeFile(kept), bytes);
   }
 
@@ -170,14 +164,14 @@ TEST_F(OutputRefusal, ASymlinkUnlessForcedThenItsTargetIsReplacedAndTheLinkKept)
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(fs::is_symlink(d + "/link"));
   EXPECT_EQ(fs::read_symlink(d + "/link"), "real/target");
-  EXPECT_EQ(Names(d + "/real"), std::vector<std::string>{"target"});
+  EXPECT_EQ(SortedNames(d + "/real"), std::vector<std::string>{"target"});
   EXPECT_EQ(RunCli("verify -q " + d + "/link").exit_code, 0);
   EXPECT_EQ(ReadWholeFile(d + "/real/target").substr(0, 8), "SIMPLXDB");  // a store now
   const testing::CommandResult s =
       RunCli("convert " + d + "/v.sdb --to sparse -q --force -o " + d + "/link");
   ASSERT_EQ(s.exit_code, 0) << s.err;
   EXPECT_TRUE(fs::is_symlink(d + "/link"));
-  EXPECT_EQ(Names(d + "/real"), std::vector<std::string>{"target"});
+  EXPECT_EQ(SortedNames(d + "/real"), std::vector<std::string>{"target"});
   EXPECT_EQ(RunCli("verify -q " + d + "/real/target").exit_code, 0);
 }
 

@@ -24,14 +24,8 @@ namespace simplexdb {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::SortedNames;
 using testing::TempDir;
-
-std::vector<std::string> Names(const std::string& dir) {
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
 
 std::string ReadAll(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -79,7 +73,7 @@ TEST(Temporaries, StaleOnesOfDeadProcessesAreRemoved) {
   Touch(dir.path() + "/other.sdb.tmp." + dead);  // another output's
   Touch(out + ".tmp.notapid");                    // not a temporary
   RemoveStaleTemporaries(out);
-  EXPECT_EQ(Names(dir.path()),
+  EXPECT_EQ(SortedNames(dir.path()),
             (std::vector<std::string>{"other.sdb.tmp." + dead, "out.sdb.tmp." + live,
                                       "out.sdb.tmp." + live + "-lock", "out.sdb.tmp.notapid"}));
 }
@@ -91,13 +85,13 @@ TEST(AtomicFileWriter, WritesUnderATemporaryAndCommitsIntoPlace) {
   auto writer = AtomicFileWriter::Create(out);
   ASSERT_TRUE(writer.ok()) << writer.status().ToString();
   EXPECT_EQ((*writer)->temp_path(), TemporaryPathFor(out));
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"out.bin.tmp." + std::to_string(getpid())});
+  EXPECT_EQ(SortedNames(dir.path()), std::vector<std::string>{"out.bin.tmp." + std::to_string(getpid())});
   ASSERT_TRUE((*writer)->Append(std::string_view("world")).ok());
   const uint64_t at = (*writer)->Reserve(2);
   ASSERT_TRUE((*writer)->WriteAt(at, std::vector<uint8_t>{'!', '\n'}).ok());
   ASSERT_TRUE((*writer)->Commit().ok());
   EXPECT_EQ(ReadAll(out), "world!\n");
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"out.bin"});
+  EXPECT_EQ(SortedNames(dir.path()), std::vector<std::string>{"out.bin"});
 }
 
 TEST(AtomicFileWriter, AnAbandonedWriteLeavesTheEarlierFile) {
@@ -110,7 +104,7 @@ TEST(AtomicFileWriter, AnAbandonedWriteLeavesTheEarlierFile) {
     ASSERT_TRUE((*writer)->Append(std::string_view("new, half")).ok());
   }
   EXPECT_EQ(ReadAll(out), "old\n");
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"out.txt"});
+  EXPECT_EQ(SortedNames(dir.path()), std::vector<std::string>{"out.txt"});
 }
 
 TEST(AtomicFileWriter, WritersOfOneOutputInOneProcessGetDistinctTemporaries) {
@@ -137,7 +131,7 @@ TEST(AtomicFileWriter, WritersOfOneOutputInOneProcessGetDistinctTemporaries) {
   const std::string text = ReadAll(out);
   ASSERT_EQ(text.size(), 1000u);
   EXPECT_EQ(text, std::string(1000, text[0]));
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"out.txt"});
+  EXPECT_EQ(SortedNames(dir.path()), std::vector<std::string>{"out.txt"});
 }
 
 TEST(AtomicFileWriter, AMissingFolderIsReportedByTheOutputsName) {
@@ -175,7 +169,7 @@ TEST(PrepareOutput, RefusesWhatIsNotARegularFile) {
   ASSERT_LT(sock_path.size(), sizeof(addr.sun_path));
   std::copy(sock_path.begin(), sock_path.end(), addr.sun_path);
   ASSERT_EQ(bind(sock, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)), 0);
-  const std::vector<std::string> before = Names(d);
+  const std::vector<std::string> before = SortedNames(d);
   const struct {
     std::string path, words;
   } cases[] = {
@@ -196,7 +190,7 @@ TEST(PrepareOutput, RefusesWhatIsNotARegularFile) {
     EXPECT_TRUE(WriteFileAtomically(c.path, "y").IsInvalidArgument());
   }
   close(sock);
-  EXPECT_EQ(Names(d), before);  // no temporary, nothing replaced
+  EXPECT_EQ(SortedNames(d), before);  // no temporary, nothing replaced
   EXPECT_TRUE(fs::is_fifo(d + "/fifo"));
   EXPECT_TRUE(fs::is_symlink(d + "/link"));
   EXPECT_EQ(ReadAll(d + "/target"), "x");
@@ -261,7 +255,7 @@ TEST(ResolveOutput, ForceWritesThroughASymlinkToAFileAndKeepsTheLink) {
   EXPECT_TRUE(fs::is_symlink(d + "/link"));
   EXPECT_EQ(fs::read_symlink(d + "/link"), "real/target");
   EXPECT_EQ(ReadAll(d + "/link"), "new contents");
-  EXPECT_EQ(Names(d + "/real"), std::vector<std::string>{"target"});  // no temporary left
+  EXPECT_EQ(SortedNames(d + "/real"), std::vector<std::string>{"target"});  // no temporary left
   // Never through a dangling symlink or one to something not a file.
   const Result<std::string> dangling = ResolveOutput(d + "/dangling", options);
   ASSERT_TRUE(dangling.status().IsInvalidArgument());
@@ -283,7 +277,7 @@ TEST(TemporaryFile, CommitsOrRemovesItselfAndLmdbsLock) {
     Touch(temp.path() + "-lock");
     ASSERT_TRUE(temp.Commit().ok());
   }
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"s.lmdb"});
+  EXPECT_EQ(SortedNames(dir.path()), std::vector<std::string>{"s.lmdb"});
   {
     TemporaryFile scratch(out, "dense");
     EXPECT_EQ(scratch.path(), TemporaryPathFor(out) + ".dense");
@@ -292,7 +286,7 @@ TEST(TemporaryFile, CommitsOrRemovesItselfAndLmdbsLock) {
     Touch(temp.path());
     Touch(temp.path() + "-lock");
   }  // neither committed
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"s.lmdb"});
+  EXPECT_EQ(SortedNames(dir.path()), std::vector<std::string>{"s.lmdb"});
 }
 
 TEST(WritableScratchMapping, HoldsWhatIsWrittenUntilItGoesAway) {

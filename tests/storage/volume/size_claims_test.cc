@@ -14,32 +14,15 @@
 
 #include "storage/volume/volume.h"
 #include "tests/storage/address_space_limit.h"
+#include "tests/storage/store_test_util.h"
 
 namespace simplexdb {
 namespace {
 
-namespace fs = std::filesystem;
 using testing::kOneGiB;
 using testing::LimitedRun;
 using testing::RunUnderAddressSpaceLimit;
-
-class TempDir {
- public:
-  TempDir() {
-    std::string tmpl = (fs::path(::testing::TempDir()) / "size_claims_XXXXXX").lexically_normal();
-    const char* made = ::mkdtemp(tmpl.data());
-    EXPECT_NE(made, nullptr) << tmpl;
-    path_ = made != nullptr ? made : tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
+using testing::TempDir;
 
 void WriteFile(const std::string& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
