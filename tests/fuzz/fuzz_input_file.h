@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -29,7 +30,10 @@ inline const std::string& InputFolder() {
       std::abort();
     }
     static const std::string removed_at_exit = pattern;
-    std::atexit([] { std::system(("rm -rf '" + removed_at_exit + "'").c_str()); });
+    std::atexit([] {
+      std::error_code ignored;
+      std::filesystem::remove_all(removed_at_exit, ignored);
+    });
     return pattern;
   }();
   return folder;
