@@ -85,6 +85,12 @@ TEST(ValuesCli, ScaledNiftiImportsTheScaledValues) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto info = nlohmann::json::parse(r.out);
   EXPECT_EQ(info["voxel_type"], "float32");
+  EXPECT_NE(info["source"].get<std::string>().find("(scaled: slope 0.25, intercept -3)"),
+            std::string::npos)
+      << info["source"];
+  r = RunCli("info " + store);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("(scaled: slope 0.25, intercept -3)"), std::string::npos) << r.out;
   const auto [lo, hi] = std::minmax_element(expected.begin(), expected.end());
   EXPECT_EQ(info["field_min"].get<double>(), *lo);
   EXPECT_EQ(info["field_max"].get<double>(), *hi);
@@ -108,6 +114,9 @@ TEST(ValuesCli, ScaledNiftiImportsTheScaledValues) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto sinfo = nlohmann::json::parse(r.out);
   EXPECT_EQ(sinfo["voxel_type"], "float32");
+  EXPECT_NE(sinfo["source"].get<std::string>().find("(scaled: slope 0.25, intercept -3)"),
+            std::string::npos)
+      << sinfo["source"];
   EXPECT_EQ(sinfo["field_min"].get<double>(), *lo);
   EXPECT_EQ(sinfo["field_max"].get<double>(), *hi);
 }
