@@ -1,0 +1,408 @@
+// Diamonds and the hierarchical Z-order (HZ) of their vertices: the
+// addressing of store format 2 (DESIGN.md, "Stores, format 2").
+//
+// Every vertex of the grid [0, 2^k]^D except the domain's 2^D corners is the
+// midpoint of exactly one split edge: the split vertex of every node of one
+// cluster (a diamond), all at one level, its creation level. So one record
+// per vertex holds its diamond's error and its field value.
+//
+// Creation level, from the vertex alone. With s the number of trailing zero
+// bits common to all coordinates (s < k off the corners), the vertex is the
+// centre of a face of dimension m (m = the number of coordinates that are odd
+// multiples of 2^s, 1 <= m <= D) of a cube of side 2^(s+1), which is a cube
+// of octave o = k - 1 - s. The HT creates cube centres (m = 3) at level 3o,
+// face centres at 3o + 1 and edge midpoints at 3o + 2; the HP likewise, four
+// levels an octave:
+//
+//   level = D * o + (D - m)
+//
+// HZ order. Positions are a virtual address space over the vertices:
+//
+//   | corners: 2^D | level 0 | level 1 | ... | level D*k - 1 |
+//
+// A corner's position is the Morton index of its coordinate bits (g[a] >> k).
+// Level c (octave o, m odd coordinates) holds the vertices by the Morton
+// order of their cube u = g >> (s + 1) (o + 1 bits per axis: u[a] runs to
+// 2^o on the axes where the vertex is even, the upper faces of the domain),
+// and within a cube by the pattern of odd axes (the C(D, m) masks of m bits,
+// in increasing order):
+//
+//   position = LevelBegin(c) + Morton(u) * C(D, m) + pattern index
+//   LevelSize(c) = C(D, m) * 2^(D * (o + 1))
+//
+// A level's space is about 2^D times the vertices it holds: the positions
+// past the grid's upper faces hold no vertex (IsVertex() is false). Stores
+// keep fixed runs of positions as blocks and only the blocks that hold data,
+// so the holes cost nothing; the coarse levels share the first blocks.
+//
+// Code -> vertex. SplitVertex(code) walks the code one octave (D levels) per
+// step through a table of the reference cube's simplex shapes: every node at
+// a level D * o is a simplex whose vertices are corners of a cube of octave o
+// (the shapes repeat each octave at half the size, seed 3.2, 4.2), so a
+// state (which corners, in which order) and the next D path bits give the
+// sub-cube and the next state. The tables are derived from the split rules
+// at first use.
+//
+// Thread safety: pure functions and immutable values.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cassert>
+#include <cstdint>
+
+#include "hierarchy/geometry.h"
+#include "hierarchy/simplex_code.h"
+#include "hierarchy/split_rules.h"
+
+namespace simplexdb {
+
+namespace internal {
+
+// Morton (Z-order) interleaving of D coordinates: bit b of coordinate a goes
+// to bit D * b + a. HT: 21 bits per axis, HP: 16.
+template <int D>
+constexpr uint64_t SpreadBits(uint64_t x) {
+  if constexpr (D == 3) {
+    x &= 0x1fffff;
+    x = (x | x << 32) & 0x1f00000000ffffULL;
+    x = (x | x << 16) & 0x1f0000ff0000ffULL;
+    x = (x | x << 8) & 0x100f00f00f00f00fULL;
+    x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+    x = (x | x << 2) & 0x1249249249249249ULL;
+  } else {
+    x &= 0xffff;
+    x = (x | x << 24) & 0x000000ff000000ffULL;
+    x = (x | x << 12) & 0x000f000f000f000fULL;
+    x = (x | x << 6) & 0x0303030303030303ULL;
+    x = (x | x << 3) & 0x1111111111111111ULL;
+  }
+  return x;
+}
+
+template <int D>
+constexpr uint64_t GatherBits(uint64_t x) {
+  if constexpr (D == 3) {
+    x &= 0x1249249249249249ULL;
+    x = (x | x >> 2) & 0x10c30c30c30c30c3ULL;
+    x = (x | x >> 4) & 0x100f00f00f00f00fULL;
+    x = (x | x >> 8) & 0x1f0000ff0000ffULL;
+    x = (x | x >> 16) & 0x1f00000000ffffULL;
+    x = (x | x >> 32) & 0x1fffff;
+  } else {
+    x &= 0x1111111111111111ULL;
+    x = (x | x >> 3) & 0x0303030303030303ULL;
+    x = (x | x >> 6) & 0x000f000f000f000fULL;
+    x = (x | x >> 12) & 0x000000ff000000ffULL;
+    x = (x | x >> 24) & 0xffff;
+  }
+  return x;
+}
+
+template <int D>
+constexpr uint64_t Morton(const std::array<int64_t, D>& u) {
+  uint64_t m = 0;
+  for (int a = 0; a < D; ++a) m |= SpreadBits<D>(static_cast<uint64_t>(u[a])) << a;
+  return m;
+}
+
+template <int D>
+constexpr std::array<int64_t, D> FromMorton(uint64_t m) {
+  std::array<int64_t, D> u{};
+  for (int a = 0; a < D; ++a) u[a] = static_cast<int64_t>(GatherBits<D>(m >> a));
+  return u;
+}
+
+// The masks of D bits with m bits set, in increasing order, and the index
+// of each mask among those with its popcount.
+template <int D>
+struct OddPatterns {
+  std::array<std::array<uint8_t, 6>, D + 1> masks{};  // masks[m][i]; C(4,2) = 6 at most
+  std::array<uint8_t, D + 1> count{};
+  std::array<uint8_t, 1 << D> index{};
+};
+
+template <int D>
+constexpr OddPatterns<D> DeriveOddPatterns() {
+  OddPatterns<D> p{};
+  for (int mask = 0; mask < (1 << D); ++mask) {
+    const int m = std::popcount(static_cast<unsigned>(mask));
+    p.index[mask] = p.count[m];
+    p.masks[m][p.count[m]++] = static_cast<uint8_t>(mask);
+  }
+  return p;
+}
+
+template <int D>
+inline constexpr OddPatterns<D> kOddPatterns = DeriveOddPatterns<D>();
+
+// The octave tables. A state is a simplex at the start of an octave given by
+// which corners of its cube its vertices are, in order: vertex i is corner
+// mask corners[i] (bit a set: the far side along axis a).
+template <int D>
+struct OctaveTables {
+  static constexpr int kMaxStates = D == 3 ? 48 : 384;  // D! * 2^D shapes at most
+  static constexpr int kSteps = 1 << D;                 // D path bits per octave
+  int states = 0;
+  std::array<std::array<uint8_t, D + 1>, kMaxStates> corners{};
+  std::array<uint32_t, kMaxStates> keys{};  // corners packed, D bits each: for the search
+  // step[state][bits]: low D bits the sub-cube (bit a: the far half along a),
+  // the rest the state there. `bits` holds the D path bits of the octave,
+  // the first level's bit highest.
+  std::array<std::array<uint16_t, kSteps>, kMaxStates> step{};
+  // split[state][(2^r - 1) + bits]: the split vertex of the node r levels
+  // into the octave (r < D, `bits` its r path bits, first highest), in units
+  // of half the cube's side: 2 bits per axis, values 0..2.
+  std::array<std::array<uint8_t, kSteps - 1>, kMaxStates> split{};
+  std::array<uint16_t, SimplexCode<D>::kRoots> root_state{};
+};
+
+template <int D>
+constexpr int FindOrAddState(OctaveTables<D>& t, const std::array<uint8_t, D + 1>& c) {
+  uint32_t key = 0;
+  for (int i = 0; i <= D; ++i) key |= uint32_t{c[i]} << (D * i);
+  for (int s = 0; s < t.states; ++s) {
+    if (t.keys[s] == key) return s;
+  }
+  if (t.states == OctaveTables<D>::kMaxStates) throw "more simplex shapes than D! * 2^D";
+  t.corners[t.states] = c;
+  t.keys[t.states] = key;
+  return t.states++;
+}
+
+// The vertices, in units of half the cube's side, of the node `r` levels
+// into an octave below state corners `c`, reached by path bits `bits`.
+template <int D>
+constexpr SimplexVertices<D> DescendInOctave(const std::array<uint8_t, D + 1>& c, int r,
+                                             uint32_t bits) {
+  SimplexVertices<D> v{};
+  for (int i = 0; i <= D; ++i) {
+    for (int a = 0; a < D; ++a) v[i][a] = (c[i] >> a & 1) * 2;
+  }
+  uint64_t path = 0;
+  for (int j = 0; j < r; ++j) {
+    const int child = static_cast<int>(bits >> (r - 1 - j) & 1);
+    SimplexVertices<D> next{};
+    internal::Split<D>(v, SplitRules<D>::CaseOf(j, path), child, next,
+                       [](const Point<D>& a, const Point<D>& b) {
+                         Point<D> m{};
+                         for (int x = 0; x < D; ++x) {
+                           if ((a[x] + b[x]) % 2 != 0) throw "a split vertex off the half lattice";
+                           m[x] = (a[x] + b[x]) / 2;
+                         }
+                         return m;
+                       });
+    v = next;
+    path = path << 1 | static_cast<uint64_t>(child);
+  }
+  return v;
+}
+
+template <int D>
+constexpr OctaveTables<D> DeriveOctaveTables() {
+  OctaveTables<D> t{};
+  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
+    const SimplexVertices<D> root = RootVertices<D>(top);
+    std::array<uint8_t, D + 1> c{};
+    for (int i = 0; i <= D; ++i) {
+      for (int a = 0; a < D; ++a) c[i] |= static_cast<uint8_t>((root[i][a] != 0) << a);
+    }
+    t.root_state[top] = static_cast<uint16_t>(FindOrAddState(t, c));
+  }
+  for (int s = 0; s < t.states; ++s) {  // t.states grows as new shapes appear
+    const std::array<uint8_t, D + 1> c = t.corners[s];
+    for (uint32_t bits = 0; bits < (1u << D); ++bits) {
+      const SimplexVertices<D> v = DescendInOctave<D>(c, D, bits);
+      int offset = 0;
+      std::array<uint8_t, D + 1> sub{};
+      for (int a = 0; a < D; ++a) {
+        int lo = 2;
+        for (int i = 0; i <= D; ++i) lo = std::min(lo, static_cast<int>(v[i][a]));
+        if (lo > 1) throw "a simplex outside its cube";
+        offset |= lo << a;
+        for (int i = 0; i <= D; ++i) {
+          const int rel = v[i][a] - lo;
+          if (rel != 0 && rel != 1) throw "a simplex whose vertices are not corners of a sub-cube";
+          sub[i] |= static_cast<uint8_t>(rel << a);
+        }
+      }
+      const int next = FindOrAddState(t, sub);
+      t.step[s][bits] = static_cast<uint16_t>(next << D | offset);
+    }
+    for (int r = 0; r < D; ++r) {
+      for (uint32_t bits = 0; bits < (1u << r); ++bits) {
+        const SimplexVertices<D> v = DescendInOctave<D>(c, r, bits);
+        const auto edge = SplitRules<D>::kCaseToSplitEdge[SplitRules<D>::CaseOf(
+            r, bits)];  // CaseOf reads the last two path bits, which `bits` ends with
+        uint8_t w = 0;
+        for (int a = 0; a < D; ++a) {
+          w |= static_cast<uint8_t>((v[edge[0]][a] + v[edge[1]][a]) / 2 << (2 * a));
+        }
+        t.split[s][(1u << r) - 1 + bits] = w;
+      }
+    }
+  }
+  return t;
+}
+
+// Built once, at first use (about 6,000 simplex splits for the HP: more
+// than a compiler's constant evaluation allows).
+template <int D>
+const OctaveTables<D>& TheOctaveTables() {
+  static const OctaveTables<D> tables = DeriveOctaveTables<D>();
+  return tables;
+}
+
+}  // namespace internal
+
+// The vertex that splitting `code` creates (the midpoint of its split edge),
+// in lattice coordinates: SplitMidpoint(code, Vertices(code)) without the
+// vertices. O(level / D): one table step per octave.
+// REQUIRES: code.is_valid().
+template <int D>
+Point<D> SplitVertex(SimplexCode<D> code) {
+  assert(code.is_valid());
+  const auto& t = internal::TheOctaveTables<D>();
+  const int level = code.level();
+  const int octaves = level / D, r = level % D;
+  const uint64_t path = code.path();
+  uint32_t state = t.root_state[code.top()];
+  std::array<uint32_t, D> cube{};  // the octave cube's corner, one bit per octave
+  for (int o = 0; o < octaves; ++o) {
+    const uint32_t bits = static_cast<uint32_t>(path >> (level - D * (o + 1))) & ((1u << D) - 1);
+    const uint32_t e = t.step[state][bits];
+    for (int a = 0; a < D; ++a) cube[a] = cube[a] << 1 | (e >> a & 1);
+    state = e >> D;
+  }
+  const uint32_t w = t.split[state][(1u << r) - 1 + (path & ((uint64_t{1} << r) - 1))];
+  const int side = kCoordBits<D> - octaves;  // the cube's side is 2^side
+  Point<D> v{};
+  for (int a = 0; a < D; ++a) {
+    v[a] = static_cast<int32_t>((cube[a] << side) + ((w >> (2 * a) & 3) << (side - 1)));
+  }
+  return v;
+}
+
+// The HZ order of the grid [0, 2^k]^D (the header comment above).
+// Thread safety: an immutable value.
+template <int D>
+class HzOrder {
+ public:
+  using GridPoint = std::array<int64_t, D>;
+  static constexpr int kCorners = 1 << D;
+
+  // REQUIRES: 1 <= domain_bits <= kCoordBits<D> - 1 (HT 18, HP 13).
+  explicit constexpr HzOrder(int domain_bits) : k_(domain_bits) {
+    assert(domain_bits >= 1 && domain_bits < kCoordBits<D>);
+    begin_[0] = kCorners;
+    for (int c = 0; c < levels(); ++c) begin_[c + 1] = begin_[c] + LevelSize(c);
+  }
+
+  int domain_bits() const { return k_; }
+  // Creation levels run 0 .. levels() - 1: the internal levels of the hierarchy.
+  constexpr int levels() const { return D * k_; }
+  // The virtual positions: [0, size()).
+  uint64_t size() const { return begin_[levels()]; }
+
+  // The level whose splits create `g`, or -1 for a corner of the domain.
+  // REQUIRES: g in [0, 2^k]^D.
+  int Level(const GridPoint& g) const {
+    uint64_t any = 0;
+    for (int a = 0; a < D; ++a) any |= static_cast<uint64_t>(g[a]);
+    const int s = any == 0 ? k_ : std::countr_zero(any);
+    if (s >= k_) return -1;
+    int m = 0;
+    for (int a = 0; a < D; ++a) m += static_cast<int>(g[a] >> s & 1);
+    return D * (k_ - 1 - s) + (D - m);
+  }
+
+  // The level-c positions are [LevelBegin(c), LevelEnd(c)); level -1 is the
+  // corners. REQUIRES: -1 <= c < levels().
+  uint64_t LevelBegin(int c) const { return c < 0 ? 0 : begin_[c]; }
+  uint64_t LevelEnd(int c) const { return begin_[c + 1]; }
+  static constexpr uint64_t LevelSize(int c) {
+    return uint64_t{internal::kOddPatterns<D>.count[D - c % D]} << (D * (c / D + 1));
+  }
+
+  // The position of grid point g. REQUIRES: g in [0, 2^k]^D.
+  uint64_t Position(const GridPoint& g) const { return PositionAtLevel(g, Level(g)); }
+
+  // The same, when the caller knows g's level. REQUIRES: level == Level(g).
+  uint64_t PositionAtLevel(const GridPoint& g, int level) const {
+    assert(level == Level(g));
+    if (level < 0) {
+      uint64_t corner = 0;
+      for (int a = 0; a < D; ++a) corner |= static_cast<uint64_t>(g[a] >> k_) << a;
+      return corner;
+    }
+    const int s = k_ - 1 - level / D;
+    uint32_t odd = 0;
+    GridPoint u{};
+    for (int a = 0; a < D; ++a) {
+      odd |= static_cast<uint32_t>(g[a] >> s & 1) << a;
+      u[a] = g[a] >> (s + 1);
+    }
+    const auto& p = internal::kOddPatterns<D>;
+    return begin_[level] + internal::Morton<D>(u) * p.count[D - level % D] + p.index[odd];
+  }
+
+  // The position of the vertex `code` creates. O(level / D).
+  // REQUIRES: code.is_valid(), code.level() < levels().
+  uint64_t PositionOf(SimplexCode<D> code) const {
+    assert(code.level() < levels());
+    return PositionAtLevel(LatticeToGrid<D>(SplitVertex(code), k_), code.level());
+  }
+
+  // The level of position `p`. REQUIRES: p < size().
+  int LevelAt(uint64_t p) const {
+    return static_cast<int>(std::upper_bound(begin_.begin(), begin_.begin() + levels() + 1, p) -
+                            begin_.begin()) -
+           1;
+  }
+
+  // Whether position p names a grid point (false for the holes past the
+  // upper faces). REQUIRES: p < size().
+  bool IsVertex(uint64_t p) const {
+    GridPoint g;
+    return Decode(p, g);
+  }
+
+  // The grid point at position p. REQUIRES: IsVertex(p).
+  GridPoint PointAt(uint64_t p) const {
+    GridPoint g{};
+    [[maybe_unused]] const bool ok = Decode(p, g);
+    assert(ok);
+    return g;
+  }
+
+  // Decodes p into g; false when p is a hole. REQUIRES: p < size().
+  bool Decode(uint64_t p, GridPoint& g) const {
+    assert(p < size());
+    const int c = LevelAt(p);
+    if (c < 0) {
+      for (int a = 0; a < D; ++a) g[a] = static_cast<int64_t>(p >> a & 1) << k_;
+      return true;
+    }
+    const auto& pat = internal::kOddPatterns<D>;
+    const int m = D - c % D;
+    const uint64_t rank = p - begin_[c];
+    const uint64_t cell = rank / pat.count[m];
+    const uint32_t odd = pat.masks[m][rank % pat.count[m]];
+    const int s = k_ - 1 - c / D;
+    const GridPoint u = internal::FromMorton<D>(cell);
+    const int64_t side = int64_t{1} << k_;
+    bool inside = true;
+    for (int a = 0; a < D; ++a) {
+      g[a] = (u[a] << (s + 1)) | (static_cast<int64_t>(odd >> a & 1) << s);
+      inside = inside && g[a] <= side;
+    }
+    return inside;
+  }
+
+ private:
+  int k_;
+  std::array<uint64_t, D * (kCoordBits<D> - 1) + 1> begin_{};
+};
+
+}  // namespace simplexdb
