@@ -19,6 +19,7 @@
 
 #include "hierarchy/cluster.h"
 #include "hierarchy/geometry.h"
+#include "hierarchy/hz_order.h"
 #include "hierarchy/neighbors.h"
 #include "hierarchy/level_scan.h"
 
@@ -215,6 +216,48 @@ void RegisterGeometryBenchmarks(std::initializer_list<int> vertex_levels,
         (name + "Vertices/depth:" + std::to_string(level)).c_str(), [level](benchmark::State& s) {
           const auto codes = RandomCodes<D>(level, 5);
           RunOverCodes(s, codes, [](SimplexCode<D> c) { return Vertices(c); });
+        });
+    // Format 2's code -> record: the split vertex by octave tables, against
+    // the split midpoint from Vertices() (what it replaces).
+    benchmark::RegisterBenchmark(
+        (name + "SplitVertex/depth:" + std::to_string(level)).c_str(), [level](benchmark::State& s) {
+          const auto codes = RandomCodes<D>(level, 5);
+          RunOverCodes(s, codes, [](SimplexCode<D> c) { return SplitVertex(c); });
+        });
+    benchmark::RegisterBenchmark(
+        (name + "SplitMidpointOfVertices/depth:" + std::to_string(level)).c_str(),
+        [level](benchmark::State& s) {
+          const auto codes = RandomCodes<D>(level, 5);
+          RunOverCodes(s, codes, [](SimplexCode<D> c) { return SplitMidpoint<D>(c, Vertices(c)); });
+        });
+  }
+  // A depth-first walk's lookups: the children of each node, then deeper
+  // (paths random, depths around `level`). The cursor reuses shared octaves.
+  for (int level : vertex_levels) {
+    const auto walk = [level] {
+      std::vector<SimplexCode<D>> out;
+      std::mt19937_64 rng(level);
+      SimplexCode<D> c = SimplexCode<D>::Root(0);
+      while (out.size() < kCodes) {
+        if (c.level() >= level) c = c.ancestor(static_cast<int>(rng() % (level / 2 + 1)) + level / 2);
+        out.push_back(c.child(0));
+        out.push_back(c.child(1));
+        c = c.child(static_cast<int>(rng() & 1));
+      }
+      out.resize(kCodes);
+      return out;
+    };
+    benchmark::RegisterBenchmark(
+        (name + "SplitVertexWalk/depth:" + std::to_string(level)).c_str(), [walk](benchmark::State& s) {
+          const auto codes = walk();
+          RunOverCodes(s, codes, [](SimplexCode<D> c) { return SplitVertex(c); });
+        });
+    benchmark::RegisterBenchmark(
+        (name + "SplitVertexCursorWalk/depth:" + std::to_string(level)).c_str(),
+        [walk](benchmark::State& s) {
+          const auto codes = walk();
+          SplitVertexCursor<D> cursor;
+          RunOverCodes(s, codes, [&cursor](SimplexCode<D> c) { return cursor.Of(c); });
         });
   }
   // Mostly interior codes, at random; the average size shows the shape.

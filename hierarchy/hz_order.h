@@ -284,6 +284,60 @@ Point<D> SplitVertex(SimplexCode<D> code) {
   return v;
 }
 
+// SplitVertex for a sequence of codes that share long prefixes (a walk of
+// the hierarchy): keeps the octave steps of the last code and restarts from
+// the last octave the new code shares with it. A depth-first walk then costs
+// O(1) table steps per code, against O(level / D) for SplitVertex.
+// Thread safety: one thread's at a time (it is a cache).
+template <int D>
+class SplitVertexCursor {
+ public:
+  // REQUIRES: code.is_valid().
+  Point<D> Of(SimplexCode<D> code) {
+    assert(code.is_valid());
+    const auto& t = *tables_;
+    const int level = code.level();
+    const int octaves = level / D, r = level % D;
+    // The levels both codes have and agree on: the first differing key bit
+    // below the root's bits.
+    constexpr int kTopBits = SimplexCode<D>::kTopBits;
+    const uint64_t diff = (code.key() ^ last_key_) >> SimplexCode<D>::kLevelBits;
+    int shared = diff == 0 ? SimplexCode<D>::kMaxLevel
+                           : std::countl_zero(diff) - SimplexCode<D>::kLevelBits - kTopBits;
+    shared = std::min({shared, level, last_level_});
+    int o = shared < 0 ? 0 : shared / D;
+    if (o == 0) {
+      state_[0] = t.root_state[code.top()];
+      cube_[0] = {};
+    }
+    const uint64_t path = code.path();
+    for (; o < octaves; ++o) {
+      const uint32_t bits = static_cast<uint32_t>(path >> (level - D * (o + 1))) & ((1u << D) - 1);
+      const uint32_t e = t.step[state_[o]][bits];
+      for (int a = 0; a < D; ++a) cube_[o + 1][a] = cube_[o][a] << 1 | (e >> a & 1);
+      state_[o + 1] = static_cast<uint16_t>(e >> D);
+    }
+    last_key_ = code.key();
+    last_level_ = level;
+    const uint32_t w =
+        t.split[state_[octaves]][(1u << r) - 1 + (path & ((uint64_t{1} << r) - 1))];
+    const int side = kCoordBits<D> - octaves;
+    Point<D> v{};
+    for (int a = 0; a < D; ++a) {
+      v[a] = static_cast<int32_t>((cube_[octaves][a] << side) + ((w >> (2 * a) & 3) << (side - 1)));
+    }
+    return v;
+  }
+
+ private:
+  static constexpr int kMaxOctaves = SimplexCode<D>::kMaxLevel / D + 1;
+  const internal::OctaveTables<D>* tables_ = &internal::TheOctaveTables<D>();
+  uint64_t last_key_ = SimplexCode<D>::None().key();
+  int last_level_ = -1;  // no code yet: nothing is shared
+  std::array<uint16_t, kMaxOctaves + 1> state_{};
+  std::array<std::array<uint32_t, D>, kMaxOctaves + 1> cube_{};
+};
+
 // The HZ order of the grid [0, 2^k]^D (the header comment above).
 // Thread safety: an immutable value.
 template <int D>

@@ -47,6 +47,35 @@ void ExpectSplitVertexIsTheSplitMidpoint(int levels) {
 TEST(HzOrder, HtSplitVertexEqualsTheSplitEdgeMidpoint) { ExpectSplitVertexIsTheSplitMidpoint<3>(13); }
 TEST(HzOrder, HpSplitVertexEqualsTheSplitEdgeMidpoint) { ExpectSplitVertexIsTheSplitMidpoint<4>(12); }
 
+// The cursor reuses the octaves a code shares with the previous one: the
+// same answers in any order (depth-first, random, roots switching, levels
+// going up and down).
+template <int D>
+void ExpectCursorAgreesWithSplitVertex() {
+  SplitVertexCursor<D> cursor;
+  for (const SimplexCode<D> c : CodesAbove<D>(11)) ASSERT_EQ(cursor.Of(c), SplitVertex(c)) << c.ToString();
+  std::mt19937_64 rng(5);
+  SimplexCode<D> c = SimplexCode<D>::Root(0);
+  for (int i = 0; i < 300000; ++i) {
+    const uint64_t pick = rng() % 8;
+    if (pick < 3 && c.level() < SimplexCode<D>::kMaxLevel) {
+      c = c.child(static_cast<int>(rng() & 1));
+    } else if (pick < 5 && c.level() > 0) {
+      c = c.ancestor(static_cast<int>(rng() % c.level()));
+    } else if (pick < 6 && c.level() > 0) {
+      c = c.sibling();
+    } else {
+      const int level = static_cast<int>(rng() % SimplexCode<D>::kMaxLevel);
+      c = SimplexCode<D>::FromPath(static_cast<int>(rng() % SimplexCode<D>::kRoots),
+                                   level == 0 ? 0 : rng() >> (64 - level), level);
+    }
+    ASSERT_EQ(cursor.Of(c), SplitVertex(c)) << c.ToString();
+  }
+}
+
+TEST(HzOrder, HtCursorAgreesWithSplitVertex) { ExpectCursorAgreesWithSplitVertex<3>(); }
+TEST(HzOrder, HpCursorAgreesWithSplitVertex) { ExpectCursorAgreesWithSplitVertex<4>(); }
+
 // Bit by bit: bit b of coordinate a is bit D * b + a.
 template <int D>
 uint64_t NaiveMorton(const std::array<int64_t, D>& u) {
