@@ -16,24 +16,29 @@
 //
 //   level = D * o + (D - m)
 //
-// HZ order. Positions are a virtual address space over the vertices:
+// HZ order. Positions are a virtual address space over the vertices. Octave
+// o holds, for each odd-axis pattern (a non-zero mask of D bits; patterns
+// with more odd axes, which are created first, come first), one segment of
+// 2^(D (o + 1)) positions: the vertices of that pattern by the Morton order
+// of their cube u = g >> (s + 1) (o + 1 bits per axis: u[a] runs to 2^o on
+// the axes where the pattern is even, the upper faces of the domain). The
+// 2^D corners come first, at the Morton index of their bits g[a] >> k:
 //
-//   | corners: 2^D | level 0 | level 1 | ... | level D*k - 1 |
+//   position = (1 + segment) * 2^(D (o + 1)) + Morton(u)      (corners: 0 .. 2^D - 1)
 //
-// A corner's position is the Morton index of its coordinate bits (g[a] >> k).
-// Level c (octave o, m odd coordinates) holds the vertices by the Morton
-// order of their cube u = g >> (s + 1) (o + 1 bits per axis: u[a] runs to
-// 2^o on the axes where the vertex is even, the upper faces of the domain),
-// and within a cube by the pattern of odd axes (the C(D, m) masks of m bits,
-// in increasing order):
+// Octave o fills [2^(D (o + 1)), 2^(D (o + 2))): 2^D - 1 segments after the
+// 2^(D (o + 1)) positions before it. So every segment is an aligned run of a
+// power of two, and so is the part of it inside any aligned cube of the
+// domain: a store's blocks (fixed runs of positions) at the fine levels are
+// regions of space, and a builder can fill them brick by brick. Level c
+// (octave o, m odd axes) is the C(D, m) segments of its patterns:
 //
-//   position = LevelBegin(c) + Morton(u) * C(D, m) + pattern index
-//   LevelSize(c) = C(D, m) * 2^(D * (o + 1))
+//   LevelSize(c) = C(D, m) * 2^(D (o + 1))
 //
 // A level's space is about 2^D times the vertices it holds: the positions
 // past the grid's upper faces hold no vertex (IsVertex() is false). Stores
-// keep fixed runs of positions as blocks and only the blocks that hold data,
-// so the holes cost nothing; the coarse levels share the first blocks.
+// keep only the blocks that hold data, so the holes cost nothing; the
+// coarse levels share the first blocks.
 //
 // Code -> vertex. SplitVertex(code) walks the code one octave (D levels) per
 // step through a table of the reference cube's simplex shapes: every node at
@@ -114,22 +119,31 @@ constexpr std::array<int64_t, D> FromMorton(uint64_t m) {
   return u;
 }
 
-// The masks of D bits with m bits set, in increasing order, and the index
-// of each mask among those with its popcount.
+// The segments of an octave: one per odd-axis pattern (a non-zero mask of D
+// bits), ordered by level (more odd axes first: m = D, D - 1, ..., 1) and
+// then by mask. count[m] patterns have m odd axes; first[m] is the first of
+// them.
 template <int D>
 struct OddPatterns {
-  std::array<std::array<uint8_t, 6>, D + 1> masks{};  // masks[m][i]; C(4,2) = 6 at most
+  static constexpr int kSegments = (1 << D) - 1;
+  std::array<uint8_t, kSegments> mask_of{};      // segment -> mask
+  std::array<uint8_t, 1 << D> segment_of{};      // mask -> segment (mask 0: unused)
   std::array<uint8_t, D + 1> count{};
-  std::array<uint8_t, 1 << D> index{};
+  std::array<uint8_t, D + 1> first{};
 };
 
 template <int D>
 constexpr OddPatterns<D> DeriveOddPatterns() {
   OddPatterns<D> p{};
-  for (int mask = 0; mask < (1 << D); ++mask) {
-    const int m = std::popcount(static_cast<unsigned>(mask));
-    p.index[mask] = p.count[m];
-    p.masks[m][p.count[m]++] = static_cast<uint8_t>(mask);
+  int next = 0;
+  for (int m = D; m >= 1; --m) {
+    p.first[m] = static_cast<uint8_t>(next);
+    for (int mask = 1; mask < (1 << D); ++mask) {
+      if (std::popcount(static_cast<unsigned>(mask)) != m) continue;
+      p.mask_of[next] = static_cast<uint8_t>(mask);
+      p.segment_of[mask] = static_cast<uint8_t>(next++);
+      ++p.count[m];
+    }
   }
   return p;
 }
@@ -397,8 +411,8 @@ class HzOrder {
       odd |= static_cast<uint32_t>(g[a] >> s & 1) << a;
       u[a] = g[a] >> (s + 1);
     }
-    const auto& p = internal::kOddPatterns<D>;
-    return begin_[level] + internal::Morton<D>(u) * p.count[D - level % D] + p.index[odd];
+    return (uint64_t{1} + internal::kOddPatterns<D>.segment_of[odd]) << (D * (level / D + 1)) |
+           internal::Morton<D>(u);
   }
 
   // The position of the vertex `code` creates. O(level / D).
@@ -438,12 +452,10 @@ class HzOrder {
       for (int a = 0; a < D; ++a) g[a] = static_cast<int64_t>(p >> a & 1) << k_;
       return true;
     }
-    const auto& pat = internal::kOddPatterns<D>;
-    const int m = D - c % D;
-    const uint64_t rank = p - begin_[c];
-    const uint64_t cell = rank / pat.count[m];
-    const uint32_t odd = pat.masks[m][rank % pat.count[m]];
-    const int s = k_ - 1 - c / D;
+    const int o = c / D;
+    const uint64_t cell = p & ((uint64_t{1} << (D * (o + 1))) - 1);
+    const uint32_t odd = internal::kOddPatterns<D>.mask_of[(p >> (D * (o + 1))) - 1];
+    const int s = k_ - 1 - o;
     const GridPoint u = internal::FromMorton<D>(cell);
     const int64_t side = int64_t{1} << k_;
     bool inside = true;

@@ -153,13 +153,13 @@ TEST(HzOrder, HpEveryVertexIsTheSplitVertexOfOneCluster) {
 }
 
 // Positions: a bijection between the grid points and the positions that are
-// vertices, sorted by (level, Morton order of the cube, odd pattern), with
-// the corners first.
+// vertices, sorted by (level, odd pattern, Morton order of the cube), with
+// the corners first; every octave starts at 2^(D (o + 1)).
 template <int D>
 void ExpectPositionsAreTheHzOrder(int k) {
   SCOPED_TRACE("k = " + std::to_string(k));
   const HzOrder<D> order(k);
-  using Key = std::tuple<int, uint64_t, int>;
+  using Key = std::tuple<int, int, uint64_t>;
   std::vector<std::pair<Key, uint64_t>> points;
   ForEachGridPoint<D>(k, [&](const std::array<int64_t, D>& g) {
     const int level = order.Level(g);
@@ -174,7 +174,7 @@ void ExpectPositionsAreTheHzOrder(int k) {
     if (level < 0) {
       int corner = 0;
       for (int a = 0; a < D; ++a) corner |= static_cast<int>(g[a] >> k) << a;
-      key = {-1, 0, corner};
+      key = {-1, corner, 0};
     } else {
       const int s = k - 1 - level / D;
       std::array<int64_t, D> u{};
@@ -183,7 +183,10 @@ void ExpectPositionsAreTheHzOrder(int k) {
         u[a] = g[a] >> (s + 1);
         odd |= static_cast<int>(g[a] >> s & 1) << a;
       }
-      key = {level, NaiveMorton<D>(u), odd};
+      key = {level, odd, NaiveMorton<D>(u)};
+      if (level % D == 0) {
+        ASSERT_GE(p, uint64_t{1} << (D * (level / D + 1)));
+      }
     }
     points.emplace_back(key, p);
   });
@@ -199,6 +202,49 @@ TEST(HzOrder, HtPositionsAreABijectionInHzOrder) {
 }
 TEST(HzOrder, HpPositionsAreABijectionInHzOrder) {
   for (int k = 1; k <= 3; ++k) ExpectPositionsAreTheHzOrder<4>(k);
+}
+
+// What a brick-by-brick builder relies on: inside an aligned cube of side
+// 2^b, the vertices of one level and pattern whose cells lie in the cube
+// fill an aligned run of 2^(D (b - s - 1)) positions (s + 1 <= b).
+template <int D>
+void ExpectBricksAreAlignedRuns(int k, int b) {
+  SCOPED_TRACE("k = " + std::to_string(k) + ", b = " + std::to_string(b));
+  const HzOrder<D> order(k);
+  // (brick, level, pattern) -> positions
+  std::map<std::tuple<std::array<int64_t, D>, int, int>, std::vector<uint64_t>> runs;
+  ForEachGridPoint<D>(k, [&](const std::array<int64_t, D>& g) {
+    const int level = order.Level(g);
+    if (level < 0) return;
+    const int s = k - 1 - level / D;
+    if (s + 1 > b) return;
+    std::array<int64_t, D> brick{};
+    int odd = 0;
+    for (int a = 0; a < D; ++a) {
+      brick[a] = g[a] >> b;
+      odd |= static_cast<int>(g[a] >> s & 1) << a;
+    }
+    runs[{brick, level, odd}].push_back(order.Position(g));
+  });
+  for (auto& [key, positions] : runs) {
+    const int s = k - 1 - std::get<1>(key) / D;
+    const uint64_t size = uint64_t{1} << (D * (b - s - 1));
+    std::sort(positions.begin(), positions.end());
+    bool inside = true;  // bricks on the upper faces hold only a face
+    for (int a = 0; a < D; ++a) inside = inside && std::get<0>(key)[a] < (int64_t{1} << (k - b));
+    if (inside) {
+      ASSERT_EQ(positions.size(), size);
+    }
+    ASSERT_EQ(positions.front() % size, 0u);
+    ASSERT_LT(positions.back(), positions.front() - positions.front() % size + size);
+  }
+}
+
+TEST(HzOrder, HtBricksAreAlignedRuns) {
+  for (int b = 1; b <= 3; ++b) ExpectBricksAreAlignedRuns<3>(4, b);
+}
+TEST(HzOrder, HpBricksAreAlignedRuns) {
+  for (int b = 1; b <= 2; ++b) ExpectBricksAreAlignedRuns<4>(3, b);
 }
 
 template <int D>
