@@ -1,8 +1,9 @@
 // Sources: the one read interface the query layer sees, over every store,
 // written as the concept ReadSource<S, D> below with its contract. The
 // refinement templates (query/refine.h, mesh_io.h, slice.h) take any type
-// that models it; DenseSource<D> (a dense store, mapped or in memory) and
-// SparseSource<D> (the LMDB store) are the two over stores, and
+// that models it; DenseSource<D> (a dense store, mapped or in memory),
+// HzSource<D> (a format-2 store) and SparseSource<D> (the LMDB store) are
+// the ones over stores, and
 // query/open_store.h makes the right one for a store path.
 //
 // Refinement is a template over the source (static dispatch): an error lookup
@@ -44,6 +45,7 @@
 
 #include "hierarchy/simplex_code.h"
 #include "storage/dense/dense_store.h"
+#include "storage/dense/hz_store.h"
 #include "storage/sparse/sparse_store.h"
 #include "util/status.h"
 
@@ -205,6 +207,47 @@ class DenseSource {
   SourceStats stats_;
 };
 
+// A format-2 store's source (storage/dense/hz_store.h: one record per
+// diamond in hierarchical Z-order): a node's error is its diamond's. Models
+// ThresholdReadSource<HzSource<D>, D>; making one reads nothing.
+template <int D>
+class HzSource {
+ public:
+  static constexpr bool kFieldComplete = true;
+
+  // REQUIRES: store.dimension() == D; the store outlives the source.
+  explicit HzSource(const HzStore& store)
+      : reader_(store), info_(InfoFromHeader(store.header(), store.path())) {}
+
+  const SourceInfo& info() const { return info_; }
+  SourceStats stats() const {
+    SourceStats s = stats_;
+    s.blocks_read = reader_.block_fetches();
+    s.blocks_skipped = reader_.blocks_skipped();
+    return s;
+  }
+
+  Result<double> Error(SimplexCode<D> code) {
+    ++stats_.error_lookups;
+    return reader_.ErrorBound(code);
+  }
+  Result<double> ErrorForThreshold(SimplexCode<D> code, double threshold) {
+    ++stats_.error_lookups;
+    return reader_.ErrorBoundForThreshold(code, threshold);
+  }
+  Result<std::optional<double>> Field(const std::array<int64_t, D>& p) {
+    ++stats_.field_lookups;
+    SDB_ASSIGN_OR_RETURN(const double v, reader_.Field(p));
+    return std::optional<double>(v);
+  }
+  void Descend(SimplexCode<D>) {}
+
+ private:
+  HzStore::Reader<D> reader_;
+  SourceInfo info_;
+  SourceStats stats_;
+};
+
 // An LMDB store's source: one read transaction (a consistent snapshot) and
 // the prefetched subtree. Models ReadSource<SparseSource<D>, D>.
 template <int D>
@@ -262,6 +305,7 @@ class SparseSource {
 };
 
 static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);
+static_assert(ThresholdReadSource<HzSource<3>, 3> && ThresholdReadSource<HzSource<4>, 4>);
 static_assert(ReadSource<SparseSource<3>, 3> && ReadSource<SparseSource<4>, 4>);
 
 }  // namespace simplexdb

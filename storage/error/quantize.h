@@ -63,6 +63,28 @@ class ErrorQuantizer {
     return static_cast<uint32_t>(std::min(code, static_cast<double>(MaxCode(q_))));
   }
 
+  // The stored form of `bound`, a value that is already an upper bound of
+  // an error (decoded from another store): the least code whose value is
+  // not below it, with no margin (re-encoding a decoded value gives it
+  // back).
+  uint32_t EncodeBound(double bound) const {
+    if (bound <= 0) return 0;
+    if (q_ == Quantization::kF32) {
+      float f = static_cast<float>(bound);
+      if (static_cast<double>(f) < bound) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+      uint32_t bits;
+      std::memcpy(&bits, &f, 4);
+      return bits;
+    }
+    double code = std::ceil(bound / quantum_);
+    if (code * quantum_ < bound) {
+      code += 1;
+    } else if (code >= 1 && (code - 1) * quantum_ >= bound) {
+      code -= 1;
+    }
+    return static_cast<uint32_t>(std::min(code, static_cast<double>(MaxCode(q_))));
+  }
+
   // The error bound a stored entry stands for.
   double Decode(uint32_t stored) const {
     if (q_ == Quantization::kF32) {

@@ -1,0 +1,217 @@
+#include "storage/dense/hz_builder.h"
+
+#include <algorithm>
+#include <chrono>
+#include <memory>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+#include "hierarchy/geometry.h"
+#include "hierarchy/hz_order.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/hz_writer.h"
+#include "storage/io/file.h"
+#include "util/out_of_memory.h"
+
+namespace simplexdb {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::string MiB(uint64_t bytes) {
+  return std::to_string((bytes + (uint64_t{1} << 20) - 1) >> 20) + " MiB";
+}
+
+// Diamond errors by vertex: a float per point of the real grid grown by two
+// points per axis (the finest diamonds of padding vertices reach real
+// points from there), a map for the coarser padding vertices beyond.
+template <int D>
+class DiamondTable {
+ public:
+  DiamondTable(const std::array<uint32_t, 4>& dims, int k) {
+    size_ = 1;
+    for (int a = 0; a < D; ++a) {
+      extent_[a] = std::min<int64_t>(int64_t{1} << k, int64_t{dims[a]} + 1) + 1;
+      stride_[a] = size_;
+      size_ *= static_cast<uint64_t>(extent_[a]);
+    }
+  }
+  uint64_t bytes() const { return size_ * sizeof(float); }
+  void Allocate() { dense_.assign(size_, 0.0f); }
+
+  void Raise(const std::array<int64_t, D>& g, uint64_t position, float e) {
+    float& slot = Slot(g, position);
+    slot = std::max(slot, e);
+  }
+  double At(const std::array<int64_t, D>& g, uint64_t position) const {
+    uint64_t i = 0;
+    for (int a = 0; a < D; ++a) {
+      if (g[a] >= extent_[a]) {
+        const auto it = far_.find(position);
+        return it == far_.end() ? 0.0 : it->second;
+      }
+      i += static_cast<uint64_t>(g[a]) * stride_[a];
+    }
+    return dense_[i];
+  }
+
+ private:
+  float& Slot(const std::array<int64_t, D>& g, uint64_t position) {
+    uint64_t i = 0;
+    for (int a = 0; a < D; ++a) {
+      if (g[a] >= extent_[a]) return far_[position];
+      i += static_cast<uint64_t>(g[a]) * stride_[a];
+    }
+    return dense_[i];
+  }
+
+  std::array<int64_t, D> extent_{};
+  std::array<uint64_t, D> stride_{};
+  uint64_t size_ = 0;
+  std::vector<float> dense_;
+  std::unordered_map<uint64_t, float> far_;
+};
+
+template <int D>
+Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
+                              const HzBuildOptions& options, Clock::time_point start) {
+  const DenseHeader& f = f1.header();
+  const int k = f.domain_bits;
+  const int leaf = f.leaf_level();
+  const HzOrder<D> order(k);
+  const int threads = options.threads > 0
+                          ? options.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+
+  DiamondTable<D> table(f.dims, k);
+  const uint64_t writer_bytes = uint64_t(threads) * (uint64_t{1} << options.block_bits) * 40;
+  if (table.bytes() + writer_bytes > options.memory_bytes) {
+    return Status::ResourceExhausted(
+        out + ": the diamond table needs " + MiB(table.bytes()) + " and the writer " +
+        MiB(writer_bytes) + ", more than the memory bound of " + MiB(options.memory_bytes) +
+        " (--memory-mb)");
+  }
+  try {
+    table.Allocate();
+  } catch (const std::bad_alloc&) {
+    return NotEnoughMemory(out + ": the diamond table", table.bytes());
+  }
+
+  // Every node holding a real grid point, depth first with its vertices:
+  // its stored error raises its diamond's. Nodes past the real grid on some
+  // axis have error 0, and so have their descendants.
+  HzBuildReport report;
+  {
+    DenseStore::Reader<D> reader(f1);
+    struct Frame {
+      SimplexCode<D> code;
+      SimplexVertices<D> v;
+    };
+    std::vector<Frame> stack;
+    for (int t = SimplexCode<D>::kRoots - 1; t >= 0; --t) {
+      stack.push_back({SimplexCode<D>::Root(t), RootVertices<D>(t)});
+    }
+    uint64_t expected = SimplexCode<D>::kRoots;
+    for (int a = 0; a < D; ++a) expected *= f.dims[a];
+    auto last = Clock::now();
+    while (!stack.empty()) {
+      const Frame fr = stack.back();
+      stack.pop_back();
+      if (fr.code.level() >= leaf) continue;
+      bool real = true;
+      for (int a = 0; a < D && real; ++a) {
+        int64_t lo = std::numeric_limits<int64_t>::max();
+        for (int i = 0; i <= D; ++i) lo = std::min(lo, LatticeToGrid<D>(fr.v[i], k)[a]);
+        real = lo <= int64_t{f.dims[a]} - 1;
+      }
+      if (!real) continue;
+      ++report.nodes;
+      SDB_ASSIGN_OR_RETURN(const double e, reader.ErrorBound(fr.code));
+      if (e > 0) {
+        const auto g = LatticeToGrid<D>(SplitMidpoint<D>(fr.code, fr.v), k);
+        table.Raise(g, order.PositionAtLevel(g, fr.code.level()), RoundUpToFloat(e));
+      }
+      for (int i = 1; i >= 0; --i) {
+        stack.push_back({fr.code.child(i), ChildVertices<D>(fr.code, fr.v, i)});
+      }
+      if (options.progress && (report.nodes & 0xfffff) == 0 && Clock::now() - last > std::chrono::milliseconds(250)) {
+        last = Clock::now();
+        options.progress({"diamonds", std::min(report.nodes, expected), expected,
+                          std::chrono::duration<double>(last - start).count()});
+      }
+    }
+  }
+
+  HzHeader params;
+  params.dimension = static_cast<uint8_t>(D);
+  params.quantization = options.quantization;
+  params.voxel_type = f.voxel_type;
+  params.domain_bits = static_cast<uint8_t>(k);
+  params.block_bits = static_cast<uint8_t>(options.block_bits);
+  params.dims = f.dims;
+  params.spacing = f.spacing;
+  params.field_min = f.field_min;
+  params.field_max = f.field_max;
+  params.source = f.source;
+
+  std::vector<std::unique_ptr<DenseStore::Reader<D>>> readers(static_cast<size_t>(threads));
+  HzWriteOptions write;
+  write.compression = options.compression;
+  write.zstd_level = options.zstd_level;
+  write.threads = threads;
+  write.errors_are_bounds = true;
+  write.progress = options.progress;
+  const auto fill = [&](int w, uint64_t first, size_t count, double* errors,
+                        double* fields) -> Status {
+    auto& reader = readers[static_cast<size_t>(w)];
+    if (!reader) reader = std::make_unique<DenseStore::Reader<D>>(f1);
+    for (size_t i = 0; i < count; ++i) {
+      std::array<int64_t, D> g{};
+      if (!order.Decode(first + i, g)) continue;
+      errors[i] = table.At(g, first + i);
+      bool real = true;
+      for (int a = 0; a < D; ++a) real = real && g[a] < int64_t{f.dims[a]};
+      if (real) {
+        SDB_ASSIGN_OR_RETURN(fields[i], reader->Field(g));
+      }
+    }
+    return Status::OK();
+  };
+  SDB_ASSIGN_OR_RETURN(report.header, WriteHzStore(out, params, write, fill));
+  report.grid_points = 1;
+  for (int a = 0; a < D; ++a) report.grid_points *= f.dims[a];
+  report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return report;
+}
+
+}  // namespace
+
+Result<HzBuildReport> ConvertToHz(const DenseStore& f1, const std::string& out_path,
+                                  const HzBuildOptions& options) {
+  const auto start = Clock::now();
+  if (f1.dimension() == 3) return Convert<3>(f1, out_path, options, start);
+  return Convert<4>(f1, out_path, options, start);
+}
+
+Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& out_path,
+                                   const HzBuildOptions& options) {
+  const auto start = Clock::now();
+  // Check the output before the long part.
+  SDB_RETURN_IF_ERROR(PrepareOutput(out_path));
+  TemporaryFile scratch(out_path, "errors");
+  DenseBuildOptions f1;
+  f1.quantization = Quantization::kF32;
+  f1.compression = Compression::kNone;
+  f1.memory_bytes = options.memory_bytes;
+  f1.threads = options.threads;
+  f1.mask = options.mask;
+  f1.progress = options.progress;
+  SDB_RETURN_IF_ERROR(BuildDenseStore(input, scratch.path(), f1).status());
+  SDB_ASSIGN_OR_RETURN(auto store, DenseStore::Open(scratch.path()));
+  SDB_ASSIGN_OR_RETURN(HzBuildReport report, ConvertToHz(*store, out_path, options));
+  report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return report;
+}
+
+}  // namespace simplexdb

@@ -1,0 +1,209 @@
+#include "storage/dense/hz_format.h"
+
+#include <cmath>
+#include <cstring>
+
+#include "storage/io/checksum.h"
+#include "util/utf8.h"
+
+namespace simplexdb {
+namespace {
+
+// Byte offsets of the header fields (docs/format/dense-store-2.md).
+constexpr size_t kOffMagic = 0;
+constexpr size_t kOffVersion = 8;
+constexpr size_t kOffHeaderSize = 12;
+constexpr size_t kOffDimension = 16;
+constexpr size_t kOffQuantization = 17;
+constexpr size_t kOffVoxelType = 18;
+constexpr size_t kOffDomainBits = 19;
+constexpr size_t kOffBlockBits = 20;
+constexpr size_t kOffReserved = 21;  // 3 bytes, zero
+constexpr size_t kOffDims = 24;
+constexpr size_t kOffSpacing = 40;
+constexpr size_t kOffOrigin = 72;
+constexpr size_t kOffFieldMin = 104;
+constexpr size_t kOffFieldMax = 112;
+constexpr size_t kOffErrorMax = 120;
+constexpr size_t kOffQuantum = 128;
+constexpr size_t kOffSlope = 136;
+constexpr size_t kOffIntercept = 144;
+constexpr size_t kOffVirtualBlocks = 152;
+constexpr size_t kOffStoredBlocks = 160;
+constexpr size_t kOffBitmapOffset = 168;
+constexpr size_t kOffIndexOffset = 176;
+constexpr size_t kOffFileSize = 184;
+constexpr size_t kOffBitmapChecksum = 192;
+constexpr size_t kOffIndexChecksum = 200;
+constexpr size_t kOffSourceLength = 208;  // u16
+constexpr size_t kOffSource = 210;
+constexpr size_t kOffChecksum = kHzHeaderSize - 8;
+static_assert(kOffSource + kHzMaxSource <= kOffChecksum);
+
+}  // namespace
+
+std::array<uint8_t, kHzHeaderSize> SerializeHzHeader(const HzHeader& h) {
+  std::array<uint8_t, kHzHeaderSize> b{};
+  uint8_t* p = b.data();
+  std::memcpy(p + kOffMagic, kDenseMagic.data(), kDenseMagic.size());
+  StoreLittle<uint32_t>(p + kOffVersion, h.version);
+  StoreLittle<uint32_t>(p + kOffHeaderSize, static_cast<uint32_t>(kHzHeaderSize));
+  p[kOffDimension] = h.dimension;
+  p[kOffQuantization] = static_cast<uint8_t>(h.quantization);
+  p[kOffVoxelType] = static_cast<uint8_t>(h.voxel_type);
+  p[kOffDomainBits] = h.domain_bits;
+  p[kOffBlockBits] = h.block_bits;
+  for (int i = 0; i < 4; ++i) {
+    StoreLittle<uint32_t>(p + kOffDims + 4 * i, h.dims[i]);
+    StoreLittle<double>(p + kOffSpacing + 8 * i, h.spacing[i]);
+    StoreLittle<double>(p + kOffOrigin + 8 * i, h.origin[i]);
+  }
+  StoreLittle<double>(p + kOffFieldMin, h.field_min);
+  StoreLittle<double>(p + kOffFieldMax, h.field_max);
+  StoreLittle<double>(p + kOffErrorMax, h.error_max);
+  StoreLittle<double>(p + kOffQuantum, h.quantum);
+  StoreLittle<double>(p + kOffSlope, h.scale_slope);
+  StoreLittle<double>(p + kOffIntercept, h.scale_intercept);
+  StoreLittle<uint64_t>(p + kOffVirtualBlocks, h.virtual_blocks);
+  StoreLittle<uint64_t>(p + kOffStoredBlocks, h.stored_blocks);
+  StoreLittle<uint64_t>(p + kOffBitmapOffset, h.bitmap_offset);
+  StoreLittle<uint64_t>(p + kOffIndexOffset, h.index_offset);
+  StoreLittle<uint64_t>(p + kOffFileSize, h.file_size);
+  StoreLittle<uint64_t>(p + kOffBitmapChecksum, h.bitmap_checksum);
+  StoreLittle<uint64_t>(p + kOffIndexChecksum, h.index_checksum);
+  const size_t n = Utf8PrefixLength(h.source, kHzMaxSource);
+  StoreLittle<uint16_t>(p + kOffSourceLength, static_cast<uint16_t>(n));
+  std::memcpy(p + kOffSource, h.source.data(), n);
+  StoreLittle<uint64_t>(p + kOffChecksum, Checksum(std::span<const uint8_t>(p, kOffChecksum)));
+  return b;
+}
+
+Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view file) {
+  const std::string where(file);
+  const auto corrupt = [&](const std::string& why) {
+    return Status::Corruption(where + ": header: " + why);
+  };
+  const uint8_t* b = bytes.data();
+  if (bytes.size() < kDenseMagic.size() ||
+      std::memcmp(b + kOffMagic, kDenseMagic.data(), kDenseMagic.size()) != 0) {
+    return Status::InvalidArgument(where + ": not a SimplexDB dense store (bad magic)");
+  }
+  if (bytes.size() < kHzHeaderSize) {
+    return corrupt("the file is " + std::to_string(bytes.size()) +
+                   " bytes, shorter than a header (" + std::to_string(kHzHeaderSize) + ")");
+  }
+  HzHeader h;
+  h.version = LoadLittle<uint32_t>(b + kOffVersion);
+  if (h.version == 1) {
+    return Status::NotSupported(where +
+                                ": a format-1 dense store, which this version no longer reads: "
+                                "import the volume again to make a format-2 store");
+  }
+  if (h.version != kHzFormatVersion) {
+    return Status::NotSupported(where + ": format version " + std::to_string(h.version) +
+                                "; this build reads version " + std::to_string(kHzFormatVersion));
+  }
+  if (LoadLittle<uint64_t>(b + kOffChecksum) !=
+      Checksum(std::span<const uint8_t>(b, kOffChecksum))) {
+    return corrupt("checksum mismatch");
+  }
+  if (LoadLittle<uint32_t>(b + kOffHeaderSize) != kHzHeaderSize) {
+    return corrupt("unexpected header size");
+  }
+  h.dimension = b[kOffDimension];
+  if (h.dimension != 3 && h.dimension != 4) {
+    return corrupt("dimension " + std::to_string(h.dimension) + ", expected 3 or 4");
+  }
+  const uint8_t q = b[kOffQuantization];
+  if (q < 1 || q > 3) return corrupt("unknown quantization " + std::to_string(q));
+  h.quantization = static_cast<Quantization>(q);
+  const uint8_t t = b[kOffVoxelType];
+  if (t < 1 || t > 6) return corrupt("unknown voxel type " + std::to_string(t));
+  h.voxel_type = static_cast<VoxelType>(t);
+  h.domain_bits = b[kOffDomainBits];
+  h.block_bits = b[kOffBlockBits];
+  const int max_bits = h.dimension == 3 ? 18 : 13;  // the deepest leaf level a key holds
+  if (h.domain_bits < 1 || h.domain_bits > max_bits) {
+    return corrupt("domain bits " + std::to_string(h.domain_bits) + " out of range 1.." +
+                   std::to_string(max_bits));
+  }
+  if (h.block_bits < 6 || h.block_bits > 20) {
+    return corrupt("block bits " + std::to_string(h.block_bits) + " out of range 6..20");
+  }
+  if (b[kOffReserved] != 0 || b[kOffReserved + 1] != 0 || b[kOffReserved + 2] != 0) {
+    return corrupt("reserved bytes are set");
+  }
+  const uint64_t side = (uint64_t{1} << h.domain_bits) + 1;
+  for (int i = 0; i < 4; ++i) {
+    h.dims[i] = LoadLittle<uint32_t>(b + kOffDims + 4 * i);
+    const bool used = i < h.dimension;
+    if (used ? (h.dims[i] < 2 || h.dims[i] > side) : h.dims[i] != 1) {
+      return corrupt("axis " + std::to_string(i) + " has " + std::to_string(h.dims[i]) +
+                     " points, outside the domain of side " + std::to_string(side));
+    }
+    h.spacing[i] = LoadLittle<double>(b + kOffSpacing + 8 * i);
+    h.origin[i] = LoadLittle<double>(b + kOffOrigin + 8 * i);
+    if (!std::isfinite(h.spacing[i]) || !(h.spacing[i] > 0) || !std::isfinite(h.origin[i])) {
+      return corrupt("axis " + std::to_string(i) + ": spacing and origin must be finite, "
+                     "spacing positive");
+    }
+  }
+  h.field_min = LoadLittle<double>(b + kOffFieldMin);
+  h.field_max = LoadLittle<double>(b + kOffFieldMax);
+  h.error_max = LoadLittle<double>(b + kOffErrorMax);
+  h.quantum = LoadLittle<double>(b + kOffQuantum);
+  h.scale_slope = LoadLittle<double>(b + kOffSlope);
+  h.scale_intercept = LoadLittle<double>(b + kOffIntercept);
+  if (!std::isfinite(h.field_min) || !std::isfinite(h.field_max) || h.field_min > h.field_max) {
+    return corrupt("field range is not a finite interval");
+  }
+  if (!std::isfinite(h.error_max) || h.error_max < 0 || !std::isfinite(h.quantum) ||
+      h.quantum < 0 || (h.quantization != Quantization::kF32 && !(h.quantum > 0))) {
+    return corrupt("error scale is not finite and positive");
+  }
+  if (!std::isfinite(h.scale_slope) || !std::isfinite(h.scale_intercept)) {
+    return corrupt("scaling is not finite");
+  }
+  h.virtual_blocks = LoadLittle<uint64_t>(b + kOffVirtualBlocks);
+  h.stored_blocks = LoadLittle<uint64_t>(b + kOffStoredBlocks);
+  h.bitmap_offset = LoadLittle<uint64_t>(b + kOffBitmapOffset);
+  h.index_offset = LoadLittle<uint64_t>(b + kOffIndexOffset);
+  h.file_size = LoadLittle<uint64_t>(b + kOffFileSize);
+  h.bitmap_checksum = LoadLittle<uint64_t>(b + kOffBitmapChecksum);
+  h.index_checksum = LoadLittle<uint64_t>(b + kOffIndexChecksum);
+  // The HZ positions are [0, 2^(D (k + 1))): every block but a lone first
+  // one is full.
+  const int position_bits = h.dimension * (h.domain_bits + 1);
+  const uint64_t expected_virtual =
+      position_bits <= h.block_bits ? 1 : uint64_t{1} << (position_bits - h.block_bits);
+  if (h.virtual_blocks != expected_virtual) {
+    return corrupt(std::to_string(h.virtual_blocks) + " virtual blocks, expected " +
+                   std::to_string(expected_virtual));
+  }
+  if (h.stored_blocks == 0 || h.stored_blocks > h.virtual_blocks ||
+      h.bitmap_offset < kHzHeaderSize || h.bitmap_offset > h.file_size ||
+      h.index_offset != h.bitmap_offset + 8 * h.bitmap_words() ||
+      h.file_size != h.index_offset + h.stored_blocks * kHzIndexEntrySize) {
+    return corrupt("block counts, offsets and file size disagree");
+  }
+  const uint16_t n = LoadLittle<uint16_t>(b + kOffSourceLength);
+  if (n > kHzMaxSource) return corrupt("source length " + std::to_string(n) + " too long");
+  h.source.assign(reinterpret_cast<const char*>(b + kOffSource), n);
+  for (size_t i = kOffSource + n; i < kOffChecksum; ++i) {
+    if (b[i] != 0) return corrupt("reserved bytes are not zero");
+  }
+  return h;
+}
+
+void SerializeHzIndexEntry(const HzIndexEntry& e, uint8_t* out) {
+  std::memset(out, 0, kHzIndexEntrySize);
+  StoreLittle<uint64_t>(out + 0, e.offset);
+  StoreLittle<uint32_t>(out + 8, e.stored_size);
+  out[12] = static_cast<uint8_t>(e.encoding);
+  StoreLittle<uint64_t>(out + 16, e.checksum);
+  StoreLittle<float>(out + 24, e.field_min);
+  StoreLittle<float>(out + 28, e.field_max);
+  StoreLittle<uint32_t>(out + 32, e.error_max);
+}
+
+}  // namespace simplexdb

@@ -1,0 +1,120 @@
+// Store format 2, the file: header, block presence bitmap and block index
+// (docs/format/dense-store-2.md is the specification; this header is its
+// code). One record per grid vertex, in the hierarchical Z-order of
+// hierarchy/hz_order.h: the vertex's diamond error and its field value.
+//
+// Layout of a store file (all integers little-endian):
+//
+//   [0, 4096)                header (kHzHeaderSize bytes; unused bytes zero)
+//   [4096, bitmap_offset)    blocks, back to back, in any order
+//   [bitmap_offset, +8 W)    presence bitmap: W = ceil(virtual blocks / 64)
+//                            words; bit b set when virtual block b is stored
+//   [index_offset, end)      block index: one 40-byte entry per stored
+//                            block, in block order
+//
+// Virtual block b is the HZ positions [b * 2^block_bits, (b + 1) *
+// 2^block_bits). Block 0 holds the corners and every octave whose segments
+// are shorter than a block; every other block lies inside one segment (one
+// level and odd-axis pattern), so it is a box of cubes of one level. Only
+// blocks that hold a real grid point or a non-zero error are stored.
+//
+// A decoded block is 2^block_bits error entries (u16, u8 or f32 bits, by
+// the quantization) followed by 2^block_bits field values in the voxel
+// type. Positions that are no vertex (past the domain's upper faces) or a
+// vertex outside the real grid hold field 0; their error is their diamond's
+// (0 unless it reaches real points).
+//
+// The first 8 bytes and the version at offset 8 are format 1's
+// (storage/dense/format.h), so each version's reader names the other.
+//
+// Thread safety: plain values and pure functions.
+// Errors: ParseHzHeader returns InvalidArgument (bad magic: not a dense
+// store), NotSupported (format 1, with what to do; another version) or
+// Corruption (checksum, a field out of range), naming the file.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "storage/dense/format.h"
+#include "storage/error/quantization.h"
+#include "storage/volume/voxel_type.h"
+#include "util/little_endian.h"
+#include "util/status.h"
+
+namespace simplexdb {
+
+inline constexpr uint32_t kHzFormatVersion = 2;
+inline constexpr size_t kHzHeaderSize = 4096;
+inline constexpr size_t kHzIndexEntrySize = 40;
+inline constexpr size_t kHzMaxSource = 1024;
+// 4096 records: 12 KiB decoded for u16 errors and 8-bit voxels, a 16^3 box
+// of cubes (8^4 in the HP) at the fine levels.
+inline constexpr int kHzDefaultBlockBits = 12;
+
+struct HzHeader {
+  uint32_t version = kHzFormatVersion;
+  uint8_t dimension = 3;  // 3: HT, 4: HP
+  Quantization quantization = Quantization::kU16;
+  VoxelType voxel_type = VoxelType::kU8;  // the stored field's type
+  uint8_t domain_bits = 0;                // k: the domain has side 2^k
+  uint8_t block_bits = kHzDefaultBlockBits;
+  std::array<uint32_t, 4> dims = {1, 1, 1, 1};  // the real grid (unused axes 1)
+  std::array<double, 4> spacing = {1, 1, 1, 1};
+  std::array<double, 4> origin = {0, 0, 0, 0};
+  double field_min = 0, field_max = 0;  // over the real grid, missing values skipped
+  double error_max = 0;                 // the largest diamond error, before quantization
+  double quantum = 0;                   // error units per code step (u16, u8)
+  double scale_slope = 1, scale_intercept = 0;  // applied to the input's values (NIfTI)
+  uint64_t virtual_blocks = 0;
+  uint64_t stored_blocks = 0;
+  uint64_t bitmap_offset = 0;
+  uint64_t index_offset = 0;
+  uint64_t file_size = 0;
+  uint64_t bitmap_checksum = 0;  // XXH3-64 of the bitmap bytes
+  uint64_t index_checksum = 0;   // XXH3-64 of the index bytes
+  std::string source;            // what the store was built from (<= kHzMaxSource bytes)
+
+  int leaf_level() const { return dimension * domain_bits; }
+  uint64_t block_records() const { return uint64_t{1} << block_bits; }
+  uint64_t bitmap_words() const { return (virtual_blocks + 63) / 64; }
+};
+
+// Serializes into exactly kHzHeaderSize bytes, checksum included (the
+// source is cut between characters to kHzMaxSource bytes).
+std::array<uint8_t, kHzHeaderSize> SerializeHzHeader(const HzHeader& h);
+
+// Parses and checks a header: magic, version, checksum, ranges, and that the
+// counts and offsets describe a file of file_size bytes.
+Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view file);
+
+// One stored block.
+struct HzIndexEntry {
+  uint64_t offset = 0;       // in the file
+  uint32_t stored_size = 0;  // bytes in the file
+  BlockEncoding encoding = BlockEncoding::kRaw;  // kRaw or kZstd
+  uint64_t checksum = 0;     // XXH3-64 of the stored bytes
+  float field_min = 0;       // the field over the block's real vertices, rounded
+  float field_max = 0;       //   outward to float (0, 0 when it holds none)
+  uint32_t error_max = 0;    // the largest stored error entry (code or f32 bits)
+};
+
+void SerializeHzIndexEntry(const HzIndexEntry& e, uint8_t* out);  // kHzIndexEntrySize bytes
+
+inline HzIndexEntry ParseHzIndexEntry(const uint8_t* in) {
+  HzIndexEntry e;
+  e.offset = LoadLittle<uint64_t>(in + 0);
+  e.stored_size = LoadLittle<uint32_t>(in + 8);
+  e.encoding = static_cast<BlockEncoding>(in[12]);  // checked by the reader
+  e.checksum = LoadLittle<uint64_t>(in + 16);
+  e.field_min = LoadLittle<float>(in + 24);
+  e.field_max = LoadLittle<float>(in + 28);
+  e.error_max = LoadLittle<uint32_t>(in + 32);
+  return e;
+}
+
+}  // namespace simplexdb

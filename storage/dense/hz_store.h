@@ -1,0 +1,183 @@
+// HzStore: a read-only, memory-mapped store of format 2 (storage/dense/
+// hz_format.h, docs/format/dense-store-2.md): per grid vertex, its diamond's
+// error and its field value, in hierarchical Z-order, in blocks that are raw
+// (read in place) or zstd frames (decoded into a bounded cache). A node's
+// error is the error of the diamond whose split vertex it creates.
+//
+// Opening checks the header, the file's size, the bitmap's and the index's
+// checksums and every index entry; a block's own checksum is checked the
+// first time it is read (and all of them by Verify()). A damaged store gives
+// Corruption naming the file and the block; nothing reads past the mapping.
+//
+// Thread safety: an HzStore may be shared by any number of threads. Lookups
+// go through a Reader, one per thread, which keeps the last block it read
+// for errors and for the field (no lock while a walk stays in them) and the
+// octave steps of the last code (hierarchy/hz_order.h SplitVertexCursor).
+//
+// Memory: decoded blocks live in the BlockCache (a budget set by the
+// caller) plus the two a Reader holds; raw blocks, the bitmap and the index
+// are read from the mapping. Beyond that the store keeps 8 bytes per 64
+// virtual blocks (the bitmap's rank directory) and one byte per stored block
+// (raw blocks' checksum state). With Options::in_memory every block is
+// decoded at open: the in-core case.
+//
+// Lifetimes: the store outlives its Readers and BlockHandles; header(),
+// path() and quantizer() live as long as the store.
+//
+// Errors: Open returns NotFound, InvalidArgument (not a store),
+// NotSupported (format 1: import again; another version), Corruption
+// (damaged), ResourceExhausted (in_memory and the blocks do not fit);
+// lookups return Corruption naming the block when it fails its checksum or
+// does not decode, ResourceExhausted "not enough memory for ..." when a
+// decoded block does not fit.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "hierarchy/hz_order.h"
+#include "hierarchy/simplex_code.h"
+#include "storage/dense/block_cache.h"
+#include "storage/dense/hz_format.h"
+#include "storage/error/quantize.h"
+#include "storage/io/file.h"
+#include "util/status.h"
+
+namespace simplexdb {
+
+class HzStore {
+ public:
+  struct Options {
+    size_t cache_bytes = size_t{256} << 20;  // decoded blocks kept
+    bool in_memory = false;                  // decode everything at open
+    std::shared_ptr<BlockCache> cache;       // share one cache between stores
+  };
+
+  static Result<std::unique_ptr<HzStore>> Open(const std::string& path, const Options& options);
+  static Result<std::unique_ptr<HzStore>> Open(const std::string& path) {
+    return Open(path, Options{});
+  }
+  ~HzStore();
+
+  const HzHeader& header() const { return header_; }
+  int dimension() const { return header_.dimension; }
+  const std::string& path() const { return path_; }
+  const ErrorQuantizer& quantizer() const { return quantizer_; }
+  uint64_t file_size() const { return header_.file_size; }
+  uint64_t stored_blocks() const { return header_.stored_blocks; }
+  // Bytes of a decoded block: the error entries, then the field values.
+  size_t error_bytes() const { return error_size_ << header_.block_bits; }
+  size_t block_bytes() const { return (error_size_ + voxel_size_) << header_.block_bits; }
+
+  // The stored block holding virtual block `vblock`, by its rank among the
+  // stored blocks; nullopt when the block is not stored (all its errors are
+  // 0 and it holds no real vertex). O(1).
+  std::optional<uint64_t> StoredIndex(uint64_t vblock) const;
+  // The virtual block of stored block `i` (O(log) over the bitmap's words).
+  uint64_t VirtualBlock(uint64_t stored) const;
+  HzIndexEntry entry(uint64_t stored) const {
+    return ParseHzIndexEntry(index_ + stored * kHzIndexEntrySize);
+  }
+
+  struct BlockHandle {
+    const uint8_t* data = nullptr;  // block_bytes() bytes
+    std::shared_ptr<const void> keep;
+  };
+  // Stored block `i`, decoded.
+  Result<BlockHandle> Block(uint64_t stored) const;
+
+  uint32_t StoredErrorAt(const uint8_t* block, uint32_t slot) const;
+  double FieldAt(const uint8_t* block, uint32_t slot) const;
+
+  // Reads every stored block: checksum, decoding, errors finite and within
+  // the block's recorded maximum, real vertices' field values within the
+  // block's and the header's range. `progress(done, total)` now and then.
+  Status Verify(const std::function<void(uint64_t, uint64_t)>& progress = {}) const;
+
+  // "block 12 (level 7, odd axes 011, positions 49152..53247)".
+  std::string DescribeBlock(uint64_t vblock) const;
+
+  struct Stats {
+    uint64_t blocks_decoded = 0;  // zstd frames decoded (cache misses)
+    uint64_t raw_checked = 0;     // raw blocks checksummed on first use
+  };
+  Stats stats() const {
+    return Stats{decoded_.load(std::memory_order_relaxed),
+                 raw_checked_.load(std::memory_order_relaxed)};
+  }
+  const BlockCache* cache() const { return cache_.get(); }
+
+  // Lookups for one thread.
+  template <int D>
+  class Reader {
+   public:
+    // REQUIRES: store.dimension() == D; the store outlives the reader.
+    explicit Reader(const HzStore& store);
+
+    // The stored error bound of a node: its diamond's error, rounded up by
+    // the quantization; 0 at or below the leaf level. REQUIRES: code.is_valid().
+    Result<double> ErrorBound(SimplexCode<D> code);
+    Result<uint32_t> StoredError(SimplexCode<D> code);
+    // For a query that only asks whether the bound exceeds `threshold`: the
+    // bound, or, when the node's block is not the one held and the index
+    // records a maximum at most `threshold`, that maximum (nothing decoded).
+    Result<double> ErrorBoundForThreshold(SimplexCode<D> code, double threshold);
+    // The field at grid point p of the domain; points outside the real grid
+    // take the value of the nearest real point.
+    Result<double> Field(const std::array<int64_t, D>& p);
+
+    const HzStore& store() const { return store_; }
+    uint64_t block_fetches() const { return block_fetches_; }
+    uint64_t blocks_skipped() const { return blocks_skipped_; }
+
+   private:
+    struct Held {
+      uint64_t vblock = ~uint64_t{0};
+      bool stored = false;
+      BlockHandle handle;
+    };
+    // Makes `held` hold virtual block `vblock`.
+    Status Hold(Held& held, uint64_t vblock);
+    uint64_t PositionOf(SimplexCode<D> code) {
+      return order_.PositionAtLevel(LatticeToGrid<D>(cursor_.Of(code), order_.domain_bits()),
+                                    code.level());
+    }
+
+    const HzStore& store_;
+    HzOrder<D> order_;
+    SplitVertexCursor<D> cursor_;
+    Held errors_, field_;
+    uint64_t block_fetches_ = 0;
+    uint64_t blocks_skipped_ = 0;
+  };
+
+ private:
+  HzStore() = default;
+  Status ValidateBitmapAndIndex();
+  Status LoadAll();
+  Result<std::shared_ptr<const BlockCache::Block>> DecodeBlock(uint64_t stored) const;
+  std::string Describe(uint64_t stored) const { return DescribeBlock(VirtualBlock(stored)); }
+
+  std::string path_;
+  HzHeader header_;
+  ErrorQuantizer quantizer_{Quantization::kU16, 1, 0};
+  std::unique_ptr<MappedFile> file_;
+  const uint8_t* bitmap_ = nullptr;  // in the mapping; validated at open
+  const uint8_t* index_ = nullptr;
+  std::vector<uint64_t> rank_;       // stored blocks before each bitmap word
+  size_t error_size_ = 2, voxel_size_ = 1;
+  std::shared_ptr<BlockCache> cache_;
+  uint64_t cache_store_id_ = 0;
+  std::vector<std::shared_ptr<const BlockCache::Block>> resident_;  // in_memory
+  std::unique_ptr<std::atomic<uint8_t>[]> raw_state_;  // 1 checked, 2 bad
+  mutable std::atomic<uint64_t> decoded_{0};
+  mutable std::atomic<uint64_t> raw_checked_{0};
+};
+
+}  // namespace simplexdb

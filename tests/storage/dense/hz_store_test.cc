@@ -1,0 +1,316 @@
+// Store format 2 against independent truth: each node's error against the
+// brute-force seed errors of its cluster (never below, within float
+// rounding) and against the format-1 store it was made from, every field
+// value against the volume, which blocks exist against a count over every
+// HZ position, and damaged files (detected or harmless, never a crash).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <optional>
+#include <random>
+#include <set>
+#include <unordered_map>
+
+#include "hierarchy/cluster.h"
+#include "hierarchy/hz_order.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/dense/hz_builder.h"
+#include "storage/dense/hz_store.h"
+#include "storage/volume/volume.h"
+#include "tests/storage/store_test_util.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::TempDir;
+using testing::TestVolume;
+
+struct Built {
+  std::unique_ptr<DenseStore> f1;  // float32 errors: per-node bounds
+  std::unique_ptr<HzStore> hz;
+};
+
+Built Build(const TestVolume& volume, const TempDir& dir, const std::string& name,
+            HzBuildOptions options = {}) {
+  const std::string nrrd = dir / (name + ".nrrd");
+  EXPECT_TRUE(volume.WriteNrrd(nrrd).ok());
+  DenseBuildOptions f1;
+  f1.quantization = Quantization::kF32;
+  f1.levels_per_block = 6;
+  EXPECT_TRUE(BuildDenseStore(*OpenVolume(nrrd), dir / (name + ".f1"), f1).ok());
+  Built b;
+  b.f1 = *DenseStore::Open(dir / (name + ".f1"));
+  const auto report = ConvertToHz(*b.f1, dir / (name + ".sdb"), options);
+  EXPECT_TRUE(report.ok()) << report.status().message();
+  auto hz = HzStore::Open(dir / (name + ".sdb"));
+  EXPECT_TRUE(hz.ok()) << hz.status().message();
+  b.hz = *std::move(hz);
+  return b;
+}
+
+template <int D>
+void ForEachInternalCode(int leaf_level, const std::function<void(SimplexCode<D>)>& f) {
+  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
+    for (int l = 0; l < leaf_level; ++l) {
+      for (uint64_t p = 0; p < (uint64_t{1} << l); ++p) f(SimplexCode<D>::FromPath(top, p, l));
+    }
+  }
+}
+
+// Every node's error is the largest float32 bound of its cluster in the
+// format-1 store, and never below the exact seed error of any member.
+template <int D>
+void ExpectDiamondErrors(const Built& b, const TestVolume& volume, bool brute_force) {
+  const int k = b.hz->header().domain_bits;
+  const int leaf = b.hz->header().leaf_level();
+  HzStore::Reader<D> hz(*b.hz);
+  DenseStore::Reader<D> f1(*b.f1);
+  std::unordered_map<uint64_t, long double> brute;  // each node's exact error, once
+  ForEachInternalCode<D>(leaf, [&](SimplexCode<D> c) {
+    double cluster_max = 0;
+    long double exact = 0;
+    for (const auto m : Cluster(c)) {
+      cluster_max = std::max(cluster_max, *f1.ErrorBound(m));
+      if (!brute_force) continue;
+      auto it = brute.find(m.key());
+      if (it == brute.end()) it = brute.emplace(m.key(), testing::BruteForceError<D>(m, k, volume)).first;
+      exact = std::max(exact, it->second);
+    }
+    const double e = *hz.ErrorBound(c);
+    ASSERT_EQ(e, cluster_max) << c.ToString();
+    if (brute_force) {
+      ASSERT_GE(static_cast<long double>(e), exact) << c.ToString();
+      ASSERT_LE(static_cast<long double>(e), exact * (1 + 1e-6L) + 1e-9L) << c.ToString();
+    }
+  });
+}
+
+// Every domain point's field: the volume's, clamped to the real grid.
+template <int D>
+void ExpectFields(const HzStore& store, const TestVolume& volume) {
+  HzStore::Reader<D> reader(store);
+  const int64_t side = int64_t{1} << store.header().domain_bits;
+  std::array<int64_t, D> p{};
+  while (true) {
+    const Result<double> f = reader.Field(p);
+    ASSERT_TRUE(f.ok()) << f.status().message();
+    ASSERT_EQ(*f, volume.ClampedAt<D>(p));
+    int c = 0;
+    for (; c < D; ++c) {
+      if (p[c] < side) {
+        ++p[c];
+        break;
+      }
+      p[c] = 0;
+    }
+    if (c == D) break;
+  }
+}
+
+// The blocks stored are exactly those holding a real vertex or a non-zero
+// error, counted over every HZ position.
+template <int D>
+void ExpectOnlyBlocksWithData(const HzStore& store) {
+  const HzHeader& h = store.header();
+  const HzOrder<D> order(h.domain_bits);
+  HzStore::Reader<D> reader(store);
+  std::set<uint64_t> needed;
+  // Errors: every code's diamond; real vertices: every real grid point.
+  ForEachInternalCode<D>(h.leaf_level(), [&](SimplexCode<D> c) {
+    if (*reader.ErrorBound(c) > 0) needed.insert(order.PositionOf(c) >> h.block_bits);
+  });
+  for (uint64_t p = 0; p < order.size(); ++p) {
+    std::array<int64_t, D> g{};
+    if (!order.Decode(p, g)) continue;
+    bool real = true;
+    for (int a = 0; a < D; ++a) real = real && g[a] < int64_t{h.dims[a]};
+    if (real) needed.insert(p >> h.block_bits);
+  }
+  EXPECT_EQ(h.stored_blocks, needed.size());
+  for (uint64_t b = 0; b < h.virtual_blocks; ++b) {
+    ASSERT_EQ(store.StoredIndex(b).has_value(), needed.count(b) == 1) << b;
+  }
+}
+
+TEST(HzStore, Ht17DiamondErrorsAndFields) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(3, {17, 17, 17, 1}, VoxelType::kU8, 1);
+  HzBuildOptions o;
+  o.quantization = Quantization::kF32;
+  const Built b = Build(v, dir, "v", o);
+  ExpectDiamondErrors<3>(b, v, true);
+  ExpectFields<3>(*b.hz, v);
+  ASSERT_TRUE(b.hz->Verify().ok());
+}
+
+TEST(HzStore, Hp9DiamondErrorsAndFields) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kI16, 2);
+  HzBuildOptions o;
+  o.quantization = Quantization::kF32;
+  o.block_bits = 6;
+  const Built b = Build(v, dir, "v", o);
+  ExpectDiamondErrors<4>(b, v, true);
+  ExpectFields<4>(*b.hz, v);
+  ASSERT_TRUE(b.hz->Verify().ok());
+}
+
+// Non-cubic grids: padding vertices whose diamonds reach real points keep
+// their errors; blocks wholly in the padding are not stored.
+TEST(HzStore, HtNonCubicKeepsOnlyBlocksWithData) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(3, {11, 6, 17, 1}, VoxelType::kF32, 3);
+  HzBuildOptions o;
+  o.quantization = Quantization::kF32;
+  o.block_bits = 6;
+  const Built b = Build(v, dir, "v", o);
+  ExpectDiamondErrors<3>(b, v, true);
+  ExpectFields<3>(*b.hz, v);
+  ExpectOnlyBlocksWithData<3>(*b.hz);
+  EXPECT_LT(b.hz->header().stored_blocks, b.hz->header().virtual_blocks / 4);
+}
+
+TEST(HzStore, HpShortFourthAxisKeepsOnlyBlocksWithData) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(4, {7, 5, 6, 3}, VoxelType::kU8, 4);
+  HzBuildOptions o;
+  o.quantization = Quantization::kF32;
+  o.block_bits = 6;
+  const Built b = Build(v, dir, "v", o);
+  ExpectDiamondErrors<4>(b, v, true);
+  ExpectFields<4>(*b.hz, v);
+  ExpectOnlyBlocksWithData<4>(*b.hz);
+  EXPECT_LT(b.hz->header().stored_blocks, b.hz->header().virtual_blocks / 8);
+}
+
+// Quantized errors: never below the float32 diamond bound, within a quantum;
+// raw and zstd blocks give the same answers.
+TEST(HzStore, QuantizedErrorsRoundUpAndEncodingsAgree) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(3, {17, 13, 9, 1}, VoxelType::kU16, 5);
+  for (const Quantization q : {Quantization::kU16, Quantization::kU8}) {
+    SCOPED_TRACE(static_cast<int>(q));
+    HzBuildOptions zstd, raw;
+    zstd.quantization = raw.quantization = q;
+    raw.compression = Compression::kNone;
+    const Built a = Build(v, dir, "z" + std::to_string(static_cast<int>(q)), zstd);
+    const Built r = Build(v, dir, "r" + std::to_string(static_cast<int>(q)), raw);
+    HzStore::Reader<3> ra(*a.hz), rr(*r.hz);
+    DenseStore::Reader<3> f1(*a.f1);
+    const double quantum = a.hz->header().quantum;
+    ForEachInternalCode<3>(a.hz->header().leaf_level(), [&](TetCode c) {
+      double bound = 0;
+      for (const auto m : Cluster(c)) bound = std::max(bound, *f1.ErrorBound(m));
+      const double e = *ra.ErrorBound(c);
+      ASSERT_GE(e, bound) << c.ToString();
+      ASSERT_LE(e, bound + quantum * (1 + 1e-9)) << c.ToString();
+      ASSERT_EQ(e, *rr.ErrorBound(c)) << c.ToString();
+    });
+    ExpectFields<3>(*r.hz, v);
+    ASSERT_TRUE(r.hz->Verify().ok());
+  }
+}
+
+TEST(HzStore, EachFormatRefusesTheOtherByName) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(3, {9, 9, 9, 1}, VoxelType::kU8, 6);
+  const Built b = Build(v, dir, "v");
+  const auto old = HzStore::Open(dir / "v.f1");
+  ASSERT_FALSE(old.ok());
+  EXPECT_EQ(old.status().code(), Status::Code::kNotSupported);
+  EXPECT_NE(old.status().message().find("format-1"), std::string::npos) << old.status().message();
+  EXPECT_NE(old.status().message().find("import the volume again"), std::string::npos);
+  const auto newer = DenseStore::Open(dir / "v.sdb");
+  ASSERT_FALSE(newer.ok());
+  EXPECT_EQ(newer.status().code(), Status::Code::kNotSupported);
+}
+
+std::vector<uint8_t> ReadBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
+}
+
+// Every answer a store gives; nullopt when some lookup fails.
+template <int D>
+std::optional<std::vector<double>> AllAnswers(const HzStore& store) {
+  HzStore::Reader<D> reader(store);
+  std::vector<double> out;
+  bool failed = false;
+  ForEachInternalCode<D>(store.header().leaf_level(), [&](SimplexCode<D> c) {
+    if (failed) return;
+    const Result<double> e = reader.ErrorBound(c);
+    const Result<double> t = reader.ErrorBoundForThreshold(c, 3.0);
+    if (!e.ok() || !t.ok()) {
+      failed = true;
+      return;
+    }
+    out.push_back(*e);
+    out.push_back(*t);
+  });
+  for (uint32_t x = 0; x < store.header().dims[0] && !failed; ++x) {
+    for (uint32_t y = 0; y < store.header().dims[1] && !failed; ++y) {
+      for (uint32_t z = 0; z < store.header().dims[2] && !failed; ++z) {
+        const Result<double> f = reader.Field({x, y, z});
+        if (!f.ok()) failed = true;
+        else out.push_back(*f);
+      }
+    }
+  }
+  if (failed) return std::nullopt;
+  return out;
+}
+
+// Bit flips, byte overwrites and truncations anywhere: each is detected
+// (open, a lookup or Verify fails) or harmless (the same answers).
+TEST(HzStore, DamageIsDetectedOrHarmless) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(3, {13, 11, 9, 1}, VoxelType::kU8, 7);
+  for (const Compression c : {Compression::kZstd, Compression::kNone}) {
+    HzBuildOptions o;
+    o.compression = c;
+    o.block_bits = 6;
+    const std::string name = c == Compression::kZstd ? "z" : "r";
+    const Built b = Build(v, dir, name, o);
+    const auto truth = AllAnswers<3>(*b.hz);
+    ASSERT_TRUE(truth.has_value());
+    const std::vector<uint8_t> bytes = ReadBytes(dir / (name + ".sdb"));
+    std::mt19937_64 rng(11);
+    int detected = 0, harmless = 0;
+    for (int i = 0; i < 250; ++i) {
+      std::vector<uint8_t> damaged = bytes;
+      size_t size = damaged.size();
+      const int kind = static_cast<int>(rng() % 3);
+      const size_t at = rng() % damaged.size();
+      if (kind == 0) {
+        damaged[at] ^= static_cast<uint8_t>(1u << (rng() % 8));
+      } else if (kind == 1) {
+        damaged[at] = static_cast<uint8_t>(rng());
+      } else {
+        size = at;
+      }
+      const std::string path = dir / "damaged.sdb";
+      std::ofstream(path, std::ios::binary | std::ios::trunc)
+          .write(reinterpret_cast<const char*>(damaged.data()), static_cast<std::streamsize>(size));
+      auto store = HzStore::Open(path);
+      if (!store.ok()) {
+        ++detected;
+        continue;
+      }
+      const auto answers = AllAnswers<3>(**store);
+      if (!answers || !(*store)->Verify().ok()) {
+        ++detected;
+        continue;
+      }
+      ASSERT_EQ(*answers, *truth) << "case " << i << ": kind " << kind << " at byte " << at;
+      ++harmless;
+    }
+    EXPECT_GT(detected, 200) << harmless << " harmless";
+  }
+}
+
+}  // namespace
+}  // namespace simplexdb
