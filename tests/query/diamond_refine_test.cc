@@ -1,5 +1,6 @@
 // Diamond errors (store format 2) against per-simplex errors: what a query
-// extracts when a node's error is the largest error of its cluster.
+// extracts when a node's error is the largest error of its cluster, from
+// the errors of a format-1 store and from a format-2 store made of it.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,6 +10,8 @@
 #include "hierarchy/cluster.h"
 #include "query/refine.h"
 #include "query/source.h"
+#include "storage/dense/hz_builder.h"
+#include "storage/dense/hz_store.h"
 #include "tests/query/query_test_util.h"
 
 namespace simplexdb {
@@ -75,6 +78,12 @@ void CheckDiamondMeshes(uint32_t side, uint64_t seed, bool smooth) {
   const int k = store->header().domain_bits;
   DenseSource<D> simplex(*store);
   DiamondOf<D> diamond(*store);
+  // The same diamond errors from a format-2 store made of this one.
+  HzBuildOptions hz_options;
+  hz_options.block_bits = 8;
+  ASSERT_TRUE(ConvertToHz(*store, dir / "v2.sdb", hz_options).ok());
+  const auto hz_store = *HzStore::Open(dir / "v2.sdb");
+  HzSource<D> hz(*hz_store);
   const SourceInfo& info = simplex.info();
   const double range = info.field_range();
   for (double pct : {0.5, 2.0, 5.0, 10.0, 25.0}) {
@@ -87,6 +96,9 @@ void CheckDiamondMeshes(uint32_t side, uint64_t seed, bool smooth) {
     ASSERT_TRUE((Refiner<D, DenseSource<D>>(simplex, c).Run({Algorithm::kDepthFirst}, per_simplex, stats).ok()));
     ASSERT_TRUE((Refiner<D, DiamondOf<D>>(diamond, c).Run({Algorithm::kDepthFirst}, per_diamond, stats).ok()));
     EXPECT_EQ(SplitKeys(per_diamond), SplitKeys(per_simplex));
+    Mesh<D> from_store;
+    ASSERT_TRUE((Refiner<D, HzSource<D>>(hz, c).Run({Algorithm::kDepthFirst}, from_store, stats).ok()));
+    EXPECT_EQ(SplitKeys(from_store), SplitKeys(per_simplex));
     if (pct != 2.0 && pct != 10.0) continue;  // the brute force below is slow
 
     std::vector<std::pair<std::string, CriteriaSpec>> others;
@@ -119,6 +131,11 @@ void CheckDiamondMeshes(uint32_t side, uint64_t seed, bool smooth) {
       const std::set<uint64_t> truth = testing::BruteForceMinimalSplits<D>(info.leaf_level(), fails);
       EXPECT_EQ(SplitKeys(df), truth);
       EXPECT_EQ(SplitKeys(pr), truth);
+      Mesh<D> store_df, store_pr;
+      ASSERT_TRUE((Refiner<D, HzSource<D>>(hz, criteria).Run({Algorithm::kDepthFirst}, store_df, stats).ok()));
+      ASSERT_TRUE((Refiner<D, HzSource<D>>(hz, criteria).Run({Algorithm::kPriority}, store_pr, stats).ok()));
+      EXPECT_EQ(SplitKeys(store_df), truth);
+      EXPECT_EQ(SplitKeys(store_pr), truth);
     }
   }
 }
