@@ -16,6 +16,7 @@
 // against memory_bytes before anything is allocated.
 //
 // Thread safety: may run in several threads at once for different outputs.
+// Lifetimes: ConvertToHz reads `f1` during the call only.
 // Errors: those of the format-1 builder (input, mask, memory, output) and
 // of WriteHzStore; ResourceExhausted naming the figures when the diamond
 // table does not fit in memory_bytes.

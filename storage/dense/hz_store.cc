@@ -180,6 +180,10 @@ std::string HzStore::DescribeBlock(uint64_t vblock) const {
   if (vblock == 0 || octave < 0) {
     return "block 0 (the corners and the coarsest levels, " + positions + ")";
   }
+  if ((uint64_t{1} << (d * (octave + 1))) < header_.block_records()) {
+    return "block " + std::to_string(vblock) + " (several levels of octave " +
+           std::to_string(octave) + ", " + positions + ")";
+  }
   const uint64_t segment = (first >> (d * (octave + 1))) - 1;
   const uint32_t mask = d == 3 ? internal::kOddPatterns<3>.mask_of[segment]
                                : internal::kOddPatterns<4>.mask_of[segment];
@@ -336,6 +340,7 @@ Status HzStore::Reader<D>::Hold(Held& held, uint64_t vblock) {
   held.vblock = vblock;
   held.stored = stored.has_value();
   held.handle = BlockHandle{};
+  held.skipped = false;
   if (!stored) return Status::OK();
   ++block_fetches_;
   Result<BlockHandle> h = store_.Block(*stored);
@@ -352,9 +357,10 @@ Result<uint32_t> HzStore::Reader<D>::StoredError(SimplexCode<D> code) {
   if (code.level() >= order_.levels()) return 0u;
   const uint64_t p = PositionOf(code);
   const uint64_t vblock = p >> store_.header().block_bits;
-  if (vblock != errors_.vblock) SDB_RETURN_IF_ERROR(Hold(errors_, vblock));
-  if (!errors_.stored) return 0u;
-  return store_.StoredErrorAt(errors_.handle.data,
+  Held& held = HeldFor(p);
+  if (vblock != held.vblock || held.skipped) SDB_RETURN_IF_ERROR(Hold(held, vblock));
+  if (!held.stored) return 0u;
+  return store_.StoredErrorAt(held.handle.data,
                               static_cast<uint32_t>(p & (store_.header().block_records() - 1)));
 }
 
@@ -369,19 +375,31 @@ Result<double> HzStore::Reader<D>::ErrorBoundForThreshold(SimplexCode<D> code, d
   if (code.level() >= order_.levels()) return 0.0;
   const uint64_t p = PositionOf(code);
   const uint64_t vblock = p >> store_.header().block_bits;
-  if (vblock != errors_.vblock) {
+  Held& held = HeldFor(p);
+  if (vblock == held.vblock && held.skipped) {
+    if (held.skipped_max <= threshold) return held.skipped_max;
+    SDB_RETURN_IF_ERROR(Hold(held, vblock));
+  } else if (vblock != held.vblock) {
     const std::optional<uint64_t> stored = store_.StoredIndex(vblock);
-    if (!stored) return 0.0;
+    if (!stored) {
+      SDB_RETURN_IF_ERROR(Hold(held, vblock));  // nothing to read: remember that
+      return 0.0;
+    }
     const double block_max = store_.quantizer().Decode(store_.entry(*stored).error_max);
     if (block_max <= threshold) {
       ++blocks_skipped_;
+      held.vblock = vblock;
+      held.stored = true;
+      held.handle = BlockHandle{};
+      held.skipped = true;
+      held.skipped_max = block_max;
       return block_max;
     }
-    SDB_RETURN_IF_ERROR(Hold(errors_, vblock));
+    SDB_RETURN_IF_ERROR(Hold(held, vblock));
   }
-  if (!errors_.stored) return 0.0;
+  if (!held.stored) return 0.0;
   return store_.quantizer().Decode(store_.StoredErrorAt(
-      errors_.handle.data, static_cast<uint32_t>(p & (store_.header().block_records() - 1))));
+      held.handle.data, static_cast<uint32_t>(p & (store_.header().block_records() - 1))));
 }
 
 template <int D>
@@ -389,14 +407,16 @@ Result<double> HzStore::Reader<D>::Field(const std::array<int64_t, D>& p) {
   std::array<int64_t, D> q{};
   const auto& dims = store_.header().dims;
   for (int a = 0; a < D; ++a) q[a] = std::clamp<int64_t>(p[a], 0, int64_t{dims[a]} - 1);
-  const uint64_t pos = order_.Position(q);
+  const int level = order_.Level(q);
+  const uint64_t pos = order_.PositionAtLevel(q, level);
   const uint64_t vblock = pos >> store_.header().block_bits;
-  if (vblock != field_.vblock) SDB_RETURN_IF_ERROR(Hold(field_, vblock));
-  if (!field_.stored) {
+  Held& held = HeldFor(pos);
+  if (vblock != held.vblock || held.skipped) SDB_RETURN_IF_ERROR(Hold(held, vblock));
+  if (!held.stored) {
     return Status::Corruption(store_.path() + ": " + store_.DescribeBlock(vblock) +
                               " holds a grid point but is not stored");
   }
-  return store_.FieldAt(field_.handle.data,
+  return store_.FieldAt(held.handle.data,
                         static_cast<uint32_t>(pos & (store_.header().block_records() - 1)));
 }
 

@@ -11,11 +11,14 @@
 //
 // Thread safety: an HzStore may be shared by any number of threads. Lookups
 // go through a Reader, one per thread, which keeps the last block it read
-// for errors and for the field (no lock while a walk stays in them) and the
+// in each segment (a walk moves between levels at every step, and each
+// level's records of each odd-axis pattern are their own blocks; no lock
+// while a walk stays in them) and the
 // octave steps of the last code (hierarchy/hz_order.h SplitVertexCursor).
 //
 // Memory: decoded blocks live in the BlockCache (a budget set by the
-// caller) plus the two a Reader holds; raw blocks, the bitmap and the index
+// caller) plus those a Reader holds (one per segment: 7 per octave in
+// the HT, 15 in the HP); raw blocks, the bitmap and the index
 // are read from the mapping. Beyond that the store keeps 8 bytes per 64
 // virtual blocks (the bitmap's rank directory) and one byte per stored block
 // (raw blocks' checksum state). With Options::in_memory every block is
@@ -34,6 +37,7 @@
 
 #include <array>
 #include <atomic>
+#include <bit>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -140,10 +144,23 @@ class HzStore {
     struct Held {
       uint64_t vblock = ~uint64_t{0};
       bool stored = false;
-      BlockHandle handle;
+      BlockHandle handle;  // null when skipped
+      // ErrorBoundForThreshold answered the block from its index maximum
+      // (`skipped_max`) without decoding it.
+      bool skipped = false;
+      double skipped_max = 0;
     };
     // Makes `held` hold virtual block `vblock`.
     Status Hold(Held& held, uint64_t vblock);
+    // The block held for the segment (level and odd-axis pattern) of
+    // position p: a walk visits each segment a region at a time. Block 0
+    // and the coarse octaves inside it share slot 0.
+    Held& HeldFor(uint64_t p) {
+      const int top = p == 0 ? 0 : 63 - std::countl_zero(p);
+      const int octave = top / D - 1;
+      if (octave < 0 || (p >> store_.header().block_bits) == 0) return held_[0];
+      return held_[static_cast<size_t>(octave) * (1 << D) + static_cast<size_t>(p >> (D * (octave + 1)))];
+    }
     uint64_t PositionOf(SimplexCode<D> code) {
       return order_.PositionAtLevel(LatticeToGrid<D>(cursor_.Of(code), order_.domain_bits()),
                                     code.level());
@@ -152,7 +169,7 @@ class HzStore {
     const HzStore& store_;
     HzOrder<D> order_;
     SplitVertexCursor<D> cursor_;
-    Held errors_, field_;
+    std::array<Held, (kCoordBits<D> + 1) << D> held_;
     uint64_t block_fetches_ = 0;
     uint64_t blocks_skipped_ = 0;
   };

@@ -23,14 +23,17 @@ namespace simplexdb {
 namespace {
 
 // Whether virtual block `vblock` may hold a real vertex or a non-zero
-// error: block 0 always; another block is one box of cubes of one level and
-// pattern, and its vertices' diamonds reach at most a cube's side from them.
+// error: a block spanning several segments (block 0, and a few more when
+// block_bits is not a multiple of D) always; another block is one box of
+// cubes of one level and pattern, and its vertices' diamonds reach at most
+// a cube's side from them.
 template <int D>
 bool MayHoldData(const HzHeader& h, uint64_t vblock) {
   if (vblock == 0) return true;
   const uint64_t first = vblock << h.block_bits;
   const int octave = (63 - std::countl_zero(first)) / D - 1;
   const uint64_t segment_size = uint64_t{1} << (D * (octave + 1));
+  if (segment_size < h.block_records()) return true;
   const uint32_t odd = internal::kOddPatterns<D>.mask_of[(first >> (D * (octave + 1))) - 1];
   const auto lo = internal::FromMorton<D>(first & (segment_size - 1));
   const int s = h.domain_bits - 1 - octave;

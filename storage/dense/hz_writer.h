@@ -13,6 +13,7 @@
 // Thread safety: `fill` is called concurrently from the workers, with the
 // worker's index (0 .. threads - 1) so it can keep per-worker state;
 // `progress` from the calling thread.
+// Lifetimes: nothing is kept after the call; the workers are joined.
 // Errors: those of `fill` (the first failure stops the work), of the output
 // (storage/io/file.h: the path refused, a full disk), ResourceExhausted
 // "not enough memory for ..."; InvalidArgument for parameters out of range.

@@ -1,0 +1,178 @@
+// Store format 2 against format 1 and against itself out of core (issue 16),
+// in one run: a depth-first extraction at 1% of the field range on a Perlin
+// volume (HT, side SIMPLEXDB_BENCH_SIDE, default 129; HP 33^4):
+//
+//   Format2/<h>/f1-in-memory        format 1 decoded at open (today's in-core)
+//   Format2/<h>/in-memory           format 2 decoded at open (in-core)
+//   Format2/<h>/warm                format 2, zstd, cache holding the whole store
+//   Format2/<h>/cache-2%            format 2, zstd, a cache of 2% of the decoded
+//                                   store, opened anew (empty) for every query
+//
+// Counters: splits/s, simplices, and for the cached stores `decoded` (zstd
+// frames decoded per query) and `distinct` (blocks the query needs: what a
+// cache holding everything decodes for it). The targets: cache-2% at least
+// 0.5x in-memory's splits/s, decoded at most 2x distinct; in-memory at least
+// f1-in-memory. The stores are built once per run (format 2 through a
+// format-1 store with float32 errors and ConvertToHz).
+//
+//   build/release/bench/format2_query_bench
+//   SIMPLEXDB_BENCH_SIDE=513 build/release/bench/format2_query_bench   (issue 16's size)
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <memory>
+#include <string>
+
+#include "bench/bench_util.h"
+#include "query/criteria.h"
+#include "query/mesh.h"
+#include "query/refine.h"
+#include "query/source.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/dense/hz_builder.h"
+#include "storage/dense/hz_store.h"
+#include "storage/volume/volume.h"
+
+namespace simplexdb {
+namespace {
+
+struct Stores {
+  std::unique_ptr<DenseStore> f1_in_memory;
+  std::unique_ptr<HzStore> in_memory, warm;
+  std::string path;
+  size_t decoded_bytes = 0;
+};
+
+void Die(const Status& s) {
+  std::fprintf(stderr, "format2_query_bench: %s\n", s.ToString().c_str());
+  std::abort();
+}
+
+Stores Make(int dimension, uint32_t side) {
+  const VolumeInfo in = *OpenVolume(PerlinVolume(dimension, side));
+  const std::string base = WorkDir() + "/f2q" + std::to_string(dimension);
+  DenseBuildOptions f1;
+  f1.quantization = Quantization::kF32;
+  f1.compression = Compression::kNone;
+  f1.memory_bytes = size_t{8} << 30;
+  if (Status s = BuildDenseStore(in, base + "_f32.sdb", f1).status(); !s.ok()) Die(s);
+  DenseBuildOptions f1_default;
+  f1_default.memory_bytes = size_t{8} << 30;
+  if (Status s = BuildDenseStore(in, base + "_f1.sdb", f1_default).status(); !s.ok()) Die(s);
+  Stores s;
+  {
+    auto exact = DenseStore::Open(base + "_f32.sdb");
+    if (!exact.ok()) Die(exact.status());
+    HzBuildOptions o;
+    o.memory_bytes = size_t{16} << 30;
+    if (Status st = ConvertToHz(**exact, base + ".sdb", o).status(); !st.ok()) Die(st);
+  }
+  std::filesystem::remove(base + "_f32.sdb");
+  s.path = base + ".sdb";
+  DenseStore::Options f1_open;
+  f1_open.in_memory = true;
+  s.f1_in_memory = *DenseStore::Open(base + "_f1.sdb", f1_open);
+  HzStore::Options mem, warm;
+  mem.in_memory = true;
+  warm.cache_bytes = size_t{16} << 30;
+  s.in_memory = *HzStore::Open(s.path, mem);
+  s.warm = *HzStore::Open(s.path, warm);
+  s.decoded_bytes = s.in_memory->stored_blocks() * s.in_memory->block_bytes();
+  return s;
+}
+
+template <int D, class Source>
+QueryStats Query(Source& source) {
+  CriteriaSpec spec;
+  spec.error = {1.0, true};
+  const Criteria<D> c = *MakeCriteria<D>(spec, source.info().domain_bits, source.info().field_range());
+  Refiner<D, Source> refiner(source, c);
+  Mesh<D> mesh;
+  QueryStats stats;
+  if (Status st = refiner.Run({Algorithm::kDepthFirst}, mesh, stats); !st.ok()) Die(st);
+  return stats;
+}
+
+template <int D>
+void Register(const std::string& name, uint32_t side) {
+  static Stores stores = Make(D, side);
+  const auto report = [](benchmark::State& state, uint64_t splits, const QueryStats& last) {
+    state.counters["splits/s"] = benchmark::Counter(static_cast<double>(splits), benchmark::Counter::kIsRate);
+    state.counters["simplices"] = static_cast<double>(last.simplices);
+  };
+  benchmark::RegisterBenchmark(("Format2/" + name + "/f1-in-memory").c_str(), [report](benchmark::State& state) {
+    uint64_t splits = 0;
+    QueryStats last;
+    for (auto _ : state) {
+      DenseSource<D> source(*stores.f1_in_memory);
+      last = Query<D>(source);
+      splits += last.splits;
+    }
+    report(state, splits, last);
+  })->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark(("Format2/" + name + "/in-memory").c_str(), [report](benchmark::State& state) {
+    uint64_t splits = 0;
+    QueryStats last;
+    for (auto _ : state) {
+      HzSource<D> source(*stores.in_memory);
+      last = Query<D>(source);
+      splits += last.splits;
+    }
+    report(state, splits, last);
+  })->Unit(benchmark::kMillisecond);
+  // Distinct blocks: a store opened anew with a cache holding everything
+  // decodes each block the query needs once.
+  static uint64_t distinct = [] {
+    HzStore::Options o;
+    o.cache_bytes = size_t{16} << 30;
+    auto fresh = *HzStore::Open(stores.path, o);
+    HzSource<D> source(*fresh);
+    Query<D>(source);
+    return fresh->stats().blocks_decoded;
+  }();
+  benchmark::RegisterBenchmark(("Format2/" + name + "/warm").c_str(), [report](benchmark::State& state) {
+    uint64_t splits = 0;
+    QueryStats last;
+    for (auto _ : state) {
+      HzSource<D> source(*stores.warm);
+      last = Query<D>(source);
+      splits += last.splits;
+    }
+    report(state, splits, last);
+  })->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark(("Format2/" + name + "/cache-2%").c_str(), [report](benchmark::State& state) {
+    uint64_t splits = 0, decoded = 0, queries = 0;
+    QueryStats last;
+    for (auto _ : state) {
+      state.PauseTiming();
+      HzStore::Options o;
+      o.cache_bytes = stores.decoded_bytes / 50;
+      auto cold = *HzStore::Open(stores.path, o);
+      state.ResumeTiming();
+      HzSource<D> source(*cold);
+      last = Query<D>(source);
+      splits += last.splits;
+      decoded += cold->stats().blocks_decoded;
+      ++queries;
+    }
+    report(state, splits, last);
+    state.counters["decoded"] = static_cast<double>(decoded) / static_cast<double>(queries);
+    state.counters["distinct"] = static_cast<double>(distinct);
+    state.counters["cache_MiB"] = static_cast<double>(stores.decoded_bytes / 50) / (1 << 20);
+  })->Unit(benchmark::kMillisecond);
+}
+
+}  // namespace
+}  // namespace simplexdb
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  const char* side = std::getenv("SIMPLEXDB_BENCH_SIDE");
+  const uint32_t ht_side = side ? static_cast<uint32_t>(std::atoi(side)) : 129;
+  simplexdb::Register<3>("ht" + std::to_string(ht_side), ht_side);
+  simplexdb::Register<4>("hp33", 33);
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
