@@ -34,6 +34,7 @@
 
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
+#include "storage/error/finest_diamonds.h"
 #include "storage/volume/generate.h"
 #include "storage/volume/nrrd_writer.h"
 #include "storage/sparse/sparse_builder.h"
@@ -255,6 +256,50 @@ void RegisterSizes() {
   }
 }
 
+// Format 2's finest diamonds: the error of one vertex of the finest octave
+// by its stencil (storage/error/finest_diamonds.h), over a random field in
+// memory; vertices cycle through the finest octave of the grid.
+template <int D>
+void RegisterFinestDiamonds(uint32_t side) {
+  benchmark::RegisterBenchmark(
+      (std::string(D == 3 ? "FinestDiamondError/ht" : "FinestDiamondError/hp") + std::to_string(side)).c_str(),
+      [side](benchmark::State& state) {
+        int k = 1;
+        while ((uint32_t{1} << k) + 1 < side) ++k;
+        std::array<int64_t, D> dims{};
+        uint64_t n = 1;
+        for (int a = 0; a < D; ++a) {
+          dims[a] = side;
+          n *= side;
+        }
+        std::vector<double> values(n);
+        std::mt19937_64 rng(1);
+        for (double& v : values) v = static_cast<double>(rng() % 256);
+        const auto field = [&](const std::array<int64_t, D>& p) {
+          uint64_t i = 0;
+          for (int a = D - 1; a >= 0; --a) i = i * side + static_cast<uint64_t>(p[a]);
+          return values[i];
+        };
+        std::vector<std::array<int64_t, D>> vertices;
+        for (uint64_t i = 0; i < n && vertices.size() < 65536; ++i) {
+          std::array<int64_t, D> g{};
+          uint64_t r = i;
+          bool odd = false;
+          for (int a = 0; a < D; ++a, r /= side) {
+            g[a] = static_cast<int64_t>(r % side);
+            odd = odd || (g[a] & 1);
+          }
+          if (odd) vertices.push_back(g);
+        }
+        const auto& diamonds = FinestDiamonds<D>::Get();
+        size_t i = 0;
+        for (auto _ : state) {
+          benchmark::DoNotOptimize(diamonds.Error(vertices[i], k, dims, field));
+          i = (i + 1) % vertices.size();
+        }
+      });
+}
+
 }  // namespace
 }  // namespace simplexdb
 
@@ -263,6 +308,8 @@ int main(int argc, char** argv) {
   simplexdb::RegisterSparseLookups();
   simplexdb::RegisterBuilds();
   simplexdb::RegisterSizes();
+  simplexdb::RegisterFinestDiamonds<3>(65);
+  simplexdb::RegisterFinestDiamonds<4>(17);
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();

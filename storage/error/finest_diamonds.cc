@@ -1,0 +1,100 @@
+#include "storage/error/finest_diamonds.h"
+
+#include <algorithm>
+#include <cassert>
+#include <map>
+
+#include "hierarchy/cluster.h"
+#include "hierarchy/geometry.h"
+#include "hierarchy/hz_order.h"
+#include "storage/error/simplex_scan.h"
+
+namespace simplexdb {
+
+template <int D>
+const FinestDiamonds<D>& FinestDiamonds<D>::Get() {
+  static const FinestDiamonds<D> diamonds;
+  return diamonds;
+}
+
+// The templates come from a domain of side 8 (k = 3), where a finest vertex
+// v = 2u + m with u in {1, 2}^D (both parities) has its whole diamond inside
+// [v - 2, v + 2] within the domain: the nodes whose split creates v are its
+// cluster, their vertices the template's simplices.
+template <int D>
+FinestDiamonds<D>::FinestDiamonds() {
+  constexpr int k = 3;
+  const int first_level = D * (k - 1);
+  std::map<std::array<int64_t, D>, SimplexCode<D>> creator;
+  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
+    for (int l = first_level; l < D * k; ++l) {
+      for (uint64_t p = 0; p < (uint64_t{1} << l); ++p) {
+        const SimplexCode<D> c = SimplexCode<D>::FromPath(top, p, l);
+        creator.emplace(LatticeToGrid<D>(SplitVertex(c), k), c);
+      }
+    }
+  }
+  for (uint32_t odd = 1; odd < (1u << D); ++odd) {
+    for (uint32_t parity = 0; parity < (1u << D); ++parity) {
+      std::array<int64_t, D> v{};
+      for (int a = 0; a < D; ++a) {
+        const int64_t u = (parity >> a & 1) ? 1 : 2;
+        v[a] = 2 * u + (odd >> a & 1);
+      }
+      const auto it = creator.find(v);
+      assert(it != creator.end());
+      DiamondTemplate<D>& t = templates_[odd][parity];
+      for (const SimplexCode<D> member : Cluster(it->second)) {
+        const SimplexVertices<D> lattice = Vertices<D>(member);
+        std::array<IPoint<D>, D + 1> g{};
+        typename DiamondTemplate<D>::Simplex s;
+        for (int i = 0; i <= D; ++i) {
+          g[i] = LatticeToGrid<D>(lattice[i], k);
+          for (int a = 0; a < D; ++a) s.vertex[i][a] = static_cast<int8_t>(g[i][a] - v[a]);
+        }
+        const ScannableSimplex<D> scan(g);
+        std::array<std::array<int64_t, D>, D> edges{}, adj{};
+        for (int j = 0; j < D; ++j) {
+          for (int a = 0; a < D; ++a) edges[j][a] = g[j + 1][a] - g[0][a];
+        }
+        int64_t det = internal::Adjugate<D>(edges, &adj);
+        const int64_t sign = det < 0 ? -1 : 1;
+        det *= sign;
+        s.det = static_cast<int32_t>(det);
+        IPoint<D> p = scan.box_lo();
+        while (true) {
+          bool vertex = false;
+          for (int i = 0; i <= D; ++i) vertex = vertex || p == g[i];
+          if (!vertex && scan.Contains(p)) {
+            typename DiamondTemplate<D>::Point pt{};
+            int64_t rest = det;
+            for (int i = 0; i < D; ++i) {
+              int64_t w = 0;
+              for (int a = 0; a < D; ++a) w += adj[a][i] * (p[a] - g[0][a]);
+              pt.weight[i + 1] = static_cast<int32_t>(w * sign);
+              rest -= w * sign;
+            }
+            pt.weight[0] = static_cast<int32_t>(rest);
+            for (int a = 0; a < D; ++a) pt.offset[a] = static_cast<int8_t>(p[a] - v[a]);
+            s.points.push_back(pt);
+          }
+          int a = 0;
+          for (; a < D; ++a) {
+            if (p[a] < scan.box_hi()[a]) {
+              ++p[a];
+              break;
+            }
+            p[a] = scan.box_lo()[a];
+          }
+          if (a == D) break;
+        }
+        t.simplices.push_back(std::move(s));
+      }
+    }
+  }
+}
+
+template class FinestDiamonds<3>;
+template class FinestDiamonds<4>;
+
+}  // namespace simplexdb

@@ -1,0 +1,126 @@
+// The finest octave's diamond templates against the hierarchy: at every
+// finest vertex of larger domains (boundaries included) the template's
+// simplices in the domain are exactly the cluster of the nodes creating it,
+// and the stencil error equals the brute-force seed error of that cluster.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <set>
+#include <vector>
+
+#include "hierarchy/cluster.h"
+#include "hierarchy/geometry.h"
+#include "hierarchy/hz_order.h"
+#include "storage/error/finest_diamonds.h"
+#include "tests/storage/store_test_util.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::TestVolume;
+
+// Every node of the finest octave of a domain of side 2^k, by the vertex it
+// creates.
+template <int D>
+std::map<std::array<int64_t, D>, SimplexCode<D>> FinestCreators(int k) {
+  std::map<std::array<int64_t, D>, SimplexCode<D>> out;
+  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
+    for (int l = D * (k - 1); l < D * k; ++l) {
+      for (uint64_t p = 0; p < (uint64_t{1} << l); ++p) {
+        const SimplexCode<D> c = SimplexCode<D>::FromPath(top, p, l);
+        out.emplace(LatticeToGrid<D>(SplitVertex(c), k), c);
+      }
+    }
+  }
+  return out;
+}
+
+using Simplex = std::vector<std::vector<int64_t>>;  // sorted vertices
+
+template <int D>
+Simplex Sorted(const std::array<std::array<int64_t, D>, D + 1>& v) {
+  Simplex s;
+  for (const auto& p : v) s.emplace_back(p.begin(), p.end());
+  std::sort(s.begin(), s.end());
+  return s;
+}
+
+template <int D>
+void ExpectTemplatesAreTheClusters(int k) {
+  SCOPED_TRACE("k = " + std::to_string(k));
+  const auto& diamonds = FinestDiamonds<D>::Get();
+  const int64_t side = int64_t{1} << k;
+  for (const auto& [g, code] : FinestCreators<D>(k)) {
+    std::set<Simplex> cluster, from_template;
+    for (const auto m : Cluster(code)) {
+      std::array<std::array<int64_t, D>, D + 1> v{};
+      const auto lattice = Vertices<D>(m);
+      for (int i = 0; i <= D; ++i) v[i] = LatticeToGrid<D>(lattice[i], k);
+      cluster.insert(Sorted<D>(v));
+    }
+    uint32_t odd = 0, parity = 0;
+    for (int a = 0; a < D; ++a) {
+      odd |= static_cast<uint32_t>(g[a] & 1) << a;
+      parity |= static_cast<uint32_t>((g[a] >> 1) & 1) << a;
+    }
+    for (const auto& s : diamonds.Of(odd, parity).simplices) {
+      std::array<std::array<int64_t, D>, D + 1> v{};
+      bool inside = true;
+      for (int i = 0; i <= D; ++i) {
+        for (int a = 0; a < D; ++a) {
+          v[i][a] = g[a] + s.vertex[i][a];
+          inside = inside && v[i][a] >= 0 && v[i][a] <= side;
+        }
+      }
+      if (inside) from_template.insert(Sorted<D>(v));
+    }
+    ASSERT_EQ(from_template, cluster) << code.ToString();
+  }
+}
+
+TEST(FinestDiamonds, HtTemplatesAreTheClusters) {
+  for (int k = 2; k <= 5; ++k) ExpectTemplatesAreTheClusters<3>(k);
+}
+TEST(FinestDiamonds, HpTemplatesAreTheClusters) {
+  for (int k = 2; k <= 4; ++k) ExpectTemplatesAreTheClusters<4>(k);
+}
+
+// The stencil error against the brute-force error of the cluster's nodes,
+// padding and clamped vertex values included.
+template <int D>
+void ExpectErrorsAreTheBruteForce(const TestVolume& volume) {
+  int k = 1;
+  uint32_t largest = 0;
+  for (int a = 0; a < D; ++a) largest = std::max(largest, volume.dims[a]);
+  while ((int64_t{1} << k) + 1 < largest) ++k;
+  std::array<int64_t, D> dims{};
+  for (int a = 0; a < D; ++a) dims[a] = volume.dims[a];
+  const auto field = [&](const std::array<int64_t, D>& p) {
+    std::array<int64_t, 4> q = {0, 0, 0, 0};
+    for (int a = 0; a < D; ++a) q[a] = p[a];
+    return volume.At(q);
+  };
+  const auto& diamonds = FinestDiamonds<D>::Get();
+  int checked = 0;
+  for (const auto& [g, code] : FinestCreators<D>(k)) {
+    long double exact = 0;
+    for (const auto m : Cluster(code)) exact = std::max(exact, testing::BruteForceError<D>(m, k, volume));
+    const double e = diamonds.Error(g, k, dims, field);
+    ASSERT_NEAR(static_cast<double>(exact), e, 1e-9 * 65536) << code.ToString();
+    ++checked;
+  }
+  EXPECT_GT(checked, 0);
+}
+
+TEST(FinestDiamonds, HtErrorsAreTheBruteForce) {
+  ExpectErrorsAreTheBruteForce<3>(TestVolume::Random(3, {17, 17, 17, 1}, VoxelType::kU8, 1));
+  ExpectErrorsAreTheBruteForce<3>(TestVolume::Random(3, {11, 6, 17, 1}, VoxelType::kF32, 2));
+}
+TEST(FinestDiamonds, HpErrorsAreTheBruteForce) {
+  ExpectErrorsAreTheBruteForce<4>(TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kI16, 3));
+  ExpectErrorsAreTheBruteForce<4>(TestVolume::Random(4, {7, 5, 6, 3}, VoxelType::kU8, 4));
+}
+
+}  // namespace
+}  // namespace simplexdb
