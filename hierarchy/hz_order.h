@@ -48,7 +48,8 @@
 // sub-cube and the next state. The tables are derived from the split rules
 // at first use.
 //
-// Thread safety: pure functions and immutable values.
+// Thread safety: pure functions and immutable values (the tables are built
+// once, thread-safely); a SplitVertexCursor is one thread's at a time.
 #pragma once
 
 #include <algorithm>
