@@ -298,6 +298,43 @@ void RegisterFinestDiamonds(uint32_t side) {
           i = (i + 1) % vertices.size();
         }
       });
+  // The flat stencils over the same field, interior vertices only.
+  benchmark::RegisterBenchmark(
+      (std::string(D == 3 ? "FinestDiamondStencil/ht" : "FinestDiamondStencil/hp") + std::to_string(side)).c_str(),
+      [side](benchmark::State& state) {
+        std::array<int64_t, D> strides{};
+        uint64_t n = 1;
+        for (int a = 0; a < D; ++a) {
+          strides[a] = static_cast<int64_t>(n);
+          n *= side;
+        }
+        std::vector<double> values(n);
+        std::mt19937_64 rng(1);
+        for (double& v : values) v = static_cast<double>(rng() % 256);
+        struct Vertex {
+          uint64_t index;
+          uint32_t odd, parity;
+        };
+        std::vector<Vertex> vertices;
+        for (uint64_t i = 0; i < n && vertices.size() < 65536; ++i) {
+          uint32_t odd = 0, parity = 0;
+          bool interior = true;
+          for (int a = 0; a < D; ++a) {
+            const int64_t g = static_cast<int64_t>(i / static_cast<uint64_t>(strides[a]) % side);
+            interior = interior && g >= 2 && g + 3 <= static_cast<int64_t>(side);
+            odd |= static_cast<uint32_t>(g & 1) << a;
+            parity |= static_cast<uint32_t>((g >> 1) & 1) << a;
+          }
+          if (interior && odd != 0) vertices.push_back({i, odd, parity});
+        }
+        const FinestStencils<D> stencils(FinestDiamonds<D>::Get(), strides);
+        size_t i = 0;
+        for (auto _ : state) {
+          const Vertex& v = vertices[i];
+          benchmark::DoNotOptimize(stencils.InteriorError(values.data() + v.index, v.odd, v.parity));
+          i = (i + 1) % vertices.size();
+        }
+      });
 }
 
 }  // namespace

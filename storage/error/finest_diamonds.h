@@ -24,6 +24,7 @@
 // assertions.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -111,6 +112,68 @@ class FinestDiamonds {
  private:
   FinestDiamonds();
   std::array<std::array<DiamondTemplate<D>, 1 << D>, 1 << D> templates_;
+};
+
+// The templates laid out for one field array (x fastest, `strides` per
+// axis): each simplex's vertices and points as index offsets from the
+// vertex, weights divided by det. For vertices whose whole diamond lies in
+// the domain and the real grid (away from both by 2 points), the error is
+// then a run of loads and multiply-adds with no bounds to test.
+template <int D>
+class FinestStencils {
+ public:
+  FinestStencils(const FinestDiamonds<D>& diamonds, const std::array<int64_t, D>& strides) {
+    for (uint32_t odd = 1; odd < (1u << D); ++odd) {
+      for (uint32_t parity = 0; parity < (1u << D); ++parity) {
+        Flat& f = flat_[odd][parity];
+        for (const auto& s : diamonds.Of(odd, parity).simplices) {
+          f.simplex_end.push_back(0);
+          for (int i = 0; i <= D; ++i) f.vertex.push_back(Index(s.vertex[i], strides));
+          for (const auto& pt : s.points) {
+            f.point.push_back(Index(pt.offset, strides));
+            for (int i = 0; i <= D; ++i) {
+              f.weight.push_back(static_cast<double>(pt.weight[i]) / static_cast<double>(s.det));
+            }
+          }
+          f.simplex_end.back() = static_cast<uint32_t>(f.point.size());
+        }
+      }
+    }
+  }
+
+  // The error of the diamond of the finest vertex whose value is at
+  // `center`, with odd-axis pattern `odd` and cube parity `parity`.
+  // REQUIRES: the diamond, [v - 2, v + 2], inside the domain and the real
+  // grid and inside the array; no NaN there.
+  double InteriorError(const double* center, uint32_t odd, uint32_t parity) const {
+    const Flat& f = flat_[odd][parity];
+    double worst = 0;
+    size_t p = 0, w = 0;
+    for (size_t s = 0; s < f.simplex_end.size(); ++s) {
+      std::array<double, D + 1> v;
+      for (int i = 0; i <= D; ++i) v[i] = center[f.vertex[s * (D + 1) + static_cast<size_t>(i)]];
+      for (; p < f.simplex_end[s]; ++p, w += D + 1) {
+        double interp = 0;
+        for (int i = 0; i <= D; ++i) interp += f.weight[w + static_cast<size_t>(i)] * v[i];
+        worst = std::max(worst, std::abs(center[f.point[p]] - interp));
+      }
+    }
+    return worst;
+  }
+
+ private:
+  struct Flat {
+    std::vector<int64_t> vertex;          // D + 1 per simplex
+    std::vector<uint32_t> simplex_end;    // points of simplex s end here
+    std::vector<int64_t> point;
+    std::vector<double> weight;           // D + 1 per point, divided by det
+  };
+  static int64_t Index(const std::array<int8_t, D>& o, const std::array<int64_t, D>& strides) {
+    int64_t i = 0;
+    for (int a = 0; a < D; ++a) i += o[a] * strides[a];
+    return i;
+  }
+  std::array<std::array<Flat, 1 << D>, 1 << D> flat_;
 };
 
 extern template class FinestDiamonds<3>;

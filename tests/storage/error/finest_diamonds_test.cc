@@ -122,5 +122,50 @@ TEST(FinestDiamonds, HpErrorsAreTheBruteForce) {
   ExpectErrorsAreTheBruteForce<4>(TestVolume::Random(4, {7, 5, 6, 3}, VoxelType::kU8, 4));
 }
 
+// The flat stencils give the generic error at every vertex whose diamond
+// lies inside the real grid.
+template <int D>
+void ExpectInteriorStencilsAgree(uint32_t side, uint64_t seed) {
+  const TestVolume volume = TestVolume::Random(D, {side, side, side, D == 4 ? side : 1}, VoxelType::kU16, seed);
+  int k = 1;
+  while ((int64_t{1} << k) + 1 < side) ++k;
+  std::array<int64_t, D> dims{}, strides{};
+  int64_t stride = 1;
+  for (int a = 0; a < D; ++a) {
+    dims[a] = side;
+    strides[a] = stride;
+    stride *= side;
+  }
+  const auto field = [&](const std::array<int64_t, D>& p) {
+    int64_t i = 0;
+    for (int a = 0; a < D; ++a) i += p[a] * strides[a];
+    return volume.values[static_cast<size_t>(i)];
+  };
+  const auto& diamonds = FinestDiamonds<D>::Get();
+  const FinestStencils<D> stencils(diamonds, strides);
+  int checked = 0;
+  for (int64_t i = 0; i < stride; ++i) {
+    std::array<int64_t, D> g{};
+    bool interior = true, finest = false;
+    uint32_t odd = 0, parity = 0;
+    for (int a = 0; a < D; ++a) {
+      g[a] = (i / strides[a]) % side;
+      interior = interior && g[a] >= 2 && g[a] + 2 <= side - 1;
+      finest = finest || (g[a] & 1);
+      odd |= static_cast<uint32_t>(g[a] & 1) << a;
+      parity |= static_cast<uint32_t>((g[a] >> 1) & 1) << a;
+    }
+    if (!interior || !finest) continue;
+    const double generic = diamonds.Error(g, k, dims, field);
+    const double flat = stencils.InteriorError(volume.values.data() + i, odd, parity);
+    ASSERT_NEAR(flat, generic, 1e-9 * 65536) << i;
+    ++checked;
+  }
+  EXPECT_GT(checked, 1000);
+}
+
+TEST(FinestDiamonds, HtInteriorStencilsAgree) { ExpectInteriorStencilsAgree<3>(33, 5); }
+TEST(FinestDiamonds, HpInteriorStencilsAgree) { ExpectInteriorStencilsAgree<4>(11, 6); }
+
 }  // namespace
 }  // namespace simplexdb
