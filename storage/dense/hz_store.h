@@ -13,13 +13,13 @@
 // go through a Reader, one per thread, which keeps the last block it read
 // in each segment (a walk moves between levels at every step, and each
 // level's records of each odd-axis pattern are their own blocks; no lock
-// while a walk stays in them) and the
-// octave steps of the last code (hierarchy/hz_order.h SplitVertexCursor).
+// while a walk stays in them) and the octave steps of the last code
+// (hierarchy/hz_order.h SplitVertexCursor).
 //
 // Memory: decoded blocks live in the BlockCache (a budget set by the
-// caller) plus those a Reader holds (one per segment: 7 per octave in
-// the HT, 15 in the HP); raw blocks, the bitmap and the index
-// are read from the mapping. Beyond that the store keeps 8 bytes per 64
+// caller) plus those a Reader holds (one per segment: 7 per octave in the
+// HT, 15 in the HP); raw blocks, the bitmap and the index are read from
+// the mapping. Beyond that the store keeps 8 bytes per 64
 // virtual blocks (the bitmap's rank directory) and one byte per stored block
 // (raw blocks' checksum state). With Options::in_memory every block is
 // decoded at open: the in-core case.

@@ -229,6 +229,25 @@ TEST(HzStore, EachFormatRefusesTheOtherByName) {
   EXPECT_EQ(newer.status().code(), Status::Code::kNotSupported);
 }
 
+// Every answer a store gives; nullopt when some lookup fails.
+template <int D>
+std::optional<std::vector<double>> AllAnswers(const HzStore& store);
+
+// BuildHzStore from a volume file gives the store ConvertToHz makes of the
+// volume's format-1 store, and leaves no scratch file behind.
+TEST(HzStore, BuildFromAVolumeLeavesOnlyTheStore) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(3, {12, 9, 14, 1}, VoxelType::kI16, 8);
+  const Built b = Build(v, dir, "v");
+  const auto built = BuildHzStore(*OpenVolume(dir / "v.nrrd"), dir / "w.sdb", HzBuildOptions{});
+  ASSERT_TRUE(built.ok()) << built.status().message();
+  auto w = HzStore::Open(dir / "w.sdb");
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  EXPECT_EQ(AllAnswers<3>(**w), AllAnswers<3>(*b.hz));
+  EXPECT_EQ(testing::SortedNames(dir.path()),
+            (std::vector<std::string>{"v.f1", "v.nrrd", "v.sdb", "w.sdb"}));
+}
+
 std::vector<uint8_t> ReadBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
