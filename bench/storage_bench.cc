@@ -327,7 +327,7 @@ void RegisterFinestDiamonds(uint32_t side) {
           }
           if (interior && odd != 0) vertices.push_back({i, odd, parity});
         }
-        const FinestStencils<D> stencils(FinestDiamonds<D>::Get(), strides);
+        const DiamondStencils<D> stencils(FinestDiamonds<D>::Get(), strides);
         size_t i = 0;
         for (auto _ : state) {
           const Vertex& v = vertices[i];

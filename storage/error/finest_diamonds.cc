@@ -94,6 +94,66 @@ FinestDiamonds<D>::FinestDiamonds() {
   }
 }
 
+template <int D>
+void ScaledSimplexPoints(const typename DiamondTemplate<D>::Simplex& t, int scale_bits,
+                         std::vector<std::array<int64_t, D>>* offsets,
+                         std::vector<std::array<double, D + 1>>* weights) {
+  offsets->clear();
+  weights->clear();
+  if (scale_bits == 0) {
+    for (const auto& pt : t.points) {
+      std::array<int64_t, D> o{};
+      std::array<double, D + 1> w{};
+      for (int a = 0; a < D; ++a) o[a] = pt.offset[a];
+      for (int i = 0; i <= D; ++i) w[i] = static_cast<double>(pt.weight[i]) / t.det;
+      offsets->push_back(o);
+      weights->push_back(w);
+    }
+    return;
+  }
+  // Scanned in coordinates shifted by 2h (the diamond lies in [-2h, 2h]).
+  const int64_t h = int64_t{1} << scale_bits;
+  std::array<IPoint<D>, D + 1> g{};
+  for (int i = 0; i <= D; ++i) {
+    for (int a = 0; a < D; ++a) g[i][a] = t.vertex[i][a] * h + 2 * h;
+  }
+  const ScannableSimplex<D> scan(g);
+  std::array<std::array<int64_t, D>, D> edges{}, adj{};
+  for (int j = 0; j < D; ++j) {
+    for (int a = 0; a < D; ++a) edges[j][a] = g[j + 1][a] - g[0][a];
+  }
+  const int64_t signed_det = internal::Adjugate<D>(edges, &adj);
+  const int64_t sign = signed_det < 0 ? -1 : 1;
+  const int64_t det = signed_det * sign;
+  scan.ForEachRow(scan.box_lo(), scan.box_hi(), [&](const IPoint<D>& row, int64_t x_end) {
+    for (IPoint<D> p = row; p[0] <= x_end; ++p[0]) {
+      bool vertex = false;
+      for (int i = 0; i <= D; ++i) vertex = vertex || p == g[i];
+      if (vertex) continue;
+      std::array<int64_t, D> o{};
+      std::array<double, D + 1> w{};
+      int64_t rest = det;
+      for (int i = 0; i < D; ++i) {
+        int64_t b = 0;
+        for (int a = 0; a < D; ++a) b += adj[a][i] * (p[a] - g[0][a]);
+        w[i + 1] = static_cast<double>(b * sign) / static_cast<double>(det);
+        rest -= b * sign;
+      }
+      w[0] = static_cast<double>(rest) / static_cast<double>(det);
+      for (int a = 0; a < D; ++a) o[a] = p[a] - 2 * h;
+      offsets->push_back(o);
+      weights->push_back(w);
+    }
+  });
+}
+
+template void ScaledSimplexPoints<3>(const DiamondTemplate<3>::Simplex&, int,
+                                     std::vector<std::array<int64_t, 3>>*,
+                                     std::vector<std::array<double, 4>>*);
+template void ScaledSimplexPoints<4>(const DiamondTemplate<4>::Simplex&, int,
+                                     std::vector<std::array<int64_t, 4>>*,
+                                     std::vector<std::array<double, 5>>*);
+
 template class FinestDiamonds<3>;
 template class FinestDiamonds<4>;
 

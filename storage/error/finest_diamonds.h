@@ -30,6 +30,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "storage/error/simplex_scan.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -114,26 +115,48 @@ class FinestDiamonds {
   std::array<std::array<DiamondTemplate<D>, 1 << D>, 1 << D> templates_;
 };
 
-// The templates laid out for one field array (x fastest, `strides` per
-// axis): each simplex's vertices and points as index offsets from the
-// vertex, weights divided by det. For vertices whose whole diamond lies in
-// the domain and the real grid (away from both by 2 points), the error is
-// then a run of loads and multiply-adds with no bounds to test.
+// The grid points of template simplex `t` scaled by 2^scale_bits (a
+// diamond of octave k-1-scale_bits: the hierarchies are self-similar), the
+// simplex's vertices excluded: offsets from the diamond's vertex and
+// barycentric weights divided by det. For scale_bits 0, t.points.
 template <int D>
-class FinestStencils {
+void ScaledSimplexPoints(const typename DiamondTemplate<D>::Simplex& t, int scale_bits,
+                         std::vector<std::array<int64_t, D>>* offsets,
+                         std::vector<std::array<double, D + 1>>* weights);
+
+// The templates laid out for one field array (x fastest, `strides` per
+// axis) at one octave's scale: each simplex's vertices and points as index
+// offsets from the vertex, weights divided by det. For vertices whose whole
+// diamond lies in the domain and the real grid (away from both by 2 << s
+// points), the error is then a run of loads and multiply-adds with no
+// bounds to test. A stencil of scale s holds about 8^s times the finest
+// one's points: worth it for the finest octaves, where a diamond's rows are
+// too short for row scans (storage/error/diamond_errors.h).
+template <int D>
+class DiamondStencils {
  public:
-  FinestStencils(const FinestDiamonds<D>& diamonds, const std::array<int64_t, D>& strides) {
+  DiamondStencils(const FinestDiamonds<D>& diamonds, const std::array<int64_t, D>& strides,
+                  int scale_bits = 0) {
+    const int64_t h = int64_t{1} << scale_bits;
+    std::vector<std::array<int64_t, D>> offsets;
+    std::vector<std::array<double, D + 1>> weights;
     for (uint32_t odd = 1; odd < (1u << D); ++odd) {
       for (uint32_t parity = 0; parity < (1u << D); ++parity) {
         Flat& f = flat_[odd][parity];
         for (const auto& s : diamonds.Of(odd, parity).simplices) {
           f.simplex_end.push_back(0);
-          for (int i = 0; i <= D; ++i) f.vertex.push_back(Index(s.vertex[i], strides));
-          for (const auto& pt : s.points) {
-            f.point.push_back(Index(pt.offset, strides));
-            for (int i = 0; i <= D; ++i) {
-              f.weight.push_back(static_cast<double>(pt.weight[i]) / static_cast<double>(s.det));
-            }
+          f.box.push_back(BoxOf(s, h));
+          for (int i = 0; i <= D; ++i) {
+            int64_t index = 0;
+            for (int a = 0; a < D; ++a) index += s.vertex[i][a] * h * strides[a];
+            f.vertex.push_back(index);
+          }
+          ScaledSimplexPoints<D>(s, scale_bits, &offsets, &weights);
+          for (size_t p = 0; p < offsets.size(); ++p) {
+            int64_t index = 0;
+            for (int a = 0; a < D; ++a) index += offsets[p][a] * strides[a];
+            f.point.push_back(index);
+            for (int i = 0; i <= D; ++i) f.weight.push_back(weights[p][i]);
           }
           f.simplex_end.back() = static_cast<uint32_t>(f.point.size());
         }
@@ -141,18 +164,61 @@ class FinestStencils {
     }
   }
 
-  // The error of the diamond of the finest vertex whose value is at
-  // `center`, with odd-axis pattern `odd` and cube parity `parity`.
-  // REQUIRES: the diamond, [v - 2, v + 2], inside the domain and the real
-  // grid and inside the array; no NaN there.
+  // The error of the diamond of the vertex whose value is at `center`,
+  // with odd-axis pattern `odd` and cube parity `parity` on its octave's
+  // lattice.
+  // REQUIRES: the diamond, [v - 2h, v + 2h] (h = 2^scale_bits), inside the
+  // domain and the real grid and inside the array; no NaN there.
   double InteriorError(const double* center, uint32_t odd, uint32_t parity) const {
+    return Run<false>(center, odd, parity, {}, 0);
+  }
+
+  // The same for vertex g of a domain of side `side`, whose diamond may
+  // cross the domain's faces: its simplices outside the domain are not its
+  // (the clusters end there).
+  // REQUIRES: its simplices inside the domain lie in the real grid and the
+  // array; no NaN there.
+  double ClippedError(const double* center, uint32_t odd, uint32_t parity,
+                      const std::array<int64_t, D>& g, int64_t side) const {
+    return Run<true>(center, odd, parity, g, side);
+  }
+
+ private:
+  struct Box {
+    std::array<int32_t, D> lo, hi;  // the simplex's vertex offsets' range per axis
+  };
+  template <class Template>
+  static Box BoxOf(const Template& t, int64_t h) {
+    Box b;
+    for (int a = 0; a < D; ++a) {
+      b.lo[a] = b.hi[a] = static_cast<int32_t>(t.vertex[0][a] * h);
+      for (int i = 1; i <= D; ++i) {
+        b.lo[a] = std::min(b.lo[a], static_cast<int32_t>(t.vertex[i][a] * h));
+        b.hi[a] = std::max(b.hi[a], static_cast<int32_t>(t.vertex[i][a] * h));
+      }
+    }
+    return b;
+  }
+  static bool Inside(const Box& b, const std::array<int64_t, D>& g, int64_t side) {
+    for (int a = 0; a < D; ++a) {
+      if (g[a] + b.lo[a] < 0 || g[a] + b.hi[a] > side) return false;
+    }
+    return true;
+  }
+
+  template <bool kClip>
+  double Run(const double* center, uint32_t odd, uint32_t parity, const std::array<int64_t, D>& g,
+             int64_t side) const {
     const Flat& f = flat_[odd][parity];
     double worst = 0;
-    size_t p = 0, w = 0;
     for (size_t s = 0; s < f.simplex_end.size(); ++s) {
+      if constexpr (kClip) {
+        if (!Inside(f.box[s], g, side)) continue;
+      }
       std::array<double, D + 1> v;
       for (int i = 0; i <= D; ++i) v[i] = center[f.vertex[s * (D + 1) + static_cast<size_t>(i)]];
-      for (; p < f.simplex_end[s]; ++p, w += D + 1) {
+      size_t p = s == 0 ? 0 : f.simplex_end[s - 1];
+      for (size_t w = p * (D + 1); p < f.simplex_end[s]; ++p, w += D + 1) {
         double interp = 0;
         for (int i = 0; i <= D; ++i) interp += f.weight[w + static_cast<size_t>(i)] * v[i];
         worst = std::max(worst, std::abs(center[f.point[p]] - interp));
@@ -161,18 +227,139 @@ class FinestStencils {
     return worst;
   }
 
- private:
   struct Flat {
     std::vector<int64_t> vertex;          // D + 1 per simplex
+    std::vector<Box> box;                 // per simplex
     std::vector<uint32_t> simplex_end;    // points of simplex s end here
     std::vector<int64_t> point;
     std::vector<double> weight;           // D + 1 per point, divided by det
   };
-  static int64_t Index(const std::array<int8_t, D>& o, const std::array<int64_t, D>& strides) {
-    int64_t i = 0;
-    for (int a = 0; a < D; ++a) i += o[a] * strides[a];
-    return i;
+  std::array<std::array<Flat, 1 << D>, 1 << D> flat_;
+};
+
+// The templates at a coarser octave's scale as rows: each simplex's grid
+// points as runs along x (first point's index offset from the vertex, its
+// grid offset from the simplex's first vertex, length), found once. A
+// diamond's error is then per simplex a gradient from its vertex values
+// and per row one multiply-add per point, with none of the row solving a
+// scan does (ScannableSimplex::ForEachRow): in the middle octaves, where
+// rows are a few points long, solving them was most of a build's time.
+template <int D>
+class DiamondRowStencils {
+ public:
+  DiamondRowStencils(const FinestDiamonds<D>& diamonds, const std::array<int64_t, D>& strides,
+                     int scale_bits) {
+    const int64_t h = int64_t{1} << scale_bits;
+    for (uint32_t odd = 1; odd < (1u << D); ++odd) {
+      for (uint32_t parity = 0; parity < (1u << D); ++parity) {
+        Flat& f = flat_[odd][parity];
+        for (const auto& t : diamonds.Of(odd, parity).simplices) {
+          // In coordinates shifted by 2h (the diamond lies in [-2h, 2h]).
+          std::array<IPoint<D>, D + 1> g{};
+          for (int i = 0; i <= D; ++i) {
+            for (int a = 0; a < D; ++a) g[i][a] = t.vertex[i][a] * h + 2 * h;
+          }
+          Simplex sx;
+          for (int a = 0; a < D; ++a) {
+            sx.lo[a] = sx.hi[a] = static_cast<int32_t>(g[0][a] - 2 * h);
+            for (int i = 1; i <= D; ++i) {
+              sx.lo[a] = std::min(sx.lo[a], static_cast<int32_t>(g[i][a] - 2 * h));
+              sx.hi[a] = std::max(sx.hi[a], static_cast<int32_t>(g[i][a] - 2 * h));
+            }
+          }
+          for (int i = 0; i <= D; ++i) {
+            sx.vertex[i] = 0;
+            for (int a = 0; a < D; ++a) sx.vertex[i] += (g[i][a] - 2 * h) * strides[a];
+          }
+          std::array<std::array<int64_t, D>, D> edges{}, adj{};
+          for (int j = 0; j < D; ++j) {
+            for (int a = 0; a < D; ++a) edges[j][a] = g[j + 1][a] - g[0][a];
+          }
+          const double det = static_cast<double>(internal::Adjugate<D>(edges, &adj));
+          for (int c = 0; c < D; ++c) {
+            for (int j = 0; j < D; ++j) sx.gradient[c][j] = static_cast<double>(adj[c][j]) / det;
+          }
+          sx.row_begin = static_cast<uint32_t>(f.rows.size());
+          const ScannableSimplex<D> scan(g);
+          scan.ForEachRow(scan.box_lo(), scan.box_hi(), [&](const IPoint<D>& p, int64_t x_end) {
+            Row r;
+            r.index = 0;
+            for (int a = 0; a < D; ++a) {
+              r.index += (p[a] - 2 * h) * strides[a];
+              r.from_first[a] = static_cast<int32_t>(p[a] - g[0][a]);
+            }
+            r.count = static_cast<int32_t>(x_end - p[0] + 1);
+            f.rows.push_back(r);
+          });
+          sx.row_end = static_cast<uint32_t>(f.rows.size());
+          f.simplices.push_back(sx);
+        }
+      }
+    }
   }
+
+  // The error of the diamond of the vertex whose value is at `center`, with
+  // odd-axis pattern `odd` and cube parity `parity` on its octave's lattice.
+  // REQUIRES: as DiamondStencils::InteriorError.
+  double InteriorError(const double* center, uint32_t odd, uint32_t parity) const {
+    return Run<false>(center, odd, parity, {}, 0);
+  }
+  // REQUIRES: as DiamondStencils::ClippedError.
+  double ClippedError(const double* center, uint32_t odd, uint32_t parity,
+                      const std::array<int64_t, D>& g, int64_t side) const {
+    return Run<true>(center, odd, parity, g, side);
+  }
+
+ private:
+  template <bool kClip>
+  double Run(const double* center, uint32_t odd, uint32_t parity, const std::array<int64_t, D>& g,
+             int64_t side) const {
+    const Flat& f = flat_[odd][parity];
+    double worst = 0;
+    for (const Simplex& sx : f.simplices) {
+      if constexpr (kClip) {
+        bool inside = true;
+        for (int a = 0; a < D; ++a) {
+          inside = inside && g[a] + sx.lo[a] >= 0 && g[a] + sx.hi[a] <= side;
+        }
+        if (!inside) continue;
+      }
+      const double f0 = center[sx.vertex[0]];
+      std::array<double, D> step{};
+      for (int j = 0; j < D; ++j) step[j] = center[sx.vertex[j + 1]] - f0;
+      std::array<double, D> grad{};
+      for (int c = 0; c < D; ++c) {
+        for (int j = 0; j < D; ++j) grad[c] += sx.gradient[c][j] * step[j];
+      }
+      for (uint32_t r = sx.row_begin; r < sx.row_end; ++r) {
+        const Row& row = f.rows[r];
+        double at = f0;
+        for (int c = 0; c < D; ++c) at += grad[c] * row.from_first[c];
+        const double* v = center + row.index;
+        for (int32_t i = 0; i < row.count; ++i) {
+          const double e = std::abs(v[i] - (at + grad[0] * i));
+          worst = e > worst ? e : worst;
+        }
+      }
+    }
+    return worst;
+  }
+
+  struct Simplex {
+    std::array<int32_t, D> lo{}, hi{};                    // vertex offsets' range per axis
+    std::array<int64_t, D + 1> vertex{};                  // index offsets from the diamond's vertex
+    std::array<std::array<double, D>, D> gradient{};      // adj / det: gradient per vertex step
+    uint32_t row_begin = 0, row_end = 0;
+  };
+  struct Row {
+    int64_t index;                      // first point's index offset from the diamond's vertex
+    std::array<int32_t, D> from_first;  // first point - the simplex's first vertex
+    int32_t count;
+  };
+  struct Flat {
+    std::vector<Simplex> simplices;
+    std::vector<Row> rows;
+  };
   std::array<std::array<Flat, 1 << D>, 1 << D> flat_;
 };
 

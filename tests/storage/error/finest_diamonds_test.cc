@@ -142,7 +142,7 @@ void ExpectInteriorStencilsAgree(uint32_t side, uint64_t seed) {
     return volume.values[static_cast<size_t>(i)];
   };
   const auto& diamonds = FinestDiamonds<D>::Get();
-  const FinestStencils<D> stencils(diamonds, strides);
+  const DiamondStencils<D> stencils(diamonds, strides);
   int checked = 0;
   for (int64_t i = 0; i < stride; ++i) {
     std::array<int64_t, D> g{};

@@ -1,0 +1,251 @@
+#include "storage/error/diamond_errors.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+
+#include "storage/error/simplex_scan.h"
+
+namespace simplexdb {
+namespace {
+
+template <int D>
+std::array<int64_t, D> StridesOf(const std::array<int64_t, D>& dims) {
+  std::array<int64_t, D> s{};
+  int64_t n = 1;
+  for (int a = 0; a < D; ++a) {
+    s[a] = n;
+    n *= dims[a];
+  }
+  return s;
+}
+
+// The smallest float not below e: the table keeps bounds.
+float RoundUp(double e) {
+  float f = static_cast<float>(e);
+  if (static_cast<double>(f) < e) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+
+}  // namespace
+
+template <int D>
+template <size_t... S>
+auto DiamondErrors<D>::MakeStencils(const std::array<int64_t, D>& strides,
+                                    std::index_sequence<S...>)
+    -> std::array<DiamondStencils<D>, kStencilScales> {
+  return {DiamondStencils<D>(FinestDiamonds<D>::Get(), strides, static_cast<int>(S))...};
+}
+
+template <int D>
+DiamondErrors<D>::DiamondErrors(const double* field, const std::array<int64_t, D>& dims, int k,
+                                bool exact, double range, int threads, bool stencils)
+    : field_(field),
+      dims_(dims),
+      field_stride_(StridesOf<D>(dims)),
+      k_(k),
+      exact_(exact),
+      range_(range),
+      use_stencils_(stencils),
+      order_(k),
+      stencils_(MakeStencils(StridesOf<D>(dims), std::make_index_sequence<kStencilScales>())),
+      far_by_worker_(static_cast<size_t>(std::max(1, threads))) {
+  for (int sb = kStencilScales; sb < std::min(k, kRowStencilScales); ++sb) {
+    row_stencils_.emplace_back(FinestDiamonds<D>::Get(), field_stride_, sb);
+  }
+  size_ = 1;
+  for (int a = 0; a < D; ++a) {
+    assert(dims[a] >= 1 && dims[a] <= (int64_t{1} << k) + 1);
+    extent_[a] = std::min<int64_t>(int64_t{1} << k, dims[a] + 1) + 1;
+    stride_[a] = size_;
+    size_ *= static_cast<uint64_t>(extent_[a]);
+  }
+  // Work items: per octave (scale s, coarse first: they are the heavy
+  // ones), one slab of vertices per value of the last coordinate, for the
+  // vertices whose diamond, [g - 2^(s+1), g + 2^(s+1)], can meet the grid.
+  for (int s = k - 1; s >= 0; --s) {
+    const int64_t h = int64_t{1} << s;
+    for (int64_t j = 0; j * h <= (int64_t{1} << k) && j * h - 2 * h <= dims[D - 1] - 1; ++j) {
+      items_.push_back({s, j});
+    }
+  }
+}
+
+template <int D>
+uint64_t DiamondErrors<D>::TableBytes(const std::array<int64_t, D>& dims, int k) {
+  uint64_t n = 1;
+  for (int a = 0; a < D; ++a) {
+    n *= static_cast<uint64_t>(std::min<int64_t>(int64_t{1} << k, dims[a] + 1) + 1);
+  }
+  return n * sizeof(float);
+}
+
+template <int D>
+void DiamondErrors<D>::Allocate() {
+  table_.assign(size_, 0.0f);
+}
+
+template <int D>
+bool DiamondErrors<D>::Interior(const std::array<int64_t, D>& g, int s) const {
+  // Every simplex of the diamond inside the domain lies in the real grid:
+  // the diamond, [g - 2h, g + 2h], ends before the real grid's last point or
+  // the real grid reaches the domain's face (dims = 2^k + 1) there; at 0
+  // the real grid and the domain start together.
+  const int64_t reach = int64_t{2} << s, side = int64_t{1} << k_;
+  for (int a = 0; a < D; ++a) {
+    if (g[a] + reach > dims_[a] - 1 && dims_[a] - 1 != side) return false;
+  }
+  return true;
+}
+
+template <int D>
+double DiamondErrors<D>::Finest(const std::array<int64_t, D>& g) const {
+  return FinestDiamonds<D>::Get().Error(g, k_, dims_, [&](const std::array<int64_t, D>& p) {
+    int64_t i = 0;
+    for (int a = 0; a < D; ++a) i += p[a] * field_stride_[a];
+    return field_[i];
+  });
+}
+
+template <int D>
+template <class T>
+double DiamondErrors<D>::CoarseScan(const std::array<int64_t, D>& g, int s) const {
+  uint32_t odd = 0, parity = 0;
+  for (int a = 0; a < D; ++a) {
+    odd |= static_cast<uint32_t>((g[a] >> s) & 1) << a;
+    parity |= static_cast<uint32_t>((g[a] >> (s + 1)) & 1) << a;
+  }
+  const int64_t h = int64_t{1} << s, side = int64_t{1} << k_;
+  const GridView<D> view{field_, IPoint<D>{}, field_stride_};
+  double worst = 0;
+  for (const auto& t : FinestDiamonds<D>::Get().Of(odd, parity).simplices) {
+    std::array<IPoint<D>, D + 1> v{};
+    bool inside = true;
+    for (int i = 0; i <= D; ++i) {
+      for (int a = 0; a < D; ++a) {
+        v[i][a] = g[a] + t.vertex[i][a] * h;
+        inside = inside && v[i][a] >= 0 && v[i][a] <= side;
+      }
+    }
+    if (!inside) continue;
+    const ScannableSimplex<D> scan(v);
+    IPoint<D> lo{}, hi{};
+    bool empty = false;
+    for (int a = 0; a < D; ++a) {
+      lo[a] = std::max<int64_t>(scan.box_lo()[a], 0);
+      hi[a] = std::min<int64_t>(scan.box_hi()[a], dims_[a] - 1);
+      empty = empty || lo[a] > hi[a];
+    }
+    if (empty) continue;
+    std::array<T, D + 1> f{};
+    for (int i = 0; i <= D; ++i) {
+      int64_t index = 0;
+      for (int a = 0; a < D; ++a) index += std::min(v[i][a], dims_[a] - 1) * field_stride_[a];
+      f[i] = static_cast<T>(field_[index]);
+    }
+    worst = std::max(worst, MaxError<D, T>(scan, f, range_, lo, hi, view).error);
+  }
+  return worst;
+}
+
+template <int D>
+double DiamondErrors<D>::Coarse(const std::array<int64_t, D>& g, int s) const {
+  return exact_ ? CoarseScan<int64_t>(g, s) : CoarseScan<double>(g, s);
+}
+
+template <int D>
+void DiamondErrors<D>::ComputeItem(int worker, uint64_t item) {
+  const Item it = items_[item];
+  const int64_t h = int64_t{1} << it.s, side = int64_t{1} << k_, reach = 2 * h;
+  // Vertices of the slab: multiples of h on every axis, up to the domain
+  // and to where a diamond still reaches the real grid.
+  std::array<int64_t, D> last{};
+  for (int a = 0; a < D - 1; ++a) last[a] = std::min(side, dims_[a] - 1 + 2 * h) / h * h;
+  std::array<int64_t, D> g{};
+  g[D - 1] = it.j * h;
+  while (true) {
+    bool odd = false;
+    for (int a = 0; a < D; ++a) odd = odd || ((g[a] >> it.s) & 1) != 0;
+    if (odd) {
+      double e;
+      if (use_stencils_ && it.s < kRowStencilScales && Interior(g, it.s)) {
+        uint32_t pattern = 0, parity = 0;
+        int64_t index = 0;
+        for (int a = 0; a < D; ++a) {
+          pattern |= static_cast<uint32_t>((g[a] >> it.s) & 1) << a;
+          parity |= static_cast<uint32_t>((g[a] >> (it.s + 1)) & 1) << a;
+          index += g[a] * field_stride_[a];
+        }
+        bool clip = false;
+        for (int a = 0; a < D; ++a) clip = clip || g[a] < reach || g[a] + reach > side;
+        const double* center = field_ + index;
+        if (it.s < kStencilScales) {
+          const auto& st = stencils_[static_cast<size_t>(it.s)];
+          e = clip ? st.ClippedError(center, pattern, parity, g, side)
+                   : st.InteriorError(center, pattern, parity);
+        } else {
+          const auto& st = row_stencils_[static_cast<size_t>(it.s - kStencilScales)];
+          e = clip ? st.ClippedError(center, pattern, parity, g, side)
+                   : st.InteriorError(center, pattern, parity);
+        }
+      } else {
+        e = it.s == 0 && use_stencils_ ? Finest(g) : Coarse(g, it.s);
+      }
+      if (e > 0) {
+        if (float* slot = Slot(g)) {
+          *slot = RoundUp(e);
+        } else {
+          far_by_worker_[static_cast<size_t>(worker)].emplace_back(
+              order_.PositionAtLevel(g, order_.Level(g)), RoundUp(e));
+        }
+      }
+    }
+    int a = 0;
+    for (; a < D - 1; ++a) {
+      if (g[a] < last[a]) {
+        g[a] += h;
+        break;
+      }
+      g[a] = 0;
+    }
+    if (a == D - 1) break;
+  }
+}
+
+template <int D>
+void DiamondErrors<D>::Finish() {
+  for (auto& list : far_by_worker_) {
+    for (const auto& [position, e] : list) far_[position] = e;
+    list.clear();
+    list.shrink_to_fit();
+  }
+}
+
+template <int D>
+float* DiamondErrors<D>::Slot(const std::array<int64_t, D>& g) {
+  uint64_t i = 0;
+  for (int a = 0; a < D; ++a) {
+    if (g[a] >= extent_[a]) return nullptr;
+    i += static_cast<uint64_t>(g[a]) * stride_[a];
+  }
+  return &table_[i];
+}
+
+template <int D>
+double DiamondErrors<D>::At(const std::array<int64_t, D>& g, uint64_t position) const {
+  uint64_t i = 0;
+  for (int a = 0; a < D; ++a) {
+    if (g[a] >= extent_[a]) {
+      const auto it = far_.find(position);
+      return it == far_.end() ? 0.0 : it->second;
+    }
+    i += static_cast<uint64_t>(g[a]) * stride_[a];
+  }
+  return table_[i];
+}
+
+template class DiamondErrors<3>;
+template class DiamondErrors<4>;
+
+}  // namespace simplexdb

@@ -1,0 +1,127 @@
+// The error of every diamond of a grid held in memory, computed octave by
+// octave from the diamonds' shapes instead of node by node.
+//
+// A diamond is the cluster of nodes whose split creates one vertex
+// (hierarchy/hz_order.h); its error is the largest of the seed's errors of
+// those nodes (storage/error/simplex_scan.h). The hierarchies are
+// self-similar across octaves: the diamonds of octave o are those of the
+// finest octave (storage/error/finest_diamonds.h) scaled by 2^s, s = k-1-o,
+// with the same templates chosen by the vertex's odd-axis pattern and cube
+// parity on the octave's lattice, and cut to the domain the same way. So
+//   - finest-octave diamonds (7/8 of the HT's vertices, 15/16 of the HP's)
+//     and the next octave's away from the faces are fixed stencils over the
+//     field (DiamondStencils; the generic template walk near the domain's
+//     and the real grid's faces), and
+//   - coarser diamonds scan their scaled simplices' grid points row by row
+//     with the exact kernels (ScannableSimplex, Interpolant): integer voxel
+//     types exactly, float ones in double precision.
+// Every node is scanned once, by the one diamond it belongs to, so the work
+// is one pass over the grid per level with no per-node bookkeeping, and
+// diamonds are independent: work items (one slab of an octave's vertices
+// each) run on any thread in any order.
+//
+// Rules as the error engine's (storage/error/unit_errors.h): only real grid
+// points (inside dims) are scanned; a vertex past the real grid takes the
+// value of the nearest real point (clamped per axis); a diamond with no real
+// point has error 0. Fields with missing values (NaN) are not handled here:
+// their builders take the engine's path.
+//
+// Use:
+//   DiamondErrors<3> d(field, dims, k, exact, range, threads);
+//   d.Allocate();                              // DiamondErrors::TableBytes
+//   for (item in 0 .. d.item_count()) d.ComputeItem(worker, item);  // any threads
+//   d.Finish();
+//   double e = d.At(g, position);
+//
+// Thread safety: ComputeItem may run concurrently for distinct items, each
+// with its own worker index (0 .. threads - 1); everything else is
+// single-threaded (At is const and may be shared once Finish returned).
+// Lifetimes: the field is read during ComputeItem and must outlive it.
+// Errors: none; preconditions (no NaN, dims within the domain) are
+// assertions. Allocate throws std::bad_alloc.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "hierarchy/hz_order.h"
+#include "storage/error/finest_diamonds.h"
+
+namespace simplexdb {
+
+template <int D>
+class DiamondErrors {
+ public:
+  // `field`: the real grid's values, x fastest, dims[a] points per axis, in
+  // a domain of side 2^k. `exact`: integer voxel types (every value an
+  // integer), errors computed exactly. `range`: field max - min.
+  // `stencils` false scans every diamond's simplices (the reference the
+  // stencils are tested against).
+  DiamondErrors(const double* field, const std::array<int64_t, D>& dims, int k, bool exact,
+                double range, int threads, bool stencils = true);
+
+  // The table's bytes: a float per point of the real grid grown by two
+  // points per axis (the finest diamonds of vertices there reach real
+  // points), within the domain.
+  static uint64_t TableBytes(const std::array<int64_t, D>& dims, int k);
+  void Allocate();
+
+  uint64_t item_count() const { return items_.size(); }
+  void ComputeItem(int worker, uint64_t item);
+  // Gathers the few coarse diamonds past the table (vertices beyond the real
+  // grid whose diamonds reach back into it).
+  void Finish();
+
+  // The diamond error of vertex g (HZ position `position`, for the vertices
+  // past the table); 0 for vertices with no real point in their diamond.
+  double At(const std::array<int64_t, D>& g, uint64_t position) const;
+
+ private:
+  struct Item {
+    int s;        // the octave's scale: vertices are multiples of 2^s
+    int64_t j;    // the last coordinate is j * 2^s
+  };
+  double Finest(const std::array<int64_t, D>& g) const;
+  // Whether the simplices in the domain of g's diamond (scale s) all lie in
+  // the real grid: the stencils then serve it, clipped at the domain's faces.
+  bool Interior(const std::array<int64_t, D>& g, int s) const;
+  double Coarse(const std::array<int64_t, D>& g, int s) const;
+  template <class T>
+  double CoarseScan(const std::array<int64_t, D>& g, int s) const;
+  float* Slot(const std::array<int64_t, D>& g);
+
+  const double* field_;
+  std::array<int64_t, D> dims_;
+  std::array<int64_t, D> field_stride_{};
+  int k_;
+  bool exact_;
+  double range_;
+  bool use_stencils_;
+  HzOrder<D> order_;
+  // Stencils of the finest octaves (scale 0 .. kStencilScales - 1): their
+  // diamonds' rows are a few points long, too short for row scans.
+  static constexpr int kStencilScales = D == 3 ? 2 : 1;
+  template <size_t... S>
+  static auto MakeStencils(const std::array<int64_t, D>& strides, std::index_sequence<S...>)
+      -> std::array<DiamondStencils<D>, kStencilScales>;
+  std::array<DiamondStencils<D>, kStencilScales> stencils_;
+  // Row stencils of the middle octaves (scale kStencilScales ..
+  // kRowStencilScales - 1); coarser diamonds are few, scanned directly.
+  static constexpr int kRowStencilScales = D == 3 ? 5 : 3;
+  std::vector<DiamondRowStencils<D>> row_stencils_;
+  std::array<int64_t, D> extent_{};
+  std::array<uint64_t, D> stride_{};
+  uint64_t size_ = 0;
+  std::vector<float> table_;
+  std::vector<Item> items_;
+  std::vector<std::vector<std::pair<uint64_t, float>>> far_by_worker_;
+  std::unordered_map<uint64_t, float> far_;
+};
+
+extern template class DiamondErrors<3>;
+extern template class DiamondErrors<4>;
+
+}  // namespace simplexdb
