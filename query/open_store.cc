@@ -1,5 +1,11 @@
 #include "query/open_store.h"
 
+#include <algorithm>
+#include <cstddef>
+
+#include "storage/io/read_only_file.h"
+#include "util/little_endian.h"
+
 namespace simplexdb {
 
 const char* StoreKindName(StoreKind kind) {
@@ -16,6 +22,17 @@ StoreKind ProbeStoreKind(const std::string& path) {
   return LooksLikeLmdb(path) ? StoreKind::kSparse : StoreKind::kDense;
 }
 
+bool LooksLikeFormat2(const std::string& path) {
+  // ReadOnlyFile: a FIFO or a device is refused at once, not waited on.
+  Result<ReadOnlyFile> file = ReadOnlyFile::Open(path);
+  if (!file.ok()) return false;
+  uint8_t head[12] = {};
+  const Result<size_t> got = file->ReadUpTo(0, sizeof head, reinterpret_cast<std::byte*>(head));
+  if (!got.ok() || *got != sizeof head) return false;
+  return std::equal(kDenseMagic.begin(), kDenseMagic.end(), head) &&
+         LoadLittle<uint32_t>(head + 8) == kHzFormatVersion;
+}
+
 Result<AnyStore> AnyStore::Open(const std::string& path, const StoreOptions& options) {
   AnyStore store;
   if (ProbeStoreKind(path) == StoreKind::kSparse) {
@@ -25,6 +42,15 @@ Result<AnyStore> AnyStore::Open(const std::string& path, const StoreOptions& opt
     }
     SDB_ASSIGN_OR_RETURN(store.sparse_, SparseStore::Open(path));
     store.info_ = InfoFromHeader(store.sparse_->header(), store.sparse_->path());
+    return store;
+  }
+  if (LooksLikeFormat2(path)) {
+    HzStore::Options hz;
+    hz.cache_bytes = options.cache_bytes;
+    hz.in_memory = options.in_memory;
+    hz.cache = options.cache;
+    SDB_ASSIGN_OR_RETURN(store.hz_, HzStore::Open(path, hz));
+    store.info_ = InfoFromHeader(store.hz_->header(), store.hz_->path());
     return store;
   }
   DenseStore::Options dense;

@@ -15,12 +15,14 @@
 // visitor). The dispatch costs a branch per Visit() call; inside the visitor
 // every error lookup is a direct (inlinable) call on the concrete source:
 // no virtual call in the refinement's hot path. Each Visit() instantiates
-// the visitor four times (DenseSource<3>, DenseSource<4>, SparseSource<3>,
-// SparseSource<4>).
+// the visitor six times (DenseSource, HzSource and SparseSource, each for
+// D = 3 and 4).
 //
 // The kind is recognized from the file's first bytes (an LMDB meta page is
-// the sparse store, anything else is opened as a dense store), so a file
-// that is neither gets the dense store's InvalidArgument naming it.
+// the sparse store, anything else is opened as a dense store: format 2
+// (storage/dense/hz_store.h) when its header says so, format 1 otherwise),
+// so a file that is neither gets the dense store's InvalidArgument naming
+// it.
 //
 // Thread safety: an AnyStore may be shared by threads (the stores are);
 // Visit() is const and may run in several threads at once, each call with
@@ -42,6 +44,7 @@
 #include "query/source.h"
 #include "storage/dense/block_cache.h"
 #include "storage/dense/dense_store.h"
+#include "storage/dense/hz_store.h"
 #include "storage/sparse/sparse_store.h"
 #include "util/status.h"
 
@@ -67,6 +70,10 @@ struct StoreOptions {
 // unreadable file is kDense, and opening it reports why.
 StoreKind ProbeStoreKind(const std::string& path);
 
+// Whether the file at `path` starts as a dense store of format 2 (its magic,
+// then version 2). Cost: one read of 12 bytes; false when it cannot be read.
+bool LooksLikeFormat2(const std::string& path);
+
 class AnyStore {
  public:
   // Opens and validates the store at `path`. Errors: those of
@@ -80,7 +87,7 @@ class AnyStore {
   AnyStore(AnyStore&&) noexcept = default;
   AnyStore& operator=(AnyStore&&) noexcept = default;
 
-  StoreKind kind() const { return dense_ ? StoreKind::kDense : StoreKind::kSparse; }
+  StoreKind kind() const { return sparse_ ? StoreKind::kSparse : StoreKind::kDense; }
   int dimension() const { return info_.dimension; }  // 3: HT, 4: HP
   const std::string& path() const { return info_.path; }
   // What every source of this store reports as info().
@@ -88,6 +95,7 @@ class AnyStore {
   // The store itself, for what only one kind has (a dense store's cache, a
   // sparse store's header); null for the other kind.
   const DenseStore* dense() const { return dense_.get(); }
+  const HzStore* hz() const { return hz_.get(); }  // a dense store of format 2
   const SparseStore* sparse() const { return sparse_.get(); }
 
   // Makes a source of this store's kind and dimension and calls
@@ -99,6 +107,14 @@ class AnyStore {
   // slots are all taken, IOError), in which case the visitor is not called.
   template <class Visitor>
   Status Visit(Visitor&& visitor) const {
+    if (hz_) {
+      if (hz_->dimension() == 3) {
+        HzSource<3> source(*hz_);
+        return Call<3>(visitor, source);
+      }
+      HzSource<4> source(*hz_);
+      return Call<4>(visitor, source);
+    }
     if (dense_) {
       if (dense_->dimension() == 3) {
         DenseSource<3> source(*dense_);
@@ -134,6 +150,7 @@ class AnyStore {
 
   // Exactly one is set.
   std::unique_ptr<DenseStore> dense_;
+  std::unique_ptr<HzStore> hz_;
   std::unique_ptr<SparseStore> sparse_;
   SourceInfo info_;
 };

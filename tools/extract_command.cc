@@ -101,10 +101,11 @@ void WriteSliceSeries(const Mesh<4>& mesh, Source& source, const std::vector<dou
   if (Status st = WriteFileAtomically(output, pvd); !st.ok()) Fail(st);
 }
 
-// `dense`: the store behind `source` when it is a dense one (its cache is
-// reported), null for the sparse store.
+// `dense`, `hz`: the store behind `source` when it is a dense one of format
+// 1 or 2 (its cache and blocks are reported), null otherwise.
 template <int D, class Source>
-void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nullptr) {
+void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nullptr,
+             const HzStore* hz = nullptr) {
   const SourceInfo& info = source.info();
   CriteriaSpec spec;
   spec.error.value = ParseAmount(a.error, "--error", info.field_range());
@@ -213,6 +214,14 @@ void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nul
     // Decoded blocks held at the end (never more than --cache-mb).
     j["cache_bytes"] = dense->cache()->charge();
   }
+  if (hz != nullptr) {
+    // Format 2: zstd frames decoded plus raw blocks read (repeats counted),
+    // and how many different blocks the query needed.
+    const HzStore::Stats hs = hz->stats();
+    j["blocks_decoded"] = hs.blocks_decoded + hs.raw_checked;
+    j["distinct_blocks"] = hs.distinct;
+    if (hz->cache() != nullptr) j["cache_bytes"] = hz->cache()->charge();
+  }
   if (check) {
     j["conforming"] = check->ok;
     if (!check->ok) j["conformity_problem"] = check->problem;
@@ -246,7 +255,7 @@ void RunExtract(ExtractArgs a) {
   Status s;
   try {
     s = store->Visit(
-        [&]<int D, class Source>(Source& source) { Extract<D>(source, a, store->dense()); });
+        [&]<int D, class Source>(Source& source) { Extract<D>(source, a, store->dense(), store->hz()); });
   } catch (const std::bad_alloc&) {
     // After the refinement (which names itself): the leaves, the slice,
     // the output's cells.

@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <memory>
+#include <optional>
 #include <thread>
 #include <unordered_map>
 #include <vector>
@@ -11,6 +14,11 @@
 #include "hierarchy/hz_order.h"
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/hz_writer.h"
+#include "storage/dense/layout.h"
+#include "storage/dense/parallel_run.h"
+#include "storage/error/diamond_errors.h"
+#include "storage/error/field_values.h"
+#include "storage/error/mask.h"
 #include "storage/io/file.h"
 #include "util/out_of_memory.h"
 
@@ -185,6 +193,117 @@ Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
   return report;
 }
 
+// The direct build: the whole field in memory, diamond errors octave by
+// octave on every core (storage/error/diamond_errors.h), then the writer.
+// Returns nullopt, having written nothing, when it does not apply: the
+// field and the table exceed the memory bound, or the volume has missing
+// values (NaN); the caller then takes the engine's path.
+template <int D>
+Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const std::string& out,
+                                                 const HzBuildOptions& options,
+                                                 Clock::time_point start) {
+  std::array<int64_t, D> dims{};
+  uint64_t n = 1;
+  for (int a = 0; a < D; ++a) {
+    dims[a] = input.dims[a];
+    n *= input.dims[a];
+  }
+  const int k = std::max(1, DomainBitsFor(D, input.dims));
+  if (k > (D == 3 ? 18 : 13)) return std::optional<HzBuildReport>();  // the engine says why
+  const int threads = options.threads > 0
+                          ? options.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const uint64_t field_bytes = n * sizeof(double);
+  const uint64_t table_bytes = DiamondErrors<D>::TableBytes(dims, k);
+  const uint64_t writer_bytes = uint64_t(threads) * (uint64_t{1} << options.block_bits) * 40;
+  if (field_bytes + table_bytes + writer_bytes > options.memory_bytes) {
+    return std::optional<HzBuildReport>();
+  }
+
+  // The field, checked as every store's (finite, float32 range) and held
+  // as the store keeps it (a scaled volume's values rounded to float32), so
+  // the errors are those of the stored values.
+  const VoxelType stored = StoredVoxelType(input, false);
+  std::vector<double> field(n);
+  double fmin = std::numeric_limits<double>::infinity(), fmax = -fmin;
+  {
+    SDB_ASSIGN_OR_RETURN(auto reader, VolumeReader::Open(input));
+    const uint64_t chunk = uint64_t{1} << 20;
+    auto last = Clock::now();
+    for (uint64_t first = 0; first < n; first += chunk) {
+      const size_t count = static_cast<size_t>(std::min(chunk, n - first));
+      double* values = field.data() + first;
+      SDB_RETURN_IF_ERROR(reader->Read(first, count, values));
+      SDB_RETURN_IF_ERROR(CheckStorableValues(input, first, values, count));
+      for (size_t i = 0; i < count; ++i) {
+        if (std::isnan(values[i])) return std::optional<HzBuildReport>();
+        if (stored == VoxelType::kF32) values[i] = static_cast<float>(values[i]);
+        fmin = std::min(fmin, values[i]);
+        fmax = std::max(fmax, values[i]);
+      }
+      if (options.progress && Clock::now() - last > std::chrono::milliseconds(250)) {
+        last = Clock::now();
+        options.progress({"field", first + count, n,
+                          std::chrono::duration<double>(last - start).count()});
+      }
+    }
+  }
+
+  DiamondErrors<D> diamonds(field.data(), dims, k, !IsFloatType(stored), fmax - fmin, threads);
+  diamonds.Allocate();
+  SDB_RETURN_IF_ERROR(RunParallel(diamonds.item_count(), threads, "errors", start,
+                                  options.progress, [&](int worker, uint64_t item) {
+                                    diamonds.ComputeItem(worker, item);
+                                    return Status::OK();
+                                  }));
+  diamonds.Finish();
+
+  HzHeader params;
+  params.dimension = static_cast<uint8_t>(D);
+  params.quantization = options.quantization;
+  params.voxel_type = stored;
+  params.domain_bits = static_cast<uint8_t>(k);
+  params.block_bits = static_cast<uint8_t>(options.block_bits);
+  params.dims = input.dims;
+  params.spacing = input.spacing;
+  params.field_min = fmin;
+  params.field_max = fmax;
+  params.scale_slope = input.scale;
+  params.scale_intercept = input.shift;
+  params.source = input.scaled()
+                      ? input.description + " (scaled: " + FormatScaling(input) + ")"
+                      : input.description;
+  const HzOrder<D> order(k);
+  std::array<int64_t, D> stride{};
+  for (int64_t a = 0, s = 1; a < D; s *= dims[a], ++a) stride[a] = s;
+  HzWriteOptions write;
+  write.compression = options.compression;
+  write.zstd_level = options.zstd_level;
+  write.threads = threads;
+  write.progress = options.progress;
+  const auto fill = [&](int, uint64_t first, size_t count, double* errors,
+                        double* fields) -> Status {
+    for (size_t i = 0; i < count; ++i) {
+      std::array<int64_t, D> g{};
+      if (!order.Decode(first + i, g)) continue;
+      errors[i] = diamonds.At(g, first + i);
+      bool real = true;
+      int64_t index = 0;
+      for (int a = 0; a < D; ++a) {
+        real = real && g[a] < dims[a];
+        index += g[a] * stride[a];
+      }
+      if (real) fields[i] = field[static_cast<size_t>(index)];
+    }
+    return Status::OK();
+  };
+  HzBuildReport report;
+  SDB_ASSIGN_OR_RETURN(report.header, WriteHzStore(out, params, write, fill));
+  report.grid_points = n;
+  report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  return std::optional<HzBuildReport>(report);
+}
+
 }  // namespace
 
 Result<HzBuildReport> ConvertToHz(const DenseStore& f1, const std::string& out_path,
@@ -199,6 +318,23 @@ Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& o
   const auto start = Clock::now();
   // Check the output before the long part.
   SDB_RETURN_IF_ERROR(PrepareOutput(out_path));
+  if (!options.mask && (input.dimension == 3 || input.dimension == 4)) {
+    try {
+      std::optional<HzBuildReport> direct;
+      if (input.dimension == 3) {
+        SDB_ASSIGN_OR_RETURN(direct, BuildDirect<3>(input, out_path, options, start));
+      } else {
+        SDB_ASSIGN_OR_RETURN(direct, BuildDirect<4>(input, out_path, options, start));
+      }
+      if (direct) return *direct;
+    } catch (const std::bad_alloc&) {
+      return NotEnoughMemory("building " + out_path + " from " + input.description,
+                             "the field and the diamond table; the memory budget is " +
+                                 DescribeByteCount(options.memory_bytes));
+    }
+  }
+  // Missing values, a mask, or a field larger than the memory bound: per
+  // node through format 1's engine, in a scratch store beside the output.
   TemporaryFile scratch(out_path, "errors");
   DenseBuildOptions f1;
   f1.quantization = Quantization::kF32;
@@ -210,6 +346,7 @@ Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& o
   SDB_RETURN_IF_ERROR(BuildDenseStore(input, scratch.path(), f1).status());
   SDB_ASSIGN_OR_RETURN(auto store, DenseStore::Open(scratch.path()));
   SDB_ASSIGN_OR_RETURN(HzBuildReport report, ConvertToHz(*store, out_path, options));
+  report.method = "engine";
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return report;
 }

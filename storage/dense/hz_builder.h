@@ -2,24 +2,27 @@
 // error of its diamond (the largest of the seed's errors over the nodes
 // whose split creates it: one cluster) and its field value.
 //
-// This first builder takes the per-node errors from format 1's streaming
-// error engine: ConvertToHz reads them from a format-1 store (float32
-// errors keep them exact up to rounding up), BuildHzStore first builds such
-// a store as a scratch file beside the output. It is correct and bounded,
-// not fast: it visits every node that holds a real grid point (6 per grid
-// point in 3D, 24 in 4D), one thread. The level-by-level diamond builder of
-// DESIGN.md replaces it.
+// BuildHzStore reads the field into memory and computes every diamond's
+// error octave by octave on every core (storage/error/diamond_errors.h),
+// then writes the store. Where that does not apply (a mask, missing values,
+// or a field and error table larger than memory_bytes) it takes the
+// per-node errors from format 1's streaming error engine instead, through a
+// scratch format-1 store beside the output: correct and bounded, not fast.
+// ConvertToHz makes a store from such a format-1 store (float32 errors keep
+// them exact up to rounding up).
 //
-// Memory: one float per vertex of the real grid grown by two points along
-// each axis (where diamonds of the finest levels lie), a map for the few
-// coarser diamonds beyond it, and the writer's blocks per thread; checked
-// against memory_bytes before anything is allocated.
+// Memory: the direct build holds the field as doubles and a float per
+// vertex of the real grid grown by two points per axis; the engine's path a
+// float per such vertex and a map for the few coarser diamonds beyond it;
+// both the writer's blocks per thread; checked against memory_bytes before
+// anything is allocated.
 //
 // Thread safety: may run in several threads at once for different outputs.
 // Lifetimes: ConvertToHz reads `f1` during the call only.
-// Errors: those of the format-1 builder (input, mask, memory, output) and
-// of WriteHzStore; ResourceExhausted naming the figures when the diamond
-// table does not fit in memory_bytes.
+// Errors: those of reading the input (storage/volume/volume.h) and of
+// storable values (storage/error/field_values.h), of the format-1 builder
+// (input, mask, memory, output) and of WriteHzStore; ResourceExhausted
+// naming the figures when the diamond table does not fit in memory_bytes.
 #pragma once
 
 #include <cstdint>
@@ -51,7 +54,10 @@ struct HzBuildReport {
   HzHeader header;
   double seconds = 0;
   uint64_t grid_points = 0;  // real grid points
-  uint64_t nodes = 0;        // nodes whose error was read
+  uint64_t nodes = 0;        // nodes whose error was read (the engine's path)
+  // How the errors were computed: "diamonds" (the field in memory, octave
+  // by octave) or "engine" (per node, through a scratch format-1 store).
+  const char* method = "diamonds";
 };
 
 // Makes `out_path` from a format-1 store. Exact when `f1` holds float32

@@ -61,6 +61,7 @@ Result<std::unique_ptr<HzStore>> HzStore::Open(const std::string& path, const Op
   s->voxel_size_ = VoxelSize(h.voxel_type);
   SDB_RETURN_IF_ERROR(s->ValidateBitmapAndIndex());
   s->raw_state_ = std::make_unique<std::atomic<uint8_t>[]>(h.stored_blocks);
+  s->touched_ = std::make_unique<std::atomic<uint8_t>[]>(h.stored_blocks);
   if (options.in_memory) {
     SDB_RETURN_IF_ERROR(s->LoadAll());
   } else {
@@ -219,6 +220,10 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::DecodeBlock(uint64_t i
 Result<HzStore::BlockHandle> HzStore::Block(uint64_t i) const {
   if (i >= header_.stored_blocks) {
     return Status::InvalidArgument(path_ + ": stored block " + std::to_string(i) + " out of range");
+  }
+  if (touched_[i].load(std::memory_order_relaxed) == 0 &&
+      touched_[i].exchange(1, std::memory_order_relaxed) == 0) {
+    distinct_.fetch_add(1, std::memory_order_relaxed);
   }
   if (!resident_.empty()) return BlockHandle{resident_[i]->data(), nullptr};
   const HzIndexEntry e = entry(i);

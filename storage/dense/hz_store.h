@@ -110,10 +110,12 @@ class HzStore {
   struct Stats {
     uint64_t blocks_decoded = 0;  // zstd frames decoded (cache misses)
     uint64_t raw_checked = 0;     // raw blocks checksummed on first use
+    uint64_t distinct = 0;        // different blocks asked for since the open
   };
   Stats stats() const {
     return Stats{decoded_.load(std::memory_order_relaxed),
-                 raw_checked_.load(std::memory_order_relaxed)};
+                 raw_checked_.load(std::memory_order_relaxed),
+                 distinct_.load(std::memory_order_relaxed)};
   }
   const BlockCache* cache() const { return cache_.get(); }
 
@@ -193,8 +195,10 @@ class HzStore {
   uint64_t cache_store_id_ = 0;
   std::vector<std::shared_ptr<const BlockCache::Block>> resident_;  // in_memory
   std::unique_ptr<std::atomic<uint8_t>[]> raw_state_;  // 1 checked, 2 bad
+  std::unique_ptr<std::atomic<uint8_t>[]> touched_;    // 1: asked for by Block()
   mutable std::atomic<uint64_t> decoded_{0};
   mutable std::atomic<uint64_t> raw_checked_{0};
+  mutable std::atomic<uint64_t> distinct_{0};
 };
 
 }  // namespace simplexdb

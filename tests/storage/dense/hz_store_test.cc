@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -246,6 +247,53 @@ TEST(HzStore, BuildFromAVolumeLeavesOnlyTheStore) {
   EXPECT_EQ(AllAnswers<3>(**w), AllAnswers<3>(*b.hz));
   EXPECT_EQ(testing::SortedNames(dir.path()),
             (std::vector<std::string>{"v.f1", "v.nrrd", "v.sdb", "w.sdb"}));
+}
+
+// The direct build (the field in memory, diamond errors octave by octave)
+// against the per-node engine's errors folded by ConvertToHz, with float32
+// errors: the same field, the same errors up to their rounding, on cubic,
+// padded and 4D grids; and a volume with missing values, which takes the
+// engine's path, the same store as ConvertToHz's.
+template <int D>
+void ExpectDirectBuildMatchesTheEngine(const TestVolume& v, const std::string& name) {
+  SCOPED_TRACE(name);
+  TempDir dir;
+  HzBuildOptions options;
+  options.quantization = Quantization::kF32;
+  const Built b = Build(v, dir, name, options);
+  const auto built = BuildHzStore(*OpenVolume(dir / (name + ".nrrd")), dir / "direct.sdb", options);
+  ASSERT_TRUE(built.ok()) << built.status().message();
+  auto direct = HzStore::Open(dir / "direct.sdb");
+  ASSERT_TRUE(direct.ok()) << direct.status().message();
+  ASSERT_TRUE((*direct)->Verify().ok());
+  HzStore::Reader<D> got(**direct), want(*b.hz);
+  const double range = b.hz->header().field_max - b.hz->header().field_min;
+  ForEachInternalCode<D>(b.hz->header().leaf_level(), [&](SimplexCode<D> c) {
+    ASSERT_NEAR(*got.ErrorBound(c), *want.ErrorBound(c), 1e-6 * range) << c.ToString();
+  });
+  ExpectFields<D>(**direct, v);
+}
+
+TEST(HzStore, DirectBuildMatchesTheEngine) {
+  ExpectDirectBuildMatchesTheEngine<3>(TestVolume::Random(3, {17, 17, 17, 1}, VoxelType::kF32, 31), "ht17");
+  ExpectDirectBuildMatchesTheEngine<3>(TestVolume::Random(3, {21, 7, 12, 1}, VoxelType::kU8, 32), "ht_padded");
+  ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kI16, 33), "hp9");
+  ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {7, 10, 5, 3}, VoxelType::kF32, 34), "hp_short");
+}
+
+TEST(HzStore, MissingValuesTakeTheEnginesPath) {
+  TempDir dir;
+  TestVolume v = TestVolume::Random(3, {11, 13, 9, 1}, VoxelType::kF32, 35);
+  for (size_t i = 0; i < v.values.size(); i += 17) v.values[i] = std::nan("");
+  const Built b = Build(v, dir, "v");
+  const auto built = BuildHzStore(*OpenVolume(dir / "v.nrrd"), dir / "w.sdb", HzBuildOptions{});
+  ASSERT_TRUE(built.ok()) << built.status().message();
+  auto w = HzStore::Open(dir / "w.sdb");
+  ASSERT_TRUE(w.ok()) << w.status().message();
+  HzStore::Reader<3> got(**w), want(*b.hz);
+  ForEachInternalCode<3>(b.hz->header().leaf_level(), [&](SimplexCode<3> c) {
+    ASSERT_EQ(*got.ErrorBound(c), *want.ErrorBound(c)) << c.ToString();
+  });
 }
 
 std::vector<uint8_t> ReadBytes(const std::string& path) {
