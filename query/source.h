@@ -166,6 +166,16 @@ concept ThresholdReadSource =
       { s.ErrorForThreshold(code, t) } -> std::same_as<Result<double>>;
     };
 
+// A source whose records have a storage order: StorageOrder(code) sorts
+// nodes so that those whose errors share a block are adjacent (format 2:
+// the HZ position of the node's split vertex). The level-order refinement
+// visits each level's candidates in this order.
+template <class S, int D>
+concept OrderedReadSource =
+    ReadSource<S, D> && requires(const S& s, SimplexCode<D> code) {
+      { s.StorageOrder(code) } -> std::same_as<uint64_t>;
+    };
+
 // A dense store's source (mapped raw, zstd blocks through the store's cache,
 // or decoded in memory): models ThresholdReadSource<DenseSource<D>, D>.
 // Making one reads nothing and cannot fail.
@@ -217,7 +227,12 @@ class HzSource {
 
   // REQUIRES: store.dimension() == D; the store outlives the source.
   explicit HzSource(const HzStore& store)
-      : reader_(store), info_(InfoFromHeader(store.header(), store.path())) {}
+      : reader_(store),
+        order_(store.header().domain_bits),
+        info_(InfoFromHeader(store.header(), store.path())) {}
+
+  // The HZ position of the node's split vertex (OrderedReadSource).
+  uint64_t StorageOrder(SimplexCode<D> code) const { return order_.PositionOf(code); }
 
   const SourceInfo& info() const { return info_; }
   SourceStats stats() const {
@@ -244,6 +259,7 @@ class HzSource {
 
  private:
   HzStore::Reader<D> reader_;
+  HzOrder<D> order_;
   SourceInfo info_;
   SourceStats stats_;
 };

@@ -298,7 +298,9 @@ void RegisterExtractCommand(CLI::App& app) {
   cmd->add_option("--iso", args->iso,
                   "Hold only simplices that may contain this isovalue (vertex range widened by their error)");
   cmd->add_option("--time", args->time, "HP: hold only pentatopes meeting the time slice t = T (grid units)");
-  cmd->add_option("--algorithm", args->algorithm, "depth-first (default), priority, incremental or saturated");
+  cmd->add_option("--algorithm", args->algorithm, "depth-first (default), priority, incremental, saturated, or level-order (the\n"
+                  "depth-first mesh, candidates taken level by level in the store's order: each\n"
+                  "block of a format-2 store read about once, for a cache far smaller than the store)");
   cmd->add_option("--budget", args->budget, "priority: stop before the mesh would pass this many simplices");
   cmd->add_option("--time-limit", args->time_limit, "priority: stop after this many seconds");
   cmd->add_option("--from", args->from, "incremental: the previous mesh, as leaf codes (--format codes)");

@@ -131,11 +131,16 @@ void CheckDiamondMeshes(uint32_t side, uint64_t seed, bool smooth) {
       const std::set<uint64_t> truth = testing::BruteForceMinimalSplits<D>(info.leaf_level(), fails);
       EXPECT_EQ(SplitKeys(df), truth);
       EXPECT_EQ(SplitKeys(pr), truth);
-      Mesh<D> store_df, store_pr;
+      Mesh<D> store_df, store_pr, store_lo, lo;
       ASSERT_TRUE((Refiner<D, HzSource<D>>(hz, criteria).Run({Algorithm::kDepthFirst}, store_df, stats).ok()));
       ASSERT_TRUE((Refiner<D, HzSource<D>>(hz, criteria).Run({Algorithm::kPriority}, store_pr, stats).ok()));
+      // Level order: in HZ order over the store, in key order otherwise.
+      ASSERT_TRUE((Refiner<D, HzSource<D>>(hz, criteria).Run({Algorithm::kLevelOrder}, store_lo, stats).ok()));
+      ASSERT_TRUE((Refiner<D, DiamondOf<D>>(diamond, criteria).Run({Algorithm::kLevelOrder}, lo, stats).ok()));
       EXPECT_EQ(SplitKeys(store_df), truth);
       EXPECT_EQ(SplitKeys(store_pr), truth);
+      EXPECT_EQ(SplitKeys(store_lo), truth);
+      EXPECT_EQ(SplitKeys(lo), truth);
     }
   }
 }

@@ -113,7 +113,8 @@ void CheckAgainstBruteForce(uint32_t side, uint64_t seed, bool check_errors) {
       }
     }
 
-    // Priority to completion and incremental from the roots: the same mesh.
+    // Priority to completion, incremental from the roots and level order:
+    // the same mesh.
     Mesh<D> pr, inc;
     QueryStats ps, is;
     ASSERT_TRUE(refiner.Run({Algorithm::kPriority}, pr, ps).ok());
@@ -121,6 +122,11 @@ void CheckAgainstBruteForce(uint32_t side, uint64_t seed, bool check_errors) {
     EXPECT_FALSE(ps.interrupted);
     ASSERT_TRUE(refiner.Run({Algorithm::kIncremental}, inc, is).ok());
     EXPECT_EQ(SplitKeys(inc), truth);
+    Mesh<D> lo;
+    QueryStats ls;
+    ASSERT_TRUE(refiner.Run({Algorithm::kLevelOrder}, lo, ls).ok());
+    EXPECT_EQ(SplitKeys(lo), truth);
+    EXPECT_EQ(ls.splits, stats.splits);
 
     // Saturation: conforming, and never fewer simplices (a superset).
     Mesh<D> sat;

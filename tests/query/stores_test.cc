@@ -98,7 +98,8 @@ void CheckStoresAgree(uint32_t side) {
   auto s = *SparseSource<D>::Create(*lossless);
   const SourceInfo& info = z.info();
   for (const auto& [name, c] : Queries<D>(info.domain_bits, info.field_min, info.field_range())) {
-    for (Algorithm a : {Algorithm::kDepthFirst, Algorithm::kPriority, Algorithm::kSaturated}) {
+    for (Algorithm a : {Algorithm::kDepthFirst, Algorithm::kPriority, Algorithm::kSaturated,
+                        Algorithm::kLevelOrder}) {
       SCOPED_TRACE(name + " " + std::to_string(c.threshold) + " " + AlgorithmName(a));
       const Extracted<D> want = Run<D>(m, c, a);
       const std::vector<std::pair<std::string, Extracted<D>>> others = {
