@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,37 @@ void WriteRawF64(const std::string& path, const std::vector<double>& values) {
   std::string b(values.size() * sizeof(double), '\0');
   for (size_t i = 0; i < values.size(); ++i) Put<double>(b, i * sizeof(double), values[i]);
   std::ofstream(path, std::ios::binary) << b;
+}
+
+// Format 2 holds a scaled volume as float32 too, built by the direct
+// builder: at a uniform threshold, format 1's mesh.
+TEST(ValuesCli, ScaledNiftiFormat2IsFormat1sMesh) {
+  const TempDir dir;
+  const std::string nii = dir.path() + "/s.nii";
+  std::vector<int16_t> stored;
+  for (int i = 0; i < 9 * 8 * 7; ++i) stored.push_back(static_cast<int16_t>((i * i) % 97 - 40));
+  WriteScaledNifti(nii, {9, 8, 7}, stored, 0.1f, 0.3f);
+  const std::string f1 = dir.path() + "/a.sdb", f2 = dir.path() + "/b.sdb";
+  ASSERT_EQ(RunCli("import " + nii + " --quantization f32 -q -o " + f1).exit_code, 0);
+  auto r = RunCli("import " + nii + " --format 2 --quantization f32 --json -o " + f2);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["error_method"], "diamonds");
+  r = RunCli("info " + f2 + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto info = nlohmann::json::parse(r.out);
+  EXPECT_EQ(info["voxel_type"], "float32");
+  EXPECT_NE(info["source"].get<std::string>().find("(scaled: slope 0.1"), std::string::npos)
+      << info["source"];
+  for (const std::string& s : {f1, f2}) {
+    r = RunCli("extract " + s + " --error 2% --format codes -o " + s + ".codes");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  std::ifstream a(f1 + ".codes"), b(f2 + ".codes");
+  std::set<std::string> la, lb;
+  for (std::string line; std::getline(a, line);) la.insert(line);
+  for (std::string line; std::getline(b, line);) lb.insert(line);
+  EXPECT_GT(la.size(), 6u);
+  EXPECT_EQ(la, lb);
 }
 
 TEST(ValuesCli, ScaledNiftiImportsTheScaledValues) {

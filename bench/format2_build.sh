@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Build rates of format 2 against format 1 in one run: `import --json` of
+# Perlin noise (HT 257^3, HT 513^3, HP 33^4) and two real volumes, each
+# format 2 then format 1. Prints one line per import: grid points, seconds,
+# grid points per second, peak memory, file bytes, how the errors were
+# computed.
+#
+#   bench/format2_build.sh [WORKDIR]     (default: a temporary directory)
+#
+# Needs build/release (cmake --preset release && cmake --build build/release)
+# and about 2 GB free in WORKDIR; the 513^3 format-1 import takes minutes.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+B="$PWD/build/release/tools/simplexdb"
+DATA="$PWD/../shared/data"
+WORK="${1:-$(mktemp -d)}"
+mkdir -p "$WORK"
+[[ $# -ge 1 ]] || trap 'rm -rf "$WORK"' EXIT
+
+for spec in 257,257,257 513,513,513 33,33,33,33; do
+  [[ -f "$WORK/perlin_$spec.nrrd" ]] ||
+    "$B" generate --field perlin --dims "$spec" -o "$WORK/perlin_$spec.nrrd" -q
+done
+
+summary='
+import json, sys
+j = json.load(sys.stdin)
+points, seconds, rate = j["grid_points"], j["seconds"], j["grid_points_per_second"] / 1e6
+peak, size = j["peak_memory_bytes"] / 2**20, j["file_bytes"] / 2**20
+method = j.get("error_method", "per node (format 1)")
+print("%12d points %8.2f s %6.2f M/s peak %7.0f MiB %8.1f MiB %s" % (points, seconds, rate, peak, size, method))
+'
+run() {
+  local name="$1"
+  shift
+  printf '%-30s ' "$name"
+  "$B" import "$@" -o "$WORK/out.sdb" --json --force -q | python3 -c "$summary"
+}
+
+tooth=("$DATA/tooth/tooth_103x94x161_uint8.raw" --dims 103,94,161 --type uint8)
+fmri=("$DATA/fmri_example4d/example4d.nii")
+for f in 2 1; do
+  run "HT perlin 257^3, format $f" "$WORK/perlin_257,257,257.nrrd" --format $f
+  run "HT perlin 513^3, format $f" "$WORK/perlin_513,513,513.nrrd" --format $f --memory-mb 4096
+  run "HP perlin 33^4, format $f" "$WORK/perlin_33,33,33,33.nrrd" --format $f
+  run "HT tooth, format $f" "${tooth[@]}" --format $f
+  run "HP fmri, format $f" "${fmri[@]}" --format $f
+done
