@@ -344,6 +344,30 @@ class Refiner {
     return Status::OK();
   }
 
+  // `sorted`: `batch` with equal keys >> shift together, in increasing order
+  // of that; a
+  // counting sort when the keys span a range not much larger than the batch
+  // (a level's blocks), a comparison sort otherwise.
+  static void GroupByKey(const std::vector<std::pair<uint64_t, Code>>& batch, int shift,
+                         std::vector<std::pair<uint64_t, Code>>& sorted) {
+    sorted.resize(batch.size());
+    if (batch.empty()) return;
+    uint64_t lo = batch[0].first >> shift, hi = lo;
+    for (const auto& e : batch) lo = std::min(lo, e.first >> shift), hi = std::max(hi, e.first >> shift);
+    const uint64_t range = hi - lo + 1;
+    if (range > 4 * batch.size() + 4096) {
+      sorted = batch;
+      std::sort(sorted.begin(), sorted.end(), [shift](const auto& a, const auto& b) {
+        return (a.first >> shift) < (b.first >> shift);
+      });
+      return;
+    }
+    std::vector<uint32_t> start(range + 1, 0);
+    for (const auto& e : batch) ++start[(e.first >> shift) - lo + 1];
+    for (uint64_t i = 1; i <= range; ++i) start[i] += start[i - 1];
+    for (const auto& e : batch) sorted[start[(e.first >> shift) - lo]++] = e;
+  }
+
   // The work list by level: the lowest level with candidates first, its
   // candidates sorted by storage order. Forced splits of coarser nodes put
   // their children on coarser levels, taken up again next.
@@ -362,7 +386,7 @@ class Refiner {
       push(m.child(1));
     };
     for (const Code r : roots) push(r);
-    std::vector<std::pair<uint64_t, Code>> batch;
+    std::vector<std::pair<uint64_t, Code>> batch, sorted;
     while (true) {
       while (static_cast<size_t>(lowest) < bucket.size() && bucket[static_cast<size_t>(lowest)].empty()) {
         ++lowest;
@@ -370,19 +394,25 @@ class Refiner {
       if (static_cast<size_t>(lowest) >= bucket.size()) break;
       std::vector<Code>& level = bucket[static_cast<size_t>(lowest)];
       batch.clear();
-      for (const Code c : level) {
-        if constexpr (OrderedReadSource<Source, D>) {
-          batch.emplace_back(source_.StorageOrder(c), c);
-        } else {
-          batch.emplace_back(c.key(), c);
-        }
+      int block_bits = 0;
+      if constexpr (OrderedReadSource<Source, D>) {
+        block_bits = source_.StorageBlockBits();
+        for (const Code c : level) batch.emplace_back(source_.StorageOrder(c), c);
+      } else {
+        for (const Code c : level) batch.emplace_back(c.key(), c);
       }
       level.clear();
-      std::sort(batch.begin(), batch.end(),
-                [](const auto& a, const auto& b) { return a.first < b.first; });
-      for (const auto& [order, c] : batch) {
+      GroupByKey(batch, block_bits, sorted);
+      for (const auto& [order, c] : sorted) {
         if (split.contains(c)) continue;  // split for conformity; children queued then
-        SDB_ASSIGN_OR_RETURN(const bool fails, Fails(c));
+        bool fails;
+        if constexpr (OrderedReadSource<Source, D>) {
+          SDB_ASSIGN_OR_RETURN(const double error,
+                               source_.ErrorForThresholdAt(c, order, criteria_.threshold));
+          SDB_ASSIGN_OR_RETURN(fails, FailsWithError(c, error));
+        } else {
+          SDB_ASSIGN_OR_RETURN(fails, Fails(c));
+        }
         if (!fails) continue;
         SplitClosure(c, [&](Code m) { push_children(m); });
       }

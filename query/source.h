@@ -170,10 +170,16 @@ concept ThresholdReadSource =
 // nodes so that those whose errors share a block are adjacent (format 2:
 // the HZ position of the node's split vertex). The level-order refinement
 // visits each level's candidates in this order.
+// StorageBlockBits(): nodes whose orders agree above these low bits share a
+// block; their order within it does not matter.
+// ErrorForThresholdAt(code, order, threshold): ErrorForThreshold with the
+// order computed already.
 template <class S, int D>
 concept OrderedReadSource =
-    ReadSource<S, D> && requires(const S& s, SimplexCode<D> code) {
+    ReadSource<S, D> && requires(S& s, SimplexCode<D> code, uint64_t order, double t) {
       { s.StorageOrder(code) } -> std::same_as<uint64_t>;
+      { s.StorageBlockBits() } -> std::same_as<int>;
+      { s.ErrorForThresholdAt(code, order, t) } -> std::same_as<Result<double>>;
     };
 
 // A dense store's source (mapped raw, zstd blocks through the store's cache,
@@ -228,11 +234,21 @@ class HzSource {
   // REQUIRES: store.dimension() == D; the store outlives the source.
   explicit HzSource(const HzStore& store)
       : reader_(store),
-        order_(store.header().domain_bits),
+        block_bits_(store.header().block_bits),
         info_(InfoFromHeader(store.header(), store.path())) {}
 
   // The HZ position of the node's split vertex (OrderedReadSource).
-  uint64_t StorageOrder(SimplexCode<D> code) const { return order_.PositionOf(code); }
+  // OrderedReadSource: below the leaf level (whose nodes have no split
+  // vertex and error 0), the order of the last position.
+  uint64_t StorageOrder(SimplexCode<D> code) {
+    return code.level() < info_.leaf_level() ? reader_.Position(code) : ~uint64_t{0};
+  }
+  int StorageBlockBits() const { return block_bits_; }
+  Result<double> ErrorForThresholdAt(SimplexCode<D> code, uint64_t order, double threshold) {
+    ++stats_.error_lookups;
+    if (code.level() >= info_.leaf_level()) return 0.0;
+    return reader_.ErrorBoundForThresholdAt(code, order, threshold);
+  }
 
   const SourceInfo& info() const { return info_; }
   SourceStats stats() const {
@@ -259,7 +275,7 @@ class HzSource {
 
  private:
   HzStore::Reader<D> reader_;
-  HzOrder<D> order_;
+  int block_bits_;
   SourceInfo info_;
   SourceStats stats_;
 };

@@ -376,9 +376,9 @@ Result<double> HzStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
 }
 
 template <int D>
-Result<double> HzStore::Reader<D>::ErrorBoundForThreshold(SimplexCode<D> code, double threshold) {
+Result<double> HzStore::Reader<D>::ErrorBoundForThresholdAt(SimplexCode<D> code, uint64_t p,
+                                                            double threshold) {
   if (code.level() >= order_.levels()) return 0.0;
-  const uint64_t p = PositionOf(code);
   const uint64_t vblock = p >> store_.header().block_bits;
   Held& held = HeldFor(p);
   if (vblock == held.vblock && held.skipped) {

@@ -133,7 +133,17 @@ class HzStore {
     // For a query that only asks whether the bound exceeds `threshold`: the
     // bound, or, when the node's block is not the one held and the index
     // records a maximum at most `threshold`, that maximum (nothing decoded).
-    Result<double> ErrorBoundForThreshold(SimplexCode<D> code, double threshold);
+    Result<double> ErrorBoundForThreshold(SimplexCode<D> code, double threshold) {
+      if (code.level() >= order_.levels()) return 0.0;
+      return ErrorBoundForThresholdAt(code, Position(code), threshold);
+    }
+    // The same with the node's HZ position given (Position(code)), for a
+    // caller that computed it already.
+    Result<double> ErrorBoundForThresholdAt(SimplexCode<D> code, uint64_t position,
+                                            double threshold);
+    // The HZ position of the node's split vertex. REQUIRES: code above the
+    // leaf level.
+    uint64_t Position(SimplexCode<D> code) { return PositionOf(code); }
     // The field at grid point p of the domain; points outside the real grid
     // take the value of the nearest real point.
     Result<double> Field(const std::array<int64_t, D>& p);
