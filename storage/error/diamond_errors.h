@@ -8,13 +8,18 @@
 // finest octave (storage/error/finest_diamonds.h) scaled by 2^s, s = k-1-o,
 // with the same templates chosen by the vertex's odd-axis pattern and cube
 // parity on the octave's lattice, and cut to the domain the same way. So
-//   - finest-octave diamonds (7/8 of the HT's vertices, 15/16 of the HP's)
-//     and the next octave's away from the faces are fixed stencils over the
-//     field (DiamondStencils; the generic template walk near the domain's
-//     and the real grid's faces), and
-//   - coarser diamonds scan their scaled simplices' grid points row by row
-//     with the exact kernels (ScannableSimplex, Interpolant): integer voxel
-//     types exactly, float ones in double precision.
+// a diamond whose simplices in the domain lie in the real grid is
+//   - in the finest octaves (7/8 of the HT's vertices, 15/16 of the HP's,
+//     and the next octave in the HT), a fixed point stencil over the field
+//     (DiamondStencils), and
+//   - in the middle octaves, a row stencil (DiamondRowStencils: rows found
+//     once per template, one multiply-add per point);
+// the others (coarse octaves, and diamonds crossing the real grid's last
+// faces) scan their scaled simplices' grid points row by row with the exact
+// kernels (ScannableSimplex, Interpolant: integer voxel types exactly, float
+// ones in double precision), or take the generic template walk in the
+// finest octave. Stencils compute in double precision: the writer's margin
+// for computed errors (storage/error/quantize.h) covers their rounding.
 // Every node is scanned once, by the one diamond it belongs to, so the work
 // is one pass over the grid per level with no per-node bookkeeping, and
 // diamonds are independent: work items (one slab of an octave's vertices
