@@ -376,9 +376,10 @@ struct ExportArgs {
   bool force = false;
 };
 
-template <int D>
-void ExportField(const DenseStore& store, const ExportArgs& a) {
-  const DenseHeader& h = store.header();
+// Store: DenseStore or HzStore (format 2), read through its Reader<D>.
+template <int D, class Store>
+void ExportField(const Store& store, const ExportArgs& a) {
+  const auto& h = store.header();
   std::array<int64_t, 4> lo = {0, 0, 0, 0}, hi = {0, 0, 0, 0};
   for (int c = 0; c < D; ++c) hi[c] = h.dims[c] - 1;
   if (!a.roi.empty()) {
@@ -400,7 +401,7 @@ void ExportField(const DenseStore& store, const ExportArgs& a) {
   uint64_t count = 1;
   for (uint32_t d : dims) count *= d;
   std::vector<double> values(count);
-  DenseStore::Reader<D> reader(store);
+  typename Store::template Reader<D> reader(store);
   std::array<int64_t, D> p{};
   for (uint64_t i = 0; i < count; ++i) {
     uint64_t rest = i;
@@ -462,7 +463,7 @@ void RegisterStoreCommands(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--format", a->format,
                     "dense store format: 1, or 2 (one record per diamond in hierarchical "
-                    "Z-order; extract and info read it, the other commands not yet)")
+                    "Z-order; info, verify, extract and export read it, the other commands not yet)")
         ->capture_default_str()
         ->check(CLI::IsMember({1, 2}));
     cmd->add_flag("--sparse", a->sparse,
@@ -527,6 +528,16 @@ void RegisterStoreCommands(CLI::App& app) {
       a->output = CheckOutput(a->output, {a->store}, a->force);
       if (ProbeStoreKind(a->store) == StoreKind::kSparse) {
         throw CommandError(a->store + " is a sparse store: convert it --to dense to export", 2);
+      }
+      if (LooksLikeFormat2(a->store)) {
+        Result<std::unique_ptr<HzStore>> hz = HzStore::Open(a->store);
+        if (!hz.ok()) Fail(hz.status());
+        if ((*hz)->dimension() == 3) {
+          ExportField<3>(**hz, *a);
+        } else {
+          ExportField<4>(**hz, *a);
+        }
+        return;
       }
       const auto store = OpenDenseStore(a->store);
       if (store->dimension() == 3) {

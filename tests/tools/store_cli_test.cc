@@ -72,10 +72,10 @@ std::vector<std::string> SortedLines(const std::string& path) {
   return lines;
 }
 
-// import --format 2 end to end: info and verify read it, and extract at a
+// import --format 2 end to end: info and verify read it, extract at a
 // uniform threshold gives exactly format 1's mesh (both with float32
 // errors: diamond errors change no uniform mesh), HT and HP, reporting the
-// blocks it decoded and needed.
+// blocks it decoded and needed, and export gives the field back.
 TEST(StoreCli, Format2ImportInfoVerifyExtract) {
   const TempDir dir;
   for (const std::string dims : {"17,13,9", "9,7,9,5"}) {
@@ -112,6 +112,16 @@ TEST(StoreCli, Format2ImportInfoVerifyExtract) {
     EXPECT_EQ(stats["simplices"].get<size_t>(), leaves.size());
     EXPECT_GT(stats["distinct_blocks"].get<uint64_t>(), 0u);
     EXPECT_GE(stats["blocks_decoded"].get<uint64_t>(), stats["distinct_blocks"].get<uint64_t>());
+    // export: the field back, losslessly, whole and every other point.
+    r = RunCli("export " + f2 + " -o " + dir.path() + "/back.nrrd --force");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(ReadVolumeValues(dir.path() + "/back.nrrd"), ReadVolumeValues(in));
+    r = RunCli("export " + f2 + " --step 2 -o " + dir.path() + "/half.nrrd --force");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    r = RunCli("export " + f1 + " --step 2 -o " + dir.path() + "/half1.nrrd --force");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(ReadVolumeValues(dir.path() + "/half.nrrd"),
+              ReadVolumeValues(dir.path() + "/half1.nrrd"));
   }
   EXPECT_EQ(RunCli("import x.nrrd -o y.sdb --format 2 --sparse").exit_code, 2);
 }
