@@ -29,7 +29,9 @@
 //                 has one (OrderedReadSource: format 2's HZ order), so an
 //                 out-of-core query reads each level's blocks in one sweep
 //                 instead of returning to them as a depth-first walk does.
-//                 Same mesh as depth-first; costs a sort per level.
+//                 Same mesh as depth-first; costs a grouping of each
+//                 level's candidates by block and a work list per level
+//                 (slower than depth-first in memory).
 //   kSaturated    3.7's comparison method: a node is split iff some node
 //                 whose split needs it fails (the cluster shares one value;
 //                 a parent is at least its children), then a plain top-down
@@ -344,10 +346,9 @@ class Refiner {
     return Status::OK();
   }
 
-  // `sorted`: `batch` with equal keys >> shift together, in increasing order
-  // of that; a
-  // counting sort when the keys span a range not much larger than the batch
-  // (a level's blocks), a comparison sort otherwise.
+  // `sorted`: `batch` in increasing order of key >> shift (entries equal
+  // there in any order): a counting sort when those span a range not much
+  // larger than the batch (a level's blocks), a comparison sort otherwise.
   static void GroupByKey(const std::vector<std::pair<uint64_t, Code>>& batch, int shift,
                          std::vector<std::pair<uint64_t, Code>>& sorted) {
     sorted.resize(batch.size());
@@ -369,7 +370,7 @@ class Refiner {
   }
 
   // The work list by level: the lowest level with candidates first, its
-  // candidates sorted by storage order. Forced splits of coarser nodes put
+  // candidates grouped by storage block (GroupByKey). Forced splits of coarser nodes put
   // their children on coarser levels, taken up again next.
   Status LevelOrder(std::vector<Code> roots) {
     SplitSet<D>& split = mesh_->split_set();
