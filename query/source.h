@@ -237,9 +237,8 @@ class HzSource {
         block_bits_(store.header().block_bits),
         info_(InfoFromHeader(store.header(), store.path())) {}
 
-  // The HZ position of the node's split vertex (OrderedReadSource).
-  // OrderedReadSource: below the leaf level (whose nodes have no split
-  // vertex and error 0), the order of the last position.
+  // OrderedReadSource: the HZ position of the node's split vertex; for
+  // leaf-level nodes (no split vertex, error 0) the largest order.
   uint64_t StorageOrder(SimplexCode<D> code) {
     return code.level() < info_.leaf_level() ? reader_.Position(code) : ~uint64_t{0};
   }
