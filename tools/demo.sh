@@ -9,8 +9,10 @@
 # verified, the HP converted to the sparse (LMDB) store, the CT field
 # exported back at half resolution, and meshes extracted from the CT store
 # at two error thresholds (selective refinement) and written as .vtu, and
-# from the sparse HP store. Everything it
-# writes goes to a temporary directory, removed at the end.
+# from the sparse HP store; the CT scan once more as a store of format 2
+# (one record per diamond), its size and mesh beside format 1's. Everything
+# it writes goes to out/demo/ (emptied at the start, kept at the end: open
+# the .vtu files in ParaView).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 source tools/setup.sh
@@ -39,19 +41,20 @@ echo "== simplexdb codes (JSON lines, the contract outside checks read)"
 printf '2:10011\n3:\n' | "$simplexdb" codes --hierarchy ht
 printf '9:010110\n' | "$simplexdb" codes --hierarchy hp
 
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
+work="$PWD/out/demo"
+rm -rf "$work"
+mkdir -p "$work"
 data=../shared/data
 echo
 if [[ -f "$data/tooth/tooth_103x94x161_uint8.raw" ]]; then
   echo "== Import a real CT scan (103x94x161 uint8) into a Hierarchy of Tetrahedra"
-  "$simplexdb" import "$data/tooth/tooth_103x94x161_uint8.raw" --dims 103,94,161 --type uint8 \
-    -o "$work/ht.sdb"
+  ht_input=("$data/tooth/tooth_103x94x161_uint8.raw" --dims 103,94,161 --type uint8)
 else
   echo "== ($data is absent) Import 65^3 Perlin noise, the seed's Plasma64, into an HT"
   "$simplexdb" generate --field perlin --dims 65,65,65 --type uint8 -q -o "$work/plasma64.nrrd"
-  "$simplexdb" import "$work/plasma64.nrrd" -o "$work/ht.sdb"
+  ht_input=("$work/plasma64.nrrd")
 fi
+"$simplexdb" import "${ht_input[@]}" -o "$work/ht.sdb"
 "$simplexdb" info "$work/ht.sdb"
 "$simplexdb" verify "$work/ht.sdb"
 
@@ -90,3 +93,18 @@ for store in hp.sdb hp.lmdb; do
   echo "  $store: $(wc -l < "$work/$store.codes") pentatopes"
 done
 cmp -s "$work/hp.sdb.codes" "$work/hp.lmdb.codes" && echo "  identical leaf codes"
+
+echo
+echo "== The CT volume again as a store of format 2 (one record per diamond, in hierarchical Z-order)"
+"$simplexdb" import "${ht_input[@]}" --format 2 -o "$work/ht2.sdb"
+"$simplexdb" verify "$work/ht2.sdb"
+for store in ht.sdb ht2.sdb; do
+  "$simplexdb" extract "$work/$store" --error 3% --algorithm level-order --format codes \
+    -o "$work/$store.codes" >/dev/null
+  echo "  $store: $(stat -c %s "$work/$store") bytes, $(wc -l < "$work/$store.codes") tetrahedra at 3%"
+done
+echo "  (format 2 holds one error per diamond, the largest of its simplices': a diamond"
+echo "  splits when any of its simplices fails, also one below a simplex format 1 keeps"
+echo "  whole, so its mesh holds format 1's and can be larger where errors are not monotone)"
+echo
+echo "Everything above is in $work"
