@@ -336,6 +336,18 @@ void RunInfo(const std::string& path, bool as_json) {
 
 // --- verify ----------------------------------------------------------------
 
+// Store: DenseStore or HzStore, whose Verify reports progress by block.
+template <class Store>
+void VerifyStore(const Store& store, const std::string& path, uint64_t blocks, bool quiet) {
+  ProgressLine line(!quiet);
+  const Status s = store.Verify([&](uint64_t done, uint64_t total) {
+    line.Update(fmt::format("{}: verifying block {}/{}", path, done, total));
+  });
+  line.Finish();
+  if (!s.ok()) Fail(s);
+  if (!quiet) fmt::print("{}: ok ({} blocks, every checksum and value range)\n", path, blocks);
+}
+
 void RunVerify(const std::string& path, bool quiet) {
   if (ProbeStoreKind(path) == StoreKind::kSparse) {
     RunSparseVerify(path, quiet);
@@ -344,26 +356,11 @@ void RunVerify(const std::string& path, bool quiet) {
   if (LooksLikeFormat2(path)) {
     Result<std::unique_ptr<HzStore>> hz = HzStore::Open(path);  // header, bitmap, index
     if (!hz.ok()) Fail(hz.status());
-    ProgressLine line(!quiet);
-    const Status s = (*hz)->Verify([&](uint64_t done, uint64_t total) {
-      line.Update(fmt::format("{}: verifying block {}/{}", path, done, total));
-    });
-    line.Finish();
-    if (!s.ok()) Fail(s);
-    if (!quiet) {
-      fmt::print("{}: ok ({} blocks, every checksum and value range)\n", path,
-                 (*hz)->stored_blocks());
-    }
+    VerifyStore(**hz, path, (*hz)->stored_blocks(), quiet);
     return;
   }
   const auto store = OpenDenseStore(path);  // header, size, index
-  ProgressLine line(!quiet);
-  const Status s = store->Verify([&](uint64_t done, uint64_t total) {
-    line.Update(fmt::format("{}: verifying block {}/{}", path, done, total));
-  });
-  line.Finish();
-  if (!s.ok()) Fail(s);
-  if (!quiet) fmt::print("{}: ok ({} blocks, every checksum and value range)\n", path, store->block_count());
+  VerifyStore(*store, path, store->block_count(), quiet);
 }
 
 // --- export ----------------------------------------------------------------

@@ -632,9 +632,7 @@ Status Builder<D>::Finish(DenseBuildReport& report) {
   h.error_block_count = layout_.block_count();
   h.brick_count = bricks_.brick_count();
   // The header keeps no scaling field: the source says it (info prints it).
-  h.source = input_.scaled()
-                 ? input_.description + " (scaled: " + FormatScaling(input_) + ")"
-                 : input_.description;
+  h.source = DescribeSource(input_);
   // The index after the blocks.
   std::vector<uint8_t> index(index_.size() * kIndexEntrySize);
   for (size_t b = 0; b < index_.size(); ++b) {

@@ -270,9 +270,7 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   params.field_max = fmax;
   params.scale_slope = input.scale;
   params.scale_intercept = input.shift;
-  params.source = input.scaled()
-                      ? input.description + " (scaled: " + FormatScaling(input) + ")"
-                      : input.description;
+  params.source = DescribeSource(input);
   const HzOrder<D> order(k);
   std::array<int64_t, D> stride{};
   for (int64_t a = 0, s = 1; a < D; s *= dims[a], ++a) stride[a] = s;

@@ -49,7 +49,7 @@ DiamondErrors<D>::DiamondErrors(const double* field, const std::array<int64_t, D
       range_(range),
       use_stencils_(stencils),
       order_(k),
-      stencils_(MakeStencils(StridesOf<D>(dims), std::make_index_sequence<kStencilScales>())),
+      stencils_(MakeStencils(field_stride_, std::make_index_sequence<kStencilScales>())),
       far_by_worker_(static_cast<size_t>(std::max(1, threads))) {
   for (int sb = kStencilScales; sb < std::min(k, kRowStencilScales); ++sb) {
     row_stencils_.emplace_back(FinestDiamonds<D>::Get(), field_stride_, sb);

@@ -126,6 +126,10 @@ std::string FormatDims(int dimension, const std::array<uint32_t, 4>& dims);
 // exactly): a volume's scale and shift, for messages.
 std::string FormatScaling(const VolumeInfo& info);
 
+// What a store records as its source: the description, with its scaling
+// when it has one: "NIfTI-1 file a.nii (scaled: slope 2.5, intercept -1)".
+std::string DescribeSource(const VolumeInfo& info);
+
 // Checks the grid rules above for a volume named `what` (prefixed to the
 // message): InvalidArgument for dims of 0 or 1 in a used axis, unused axes
 // other than 1, or a dimension other than 3 or 4.

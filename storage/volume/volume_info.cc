@@ -48,6 +48,11 @@ std::string FormatScaling(const VolumeInfo& info) {
   return "slope " + shortest(info.scale) + ", intercept " + shortest(info.shift);
 }
 
+std::string DescribeSource(const VolumeInfo& info) {
+  return info.scaled() ? info.description + " (scaled: " + FormatScaling(info) + ")"
+                       : info.description;
+}
+
 Status ValidateGrid(const std::string& what, int dimension,
                     const std::array<uint32_t, 4>& dims) {
   if (dimension != 3 && dimension != 4) {
