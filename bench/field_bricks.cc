@@ -9,7 +9,8 @@
 //
 //   field_bricks VOLUME [--dims X,Y,Z[,T] --type T] [--brick-side N] [--zstd-level L]
 //
-// (--dims and --type for raw files, as import takes them; N: 16 in 3D, 8 in 4D.)
+// (--dims and --type for raw files, as import takes them; N, a power of two:
+// 16 in 3D, 8 in 4D.)
 //
 // The stored voxel type is the volume's; NIfTI values with a scaling are
 // float32, as import stores them.
@@ -22,7 +23,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "storage/dense/brick_codec.h"
+#include "storage/dense/field_bricks.h"
 #include "storage/io/codec.h"
 #include "storage/volume/volume.h"
 
@@ -33,64 +34,34 @@ using namespace simplexdb;
 struct Sizes {
   uint64_t plain = 0;      // zstd of the voxels
   uint64_t predicted = 0;  // zstd of the Lorenzo residuals
-  uint64_t best = 0;       // per brick, the smaller of the two
+  uint64_t best = 0;       // per brick, the smallest coding (EncodeBrick's choice)
   uint64_t bricks = 0;
 };
 
-// Codes the lattice of stride `stride` (the points whose coordinates are
-// multiples of it) of `field` in bricks of `side` points per axis.
-Sizes CodeLattice(const std::vector<double>& field, const VolumeInfo& v, VoxelType type, int64_t stride,
-                  uint32_t side, ZstdCompressor& zstd) {
-  const int D = v.dimension;
-  std::array<int64_t, 4> n{1, 1, 1, 1}, bricks{1, 1, 1, 1}, field_stride{1, 1, 1, 1};
-  for (int a = 0; a < D; ++a) {
-    n[a] = (int64_t{v.dims[a]} - 1) / stride + 1;
-    bricks[a] = (n[a] + side - 1) / side;
+Result<Sizes> CodeLattice(const BrickGrid& grid, int s, const std::vector<double>& field,
+                          VoxelType type, ZstdCompressor& zstd) {
+  Sizes sizes;
+  for (uint64_t b = grid.FirstBrick(s); b < grid.FirstBrick(s) + grid.Count(s); ++b) {
+    SDB_ASSIGN_OR_RETURN(const EncodedBrick best, EncodeBrick(grid, b, field.data(), type, &zstd));
+    SDB_ASSIGN_OR_RETURN(const EncodedBrick plain,
+                         EncodeBrick(grid, b, field.data(), type, &zstd, BrickCoding::kZstd));
+    SDB_ASSIGN_OR_RETURN(const EncodedBrick predicted,
+                         EncodeBrick(grid, b, field.data(), type, &zstd, BrickCoding::kZstdPredicted));
+    sizes.best += best.bytes.size();
+    sizes.plain += plain.bytes.size();
+    sizes.predicted += predicted.bytes.size();
+    ++sizes.bricks;
   }
-  for (int a = 1; a < 4; ++a) field_stride[a] = field_stride[a - 1] * v.dims[a - 1];
-  const size_t width = VoxelSize(type);
-  Sizes s;
-  std::vector<double> values;
-  std::vector<uint8_t> voxels, coded;
-  for (int64_t b3 = 0; b3 < bricks[3]; ++b3)
-    for (int64_t b2 = 0; b2 < bricks[2]; ++b2)
-      for (int64_t b1 = 0; b1 < bricks[1]; ++b1)
-        for (int64_t b0 = 0; b0 < bricks[0]; ++b0) {
-          const std::array<int64_t, 4> b{b0, b1, b2, b3};
-          std::array<uint32_t, 4> extent{1, 1, 1, 1};
-          for (int a = 0; a < D; ++a) {
-            extent[a] = static_cast<uint32_t>(std::min<int64_t>(side, n[a] - b[a] * side));
-          }
-          values.clear();
-          for (uint32_t i3 = 0; i3 < extent[3]; ++i3)
-            for (uint32_t i2 = 0; i2 < extent[2]; ++i2)
-              for (uint32_t i1 = 0; i1 < extent[1]; ++i1)
-                for (uint32_t i0 = 0; i0 < extent[0]; ++i0) {
-                  const std::array<int64_t, 4> i{i0, i1, i2, i3};
-                  int64_t index = 0;
-                  for (int a = 0; a < 4; ++a) index += (b[a] * side + i[a]) * stride * field_stride[a];
-                  values.push_back(field[static_cast<size_t>(index)]);
-                }
-          voxels.resize(values.size() * width);
-          coded.resize(voxels.size());
-          EncodeVoxels(type, ByteOrder::kLittle, values.data(), values.size(),
-                       reinterpret_cast<std::byte*>(voxels.data()));
-          PredictBrick(type, D, extent, voxels, coded);
-          const size_t plain = zstd.Compress(voxels)->size();
-          const size_t predicted = zstd.Compress(coded)->size();
-          s.plain += plain;
-          s.predicted += predicted;
-          s.best += std::min(plain, predicted);
-          ++s.bricks;
-        }
-  return s;
+  return sizes;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: field_bricks VOLUME [--brick-side N] [--zstd-level L]\n");
+    std::fprintf(stderr,
+                 "usage: field_bricks VOLUME [--dims X,Y,Z[,T] --type T] [--brick-side N] "
+                 "[--zstd-level L]\n");
     return 2;
   }
   uint32_t side = 0;
@@ -131,23 +102,30 @@ int main(int argc, char** argv) {
     return 1;
   }
   // Octaves: the lattice of stride 2^s for s = 0 (the grid) up to the
-  // coarsest with two points on the longest axis.
+  // coarsest, of the domain's side 2^k.
   int k = 0;
   for (int a = 0; a < v.dimension; ++a) {
     while ((int64_t{1} << k) < int64_t{v.dims[a]} - 1) ++k;
   }
+  int side_bits = 0;
+  while ((1u << side_bits) < side) ++side_bits;
+  const BrickGrid grid(v.dimension, v.dims, k, side_bits);
   ZstdCompressor zstd(level);
   nlohmann::json levels = nlohmann::json::array();
-  Sizes grid, pyramid;
-  for (int s = 0; s < k; ++s) {
-    const Sizes l = CodeLattice(field, v, type, int64_t{1} << s, side, zstd);
-    if (s == 0) grid = l;
-    pyramid.plain += l.plain;
-    pyramid.predicted += l.predicted;
-    pyramid.best += l.best;
-    pyramid.bricks += l.bricks;
-    levels.push_back({{"stride", int64_t{1} << s}, {"plain", l.plain}, {"predicted", l.predicted},
-                      {"best", l.best}});
+  Sizes full, pyramid;
+  for (int s = 0; s < grid.lattices(); ++s) {
+    const Result<Sizes> l = CodeLattice(grid, s, field, type, zstd);
+    if (!l.ok()) {
+      std::fprintf(stderr, "field_bricks: %s\n", std::string(l.status().message()).c_str());
+      return 1;
+    }
+    if (s == 0) full = *l;
+    pyramid.plain += l->plain;
+    pyramid.predicted += l->predicted;
+    pyramid.best += l->best;
+    pyramid.bricks += l->bricks;
+    levels.push_back({{"stride", int64_t{1} << s}, {"plain", l->plain}, {"predicted", l->predicted},
+                      {"best", l->best}, {"bricks", l->bricks}});
   }
   const double points = static_cast<double>(v.voxel_count());
   nlohmann::json j;
@@ -155,11 +133,11 @@ int main(int argc, char** argv) {
   j["points"] = v.voxel_count();
   j["brick_side"] = side;
   j["zstd_level"] = level;
-  j["grid_plain_bpp"] = grid.plain / points;
-  j["grid_predicted_bpp"] = grid.predicted / points;
+  j["grid_plain_bpp"] = full.plain / points;
+  j["grid_predicted_bpp"] = full.predicted / points;
   j["pyramid_plain_bpp"] = pyramid.plain / points;
   j["pyramid_predicted_bpp"] = pyramid.predicted / points;
-  j["grid_best_bpp"] = grid.best / points;
+  j["grid_best_bpp"] = full.best / points;
   j["pyramid_best_bpp"] = pyramid.best / points;
   j["pyramid_bricks"] = pyramid.bricks;
   j["levels"] = levels;
