@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "storage/error/finest_box_errors.h"
 #include "storage/error/simplex_scan.h"
 
 namespace simplexdb {
@@ -100,12 +101,10 @@ bool DiamondErrors<D>::Interior(const std::array<int64_t, D>& g, int s) const {
 }
 
 template <int D>
-double DiamondErrors<D>::Finest(const std::array<int64_t, D>& g) const {
-  return FinestDiamonds<D>::Get().Error(g, k_, dims_, [&](const std::array<int64_t, D>& p) {
-    int64_t i = 0;
-    for (int a = 0; a < D; ++a) i += p[a] * field_stride_[a];
-    return field_[i];
-  });
+double DiamondErrors<D>::FieldAt(const std::array<int64_t, D>& p) const {
+  int64_t i = 0;
+  for (int a = 0; a < D; ++a) i += p[a] * field_stride_[a];
+  return field_[i];
 }
 
 template <int D>
@@ -169,7 +168,17 @@ void DiamondErrors<D>::ComputeItem(int worker, uint64_t item) {
     for (int a = 0; a < D; ++a) odd = odd || ((g[a] >> it.s) & 1) != 0;
     if (odd) {
       double e;
-      if (use_stencils_ && it.s < kRowStencilScales && Interior(g, it.s)) {
+      if (it.s == 0 && use_stencils_) {
+        // The reader of format 2's next layout computes these the same way.
+        bool real = true;
+        int64_t index = 0;
+        for (int a = 0; a < D; ++a) {
+          real = real && g[a] < dims_[a];
+          index += g[a] * field_stride_[a];
+        }
+        e = FinestDiamondError<D>(stencils_[0], real ? field_ + index : nullptr, g, k_, dims_,
+                                  [&](const std::array<int64_t, D>& p) { return FieldAt(p); });
+      } else if (use_stencils_ && it.s < kRowStencilScales && Interior(g, it.s)) {
         uint32_t pattern = 0, parity = 0;
         int64_t index = 0;
         for (int a = 0; a < D; ++a) {
@@ -190,7 +199,7 @@ void DiamondErrors<D>::ComputeItem(int worker, uint64_t item) {
                    : st.InteriorError(center, pattern, parity);
         }
       } else {
-        e = it.s == 0 && use_stencils_ ? Finest(g) : Coarse(g, it.s);
+        e = Coarse(g, it.s);
       }
       if (e > 0) {
         if (float* slot = Slot(g)) {

@@ -89,7 +89,7 @@ class DiamondErrors {
     int s;        // the octave's scale: vertices are multiples of 2^s
     int64_t j;    // the last coordinate is j * 2^s
   };
-  double Finest(const std::array<int64_t, D>& g) const;
+  double FieldAt(const std::array<int64_t, D>& p) const;  // a real grid point's value
   // Whether the simplices in the domain of g's diamond (scale s) all lie in
   // the real grid: the stencils then serve it, clipped at the domain's faces.
   bool Interior(const std::array<int64_t, D>& g, int s) const;
