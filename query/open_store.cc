@@ -30,7 +30,7 @@ bool LooksLikeFormat2(const std::string& path) {
   const Result<size_t> got = file->ReadUpTo(0, sizeof head, reinterpret_cast<std::byte*>(head));
   if (!got.ok() || *got != sizeof head) return false;
   return std::equal(kDenseMagic.begin(), kDenseMagic.end(), head) &&
-         LoadLittle<uint32_t>(head + 8) == kHzFormatVersion;
+         LoadLittle<uint32_t>(head + 8) >= 2;  // format 2, any version: HzStore names it
 }
 
 Result<AnyStore> AnyStore::Open(const std::string& path, const StoreOptions& options) {

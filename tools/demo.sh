@@ -10,7 +10,7 @@
 # exported back at half resolution, and meshes extracted from the CT store
 # at two error thresholds (selective refinement) and written as .vtu, and
 # from the sparse HP store; the CT scan once more as a store of format 2
-# (one record per diamond), its size and mesh beside format 1's. Everything
+# (diamond errors and octave bricks), its size and mesh beside format 1's. Everything
 # it writes goes to out/demo/ (emptied at the start, kept at the end: open
 # the .vtu files in ParaView).
 set -euo pipefail
@@ -95,7 +95,7 @@ done
 cmp -s "$work/hp.sdb.codes" "$work/hp.lmdb.codes" && echo "  identical leaf codes"
 
 echo
-echo "== The CT volume again as a store of format 2 (one record per diamond, in hierarchical Z-order)"
+echo "== The CT volume again as a store of format 2 (diamond errors in hierarchical Z-order, the field in octave bricks)"
 "$simplexdb" import "${ht_input[@]}" --format 2 -o "$work/ht2.sdb"
 "$simplexdb" verify "$work/ht2.sdb"
 for store in ht.sdb ht2.sdb; do

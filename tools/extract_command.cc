@@ -215,11 +215,13 @@ void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nul
     j["cache_bytes"] = dense->cache()->charge();
   }
   if (hz != nullptr) {
-    // Format 2: zstd frames decoded plus raw blocks read (repeats counted),
-    // and how many different blocks the query needed.
+    // Format 2: zstd frames decoded plus raw ones read, blocks and bricks
+    // (repeats counted), how many different ones the query needed, and how
+    // many bricks' finest errors it computed from the field.
     const HzStore::Stats hs = hz->stats();
     j["blocks_decoded"] = hs.blocks_decoded + hs.raw_checked;
     j["distinct_blocks"] = hs.distinct;
+    j["finest_boxes_computed"] = hs.boxes_computed;
     if (hz->cache() != nullptr) j["cache_bytes"] = hz->cache()->charge();
   }
   if (check) {

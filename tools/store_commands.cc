@@ -13,6 +13,7 @@
 
 #include "query/open_store.h"
 #include "storage/dense/dense_builder.h"
+#include "storage/dense/brick_codec.h"
 #include "storage/dense/dense_store.h"
 #include "storage/dense/hz_builder.h"
 #include "storage/dense/hz_store.h"
@@ -94,11 +95,11 @@ void ImportFormat2(const VolumeInfo& input, const ImportArgs& a, const DenseBuil
     fmt::print("  built in {:.2f} s: {:.3g} grid points/s, peak memory {}\n", built->seconds,
                points_per_second, HumanBytes(peak));
     if (std::string(built->method) == "engine") {
-      fmt::print("  errors per node through format 1 (a mask, missing values, or more than\n"
-                 "  --memory-mb for the field and its diamond errors in memory)\n");
+      fmt::print("  errors per node through format 1 (a mask or missing values), all stored\n");
     }
-    fmt::print("  {} on disk ({:.2f} bytes per grid point, {} blocks)\n", HumanBytes(h.file_size),
-               static_cast<double>(h.file_size) / built->grid_points, h.stored_blocks);
+    fmt::print("  {} on disk ({:.2f} bytes per grid point, {} error blocks, {} bricks)\n",
+               HumanBytes(h.file_size), static_cast<double>(h.file_size) / built->grid_points,
+               h.stored_blocks, h.bricks);
   }
 }
 
@@ -202,9 +203,20 @@ void RunHzInfo(const std::string& path, bool as_json) {
   for (int a = 0; a < h.dimension; ++a) points *= h.dims[a];
   uint64_t raw = 0, zstd = 0;
   for (uint64_t i = 0; i < h.stored_blocks; ++i) {
-    ++(store.entry(i).encoding == BlockEncoding::kRaw ? raw : zstd);
+    ++(store.entry(i).encoding == static_cast<uint8_t>(BlockEncoding::kRaw) ? raw : zstd);
   }
-  const uint64_t logical = h.stored_blocks * store.block_bytes();
+  // Bricks by coding (1 raw, 2 zstd, 3 zstd of Lorenzo residuals), and the
+  // bytes of each kind stored.
+  uint64_t codings[4] = {0, 0, 0, 0}, error_bytes = 0, field_bytes = 0, brick_voxels = 0;
+  for (uint64_t i = 0; i < h.stored_blocks; ++i) error_bytes += store.entry(i).stored_size;
+  for (uint64_t b = 0; b < h.bricks; ++b) {
+    const HzIndexEntry e = store.brick_entry(b);
+    ++codings[e.encoding & 3];
+    field_bytes += e.stored_size;
+    brick_voxels += BrickVoxels(h.dimension, store.grid().Place(b).extent);
+  }
+  const uint64_t logical =
+      h.stored_blocks * store.block_bytes() + brick_voxels * VoxelSize(h.voxel_type);
   const double per_point = static_cast<double>(h.file_size) / static_cast<double>(points);
   if (as_json) {
     json j;
@@ -230,6 +242,14 @@ void RunHzInfo(const std::string& path, bool as_json) {
     j["stored_blocks"] = h.stored_blocks;
     j["blocks_raw"] = raw;
     j["blocks_zstd"] = zstd;
+    j["finest_errors"] = h.finest_stored() ? "stored" : "computed";
+    j["error_bytes"] = error_bytes;
+    j["brick_side"] = uint64_t{1} << h.brick_bits;
+    j["bricks"] = h.bricks;
+    j["bricks_raw"] = codings[1];
+    j["bricks_zstd"] = codings[2];
+    j["bricks_predicted"] = codings[3];
+    j["field_bytes"] = field_bytes;
     j["file_bytes"] = h.file_size;
     j["logical_bytes"] = logical;
     j["compression_ratio"] = static_cast<double>(logical) / static_cast<double>(h.file_size);
@@ -238,7 +258,8 @@ void RunHzInfo(const std::string& path, bool as_json) {
     std::cout << j.dump() << "\n";
     return;
   }
-  fmt::print("{}: dense {} store (format {}: one record per diamond, hierarchical Z-order)\n",
+  fmt::print("{}: dense {} store (format 2, version {}: diamond errors in hierarchical Z-order, "
+             "the field in octave bricks)\n",
              path, h.dimension == 3 ? "HT" : "HP", h.version);
   fmt::print("  grid        {} {} ({} points), from {}\n", FormatDims(h.dimension, h.dims),
              VoxelTypeName(h.voxel_type), points, h.source.empty() ? "?" : h.source);
@@ -248,8 +269,13 @@ void RunHzInfo(const std::string& path, bool as_json) {
   fmt::print("  errors      {} (quantum {:.6g}), largest {:.6g} ({:.3g}% of the range)\n",
              QuantizationName(h.quantization), h.quantum, h.error_max,
              h.field_max > h.field_min ? 100 * h.error_max / (h.field_max - h.field_min) : 0.0);
-  fmt::print("  blocks      {} of {} records stored ({} raw, {} zstd) of {} in the padded domain\n",
-             h.stored_blocks, h.block_records(), raw, zstd, h.virtual_blocks);
+  fmt::print("  blocks      {} blocks of {} errors stored ({} raw, {} zstd) of {} in the padded "
+             "domain, {}; the finest octave's {}\n",
+             h.stored_blocks, h.block_records(), raw, zstd, h.virtual_blocks, HumanBytes(error_bytes),
+             h.finest_stored() ? "stored" : "computed from the field");
+  fmt::print("  bricks      {} of {}^{} points ({} raw, {} zstd, {} zstd with prediction), {}\n",
+             h.bricks, uint64_t{1} << h.brick_bits, h.dimension, codings[1], codings[2], codings[3],
+             HumanBytes(field_bytes));
   fmt::print("  size        {} on disk, {} logical: {:.2f}x, {:.2f} bytes per grid point\n",
              HumanBytes(h.file_size), HumanBytes(logical),
              static_cast<double>(logical) / static_cast<double>(h.file_size), per_point);
@@ -459,8 +485,9 @@ void RegisterStoreCommands(CLI::App& app) {
     cmd->add_option("--compression", a->compression, "blocks as zstd frames or none (raw)")
         ->capture_default_str();
     cmd->add_option("--format", a->format,
-                    "dense store format: 1, or 2 (one record per diamond in hierarchical "
-                    "Z-order; info, verify, extract and export read it, the other commands not yet)")
+                    "dense store format: 1, or 2 (diamond errors in hierarchical Z-order, the "
+                    "field in compressed octave bricks: 1.2-1.9x the field alone in HDF5; info, "
+                    "verify, extract and export read it, the other commands not yet)")
         ->capture_default_str()
         ->check(CLI::IsMember({1, 2}));
     cmd->add_flag("--sparse", a->sparse,

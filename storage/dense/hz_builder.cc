@@ -93,17 +93,21 @@ Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 
   DiamondTable<D> table(f.dims, k);
+  uint64_t n = 1;
+  for (int a = 0; a < D; ++a) n *= f.dims[a];
   const uint64_t writer_bytes = uint64_t(threads) * (uint64_t{1} << options.block_bits) * 40;
-  if (table.bytes() + writer_bytes > options.memory_bytes) {
+  if (table.bytes() + n * sizeof(double) + writer_bytes > options.memory_bytes) {
     return Status::ResourceExhausted(
-        out + ": the diamond table needs " + MiB(table.bytes()) + " and the writer " +
-        MiB(writer_bytes) + ", more than the memory bound of " + MiB(options.memory_bytes) +
-        " (--memory-mb)");
+        out + ": the diamond table needs " + MiB(table.bytes()) + ", the field " +
+        MiB(n * sizeof(double)) + " and the writer " + MiB(writer_bytes) +
+        ", more than the memory bound of " + MiB(options.memory_bytes) + " (--memory-mb)");
   }
+  std::vector<double> field;
   try {
     table.Allocate();
+    field.resize(n);
   } catch (const std::bad_alloc&) {
-    return NotEnoughMemory(out + ": the diamond table", table.bytes());
+    return NotEnoughMemory(out + ": the diamond table and the field", table.bytes() + n * 8);
   }
 
   // Every node holding a real grid point, depth first with its vertices:
@@ -112,6 +116,15 @@ Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
   HzBuildReport report;
   {
     DenseStore::Reader<D> reader(f1);
+    // The field, x fastest, as the format-1 store holds it.
+    std::array<int64_t, D> p{};
+    for (uint64_t i = 0; i < n; ++i) {
+      SDB_ASSIGN_OR_RETURN(field[i], reader.Field(p));
+      for (int a = 0; a < D; ++a) {
+        if (++p[a] < int64_t{f.dims[a]}) break;
+        p[a] = 0;
+      }
+    }
     struct Frame {
       SimplexCode<D> code;
       SimplexVertices<D> v;
@@ -157,47 +170,40 @@ Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
   params.voxel_type = f.voxel_type;
   params.domain_bits = static_cast<uint8_t>(k);
   params.block_bits = static_cast<uint8_t>(options.block_bits);
+  params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(D));
+  // The errors are the engine's per-node bounds, not what a reader would
+  // compute for the finest octave: keep them all.
+  params.flags = kHzFinestStored;
   params.dims = f.dims;
   params.spacing = f.spacing;
   params.field_min = f.field_min;
   params.field_max = f.field_max;
   params.source = f.source;
 
-  std::vector<std::unique_ptr<DenseStore::Reader<D>>> readers(static_cast<size_t>(threads));
   HzWriteOptions write;
   write.compression = options.compression;
   write.zstd_level = options.zstd_level;
   write.threads = threads;
   write.errors_are_bounds = true;
   write.progress = options.progress;
-  const auto fill = [&](int w, uint64_t first, size_t count, double* errors,
-                        double* fields) -> Status {
-    auto& reader = readers[static_cast<size_t>(w)];
-    if (!reader) reader = std::make_unique<DenseStore::Reader<D>>(f1);
+  const auto fill = [&](int, uint64_t first, size_t count, double* errors) -> Status {
     for (size_t i = 0; i < count; ++i) {
       std::array<int64_t, D> g{};
-      if (!order.Decode(first + i, g)) continue;
-      errors[i] = table.At(g, first + i);
-      bool real = true;
-      for (int a = 0; a < D; ++a) real = real && g[a] < int64_t{f.dims[a]};
-      if (real) {
-        SDB_ASSIGN_OR_RETURN(fields[i], reader->Field(g));
-      }
+      if (order.Decode(first + i, g)) errors[i] = table.At(g, first + i);
     }
     return Status::OK();
   };
-  SDB_ASSIGN_OR_RETURN(report.header, WriteHzStore(out, params, write, fill));
-  report.grid_points = 1;
-  for (int a = 0; a < D; ++a) report.grid_points *= f.dims[a];
+  SDB_ASSIGN_OR_RETURN(report.header, WriteHzStore(out, params, write, fill, field.data()));
+  report.grid_points = n;
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return report;
 }
 
 // The direct build: the whole field in memory, diamond errors octave by
 // octave on every core (storage/error/diamond_errors.h), then the writer.
-// Returns nullopt, having written nothing, when it does not apply: the
-// field and the table exceed the memory bound, or the volume has missing
-// values (NaN); the caller then takes the engine's path.
+// Returns nullopt, having written nothing, when the volume has missing
+// values (NaN): the caller then takes the engine's path. ResourceExhausted
+// when the field and the table exceed the memory bound.
 template <int D>
 Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const std::string& out,
                                                  const HzBuildOptions& options,
@@ -217,7 +223,11 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   const uint64_t table_bytes = DiamondErrors<D>::TableBytes(dims, k);
   const uint64_t writer_bytes = uint64_t(threads) * (uint64_t{1} << options.block_bits) * 40;
   if (field_bytes + table_bytes + writer_bytes > options.memory_bytes) {
-    return std::optional<HzBuildReport>();
+    // The engine's path needs the field and the table too.
+    return Status::ResourceExhausted(
+        out + ": the field needs " + MiB(field_bytes) + ", the diamond table " + MiB(table_bytes) +
+        " and the writer " + MiB(writer_bytes) + ", more than the memory bound of " +
+        MiB(options.memory_bytes) + " (--memory-mb); format 2 is built in memory for now");
   }
 
   // The field, checked as every store's (finite, float32 range) and held
@@ -264,6 +274,7 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   params.voxel_type = stored;
   params.domain_bits = static_cast<uint8_t>(k);
   params.block_bits = static_cast<uint8_t>(options.block_bits);
+  params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(D));
   params.dims = input.dims;
   params.spacing = input.spacing;
   params.field_min = fmin;
@@ -272,31 +283,20 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   params.scale_intercept = input.shift;
   params.source = DescribeSource(input);
   const HzOrder<D> order(k);
-  std::array<int64_t, D> stride{};
-  for (int64_t a = 0, s = 1; a < D; s *= dims[a], ++a) stride[a] = s;
   HzWriteOptions write;
   write.compression = options.compression;
   write.zstd_level = options.zstd_level;
   write.threads = threads;
   write.progress = options.progress;
-  const auto fill = [&](int, uint64_t first, size_t count, double* errors,
-                        double* fields) -> Status {
+  const auto fill = [&](int, uint64_t first, size_t count, double* errors) -> Status {
     for (size_t i = 0; i < count; ++i) {
       std::array<int64_t, D> g{};
-      if (!order.Decode(first + i, g)) continue;
-      errors[i] = diamonds.At(g, first + i);
-      bool real = true;
-      int64_t index = 0;
-      for (int a = 0; a < D; ++a) {
-        real = real && g[a] < dims[a];
-        index += g[a] * stride[a];
-      }
-      if (real) fields[i] = field[static_cast<size_t>(index)];
+      if (order.Decode(first + i, g)) errors[i] = diamonds.At(g, first + i);
     }
     return Status::OK();
   };
   HzBuildReport report;
-  SDB_ASSIGN_OR_RETURN(report.header, WriteHzStore(out, params, write, fill));
+  SDB_ASSIGN_OR_RETURN(report.header, WriteHzStore(out, params, write, fill, field.data()));
   report.grid_points = n;
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return std::optional<HzBuildReport>(report);
@@ -331,8 +331,8 @@ Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& o
                                  DescribeByteCount(options.memory_bytes));
     }
   }
-  // Missing values, a mask, or a field larger than the memory bound: per
-  // node through format 1's engine, in a scratch store beside the output.
+  // Missing values or a mask: per node through format 1's engine, in a
+  // scratch store beside the output.
   TemporaryFile scratch(out_path, "errors");
   DenseBuildOptions f1;
   f1.quantization = Quantization::kF32;

@@ -1,28 +1,30 @@
 // Builds a format-2 store (storage/dense/hz_store.h): per grid vertex, the
 // error of its diamond (the largest of the seed's errors over the nodes
-// whose split creates it: one cluster) and its field value.
+// whose split creates it: one cluster), and the field as bricks.
 //
 // BuildHzStore reads the field into memory and computes every diamond's
 // error octave by octave on every core (storage/error/diamond_errors.h),
-// then writes the store. Where that does not apply (a mask, missing values,
-// or a field and error table larger than memory_bytes) it takes the
-// per-node errors from format 1's streaming error engine instead, through a
-// scratch format-1 store beside the output: correct and bounded, not fast.
+// then writes the store, leaving the finest octave's errors to the reader
+// (it computes them from the field the same way). Where that does not apply
+// (a mask, missing values) it takes the per-node errors from format 1's
+// streaming error engine instead, through a scratch format-1 store beside
+// the output, and stores every octave's errors: correct, not fast.
 // ConvertToHz makes a store from such a format-1 store (float32 errors keep
 // them exact up to rounding up).
 //
-// Memory: the direct build holds the field as doubles and a float per
-// vertex of the real grid grown by two points per axis; the engine's path a
-// float per such vertex and a map for the few coarser diamonds beyond it;
-// both the writer's blocks per thread; checked against memory_bytes before
-// anything is allocated.
+// Memory: both paths hold the field as doubles and a float per vertex of
+// the real grid grown by two points per axis (the engine's path also a map
+// for the few coarser diamonds beyond it), and the writer's blocks per
+// thread; checked against memory_bytes before anything is allocated.
+// Streaming within the bound is issue 16's next step.
 //
 // Thread safety: may run in several threads at once for different outputs.
 // Lifetimes: ConvertToHz reads `f1` during the call only.
 // Errors: those of reading the input (storage/volume/volume.h) and of
 // storable values (storage/error/field_values.h), of the format-1 builder
 // (input, mask, memory, output) and of WriteHzStore; ResourceExhausted
-// naming the figures when the diamond table does not fit in memory_bytes.
+// naming the figures when the field and the diamond table do not fit in
+// memory_bytes.
 #pragma once
 
 #include <cstdint>
@@ -47,7 +49,7 @@ struct HzBuildOptions {
   size_t memory_bytes = size_t{1} << 30;
   int threads = 0;  // 0: one per core
   std::optional<VolumeInfo> mask;  // as DenseBuildOptions::mask
-  std::function<void(const BuildProgress&)> progress;  // "field", "errors", "diamonds", "blocks"
+  std::function<void(const BuildProgress&)> progress;  // "field", "errors", "diamonds", "blocks", "bricks"
 };
 
 struct HzBuildReport {

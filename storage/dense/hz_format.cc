@@ -18,7 +18,9 @@ constexpr size_t kOffQuantization = 17;
 constexpr size_t kOffVoxelType = 18;
 constexpr size_t kOffDomainBits = 19;
 constexpr size_t kOffBlockBits = 20;
-constexpr size_t kOffReserved = 21;  // 3 bytes, zero
+constexpr size_t kOffBrickBits = 21;
+constexpr size_t kOffFlags = 22;
+constexpr size_t kOffReserved = 23;  // 1 byte, zero
 constexpr size_t kOffDims = 24;
 constexpr size_t kOffSpacing = 40;
 constexpr size_t kOffOrigin = 72;
@@ -35,8 +37,11 @@ constexpr size_t kOffIndexOffset = 176;
 constexpr size_t kOffFileSize = 184;
 constexpr size_t kOffBitmapChecksum = 192;
 constexpr size_t kOffIndexChecksum = 200;
-constexpr size_t kOffSourceLength = 208;  // u16
-constexpr size_t kOffSource = 210;
+constexpr size_t kOffBricks = 208;
+constexpr size_t kOffBrickIndexOffset = 216;
+constexpr size_t kOffBrickIndexChecksum = 224;
+constexpr size_t kOffSourceLength = 232;  // u16
+constexpr size_t kOffSource = 234;
 constexpr size_t kOffChecksum = kHzHeaderSize - 8;
 static_assert(kOffSource + kHzMaxSource <= kOffChecksum);
 
@@ -53,6 +58,8 @@ std::array<uint8_t, kHzHeaderSize> SerializeHzHeader(const HzHeader& h) {
   p[kOffVoxelType] = static_cast<uint8_t>(h.voxel_type);
   p[kOffDomainBits] = h.domain_bits;
   p[kOffBlockBits] = h.block_bits;
+  p[kOffBrickBits] = h.brick_bits;
+  p[kOffFlags] = h.flags;
   for (int i = 0; i < 4; ++i) {
     StoreLittle<uint32_t>(p + kOffDims + 4 * i, h.dims[i]);
     StoreLittle<double>(p + kOffSpacing + 8 * i, h.spacing[i]);
@@ -71,6 +78,9 @@ std::array<uint8_t, kHzHeaderSize> SerializeHzHeader(const HzHeader& h) {
   StoreLittle<uint64_t>(p + kOffFileSize, h.file_size);
   StoreLittle<uint64_t>(p + kOffBitmapChecksum, h.bitmap_checksum);
   StoreLittle<uint64_t>(p + kOffIndexChecksum, h.index_checksum);
+  StoreLittle<uint64_t>(p + kOffBricks, h.bricks);
+  StoreLittle<uint64_t>(p + kOffBrickIndexOffset, h.brick_index_offset);
+  StoreLittle<uint64_t>(p + kOffBrickIndexChecksum, h.brick_index_checksum);
   const size_t n = Utf8PrefixLength(h.source, kHzMaxSource);
   StoreLittle<uint16_t>(p + kOffSourceLength, static_cast<uint16_t>(n));
   std::memcpy(p + kOffSource, h.source.data(), n);
@@ -98,6 +108,12 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
     return Status::NotSupported(where +
                                 ": a format-1 dense store, which this version no longer reads: "
                                 "import the volume again to make a format-2 store");
+  }
+  if (h.version == 2) {
+    return Status::NotSupported(where +
+                                ": a format-2 store of version 2 (errors and field values in one "
+                                "record), which this version no longer reads: import the volume "
+                                "again");
   }
   if (h.version != kHzFormatVersion) {
     return Status::NotSupported(where + ": format version " + std::to_string(h.version) +
@@ -130,9 +146,13 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
   if (h.block_bits < 6 || h.block_bits > 20) {
     return corrupt("block bits " + std::to_string(h.block_bits) + " out of range 6..20");
   }
-  if (b[kOffReserved] != 0 || b[kOffReserved + 1] != 0 || b[kOffReserved + 2] != 0) {
-    return corrupt("reserved bytes are set");
+  h.brick_bits = b[kOffBrickBits];
+  if (h.brick_bits < 1 || h.brick_bits > (h.dimension == 3 ? 6 : 4)) {
+    return corrupt("brick bits " + std::to_string(h.brick_bits) + " out of range");
   }
+  h.flags = b[kOffFlags];
+  if ((h.flags & ~kHzFinestStored) != 0) return corrupt("unknown flags " + std::to_string(h.flags));
+  if (b[kOffReserved] != 0) return corrupt("reserved bytes are set");
   const uint64_t side = (uint64_t{1} << h.domain_bits) + 1;
   for (int i = 0; i < 4; ++i) {
     h.dims[i] = LoadLittle<uint32_t>(b + kOffDims + 4 * i);
@@ -171,9 +191,12 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
   h.file_size = LoadLittle<uint64_t>(b + kOffFileSize);
   h.bitmap_checksum = LoadLittle<uint64_t>(b + kOffBitmapChecksum);
   h.index_checksum = LoadLittle<uint64_t>(b + kOffIndexChecksum);
-  // The HZ positions are [0, 2^(D (k + 1))): every block but a lone first
-  // one is full.
-  const int position_bits = h.dimension * (h.domain_bits + 1);
+  h.bricks = LoadLittle<uint64_t>(b + kOffBricks);
+  h.brick_index_offset = LoadLittle<uint64_t>(b + kOffBrickIndexOffset);
+  h.brick_index_checksum = LoadLittle<uint64_t>(b + kOffBrickIndexChecksum);
+  // The positions with stored errors: every block but a lone first one is
+  // full.
+  const int position_bits = h.dimension * (h.domain_bits + (h.finest_stored() ? 1 : 0));
   const uint64_t expected_virtual =
       position_bits <= h.block_bits ? 1 : uint64_t{1} << (position_bits - h.block_bits);
   if (h.virtual_blocks != expected_virtual) {
@@ -183,7 +206,9 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
   if (h.stored_blocks == 0 || h.stored_blocks > h.virtual_blocks ||
       h.bitmap_offset < kHzHeaderSize || h.bitmap_offset > h.file_size ||
       h.index_offset != h.bitmap_offset + 8 * h.bitmap_words() ||
-      h.file_size != h.index_offset + h.stored_blocks * kHzIndexEntrySize) {
+      h.brick_index_offset != h.index_offset + h.stored_blocks * kHzIndexEntrySize ||
+      h.bricks == 0 || h.bricks > h.file_size / kHzIndexEntrySize ||
+      h.file_size != h.brick_index_offset + h.bricks * kHzIndexEntrySize) {
     return corrupt("block counts, offsets and file size disagree");
   }
   const uint16_t n = LoadLittle<uint16_t>(b + kOffSourceLength);

@@ -1,36 +1,49 @@
-// Store format 2, the file: header, block presence bitmap and block index
-// (docs/format/dense-store-2.md is the specification; this header is its
-// code). One record per grid vertex, in the hierarchical Z-order of
-// hierarchy/hz_order.h: the vertex's diamond error and its field value.
+// Store format 2, the file: header, error blocks, field bricks, block
+// presence bitmap and the two indexes (docs/format/dense-store-2.md is the
+// specification; this header is its code).
+//
+// Errors: one per grid vertex (its diamond's), in the hierarchical Z-order
+// of hierarchy/hz_order.h, in blocks of 2^block_bits entries. Stores built
+// from the field in memory keep them for every octave but the finest (HZ
+// positions below 2^(D k)): a reader computes the finest octave's from the
+// field (storage/error/finest_box_errors.h), as the builder did. Stores
+// built otherwise (missing values, a mask, from another store) set
+// kHzFinestStored and keep every octave's.
+//
+// Field: every octave's lattice as bricks (storage/dense/field_bricks.h),
+// 2^brick_bits points per axis, coarsest lattice first.
 //
 // Layout of a store file (all integers little-endian):
 //
 //   [0, 4096)                header (kHzHeaderSize bytes; unused bytes zero)
-//   [4096, bitmap_offset)    blocks, back to back, in any order
+//   [4096, bitmap_offset)    error blocks and bricks, back to back, in any order
 //   [bitmap_offset, +8 W)    presence bitmap: W = ceil(virtual blocks / 64)
 //                            words; bit b set when virtual block b is stored
-//   [index_offset, end)      block index: one 40-byte entry per stored
-//                            block, in block order
+//   [index_offset, +40 S)    block index: one entry per stored block, in
+//                            block order
+//   [brick_index_offset, end) brick index: one entry per brick, in brick order
 //
 // Virtual block b is the HZ positions [b * 2^block_bits, (b + 1) *
-// 2^block_bits). Block 0 holds the corners and every octave whose segments
-// are shorter than a block; every other block lies inside one segment (one
-// level and odd-axis pattern), so it is a box of cubes of one level. Only
-// blocks that hold a real grid point or a non-zero error are stored.
+// 2^block_bits) of the positions with stored errors. Block 0 holds the
+// corners and every octave whose segments are shorter than a block; every
+// other block lies inside one segment (one level and odd-axis pattern), so
+// it is a box of cubes of one level. Block 0 and every block holding a
+// non-zero error are stored; a block not stored holds zeros.
 //
 // A decoded block is 2^block_bits error entries (u16, u8 or f32 bits, by
-// the quantization) followed by 2^block_bits field values in the voxel
-// type. Positions that are no vertex (past the domain's upper faces) or a
-// vertex outside the real grid hold field 0; their error is their diamond's
-// (0 unless it reaches real points).
+// the quantization); positions that are no vertex hold 0. A brick entry's
+// error_max is the largest finest-octave error code of the vertices the
+// brick owns (lattice 0, finest errors not stored; 0 otherwise): the finest
+// vertex g belongs to the grid brick holding g clamped to the real grid.
 //
 // The first 8 bytes and the version at offset 8 are format 1's
 // (storage/dense/format.h), so each version's reader names the other.
 //
 // Thread safety: plain values and pure functions.
 // Errors: ParseHzHeader returns InvalidArgument (bad magic: not a dense
-// store), NotSupported (format 1, with what to do; another version) or
-// Corruption (checksum, a field out of range), naming the file.
+// store), NotSupported (format 1, or format 2's version 2, with what to do;
+// another version) or Corruption (checksum, a field out of range), naming
+// the file.
 #pragma once
 
 #include <array>
@@ -48,13 +61,18 @@
 
 namespace simplexdb {
 
-inline constexpr uint32_t kHzFormatVersion = 2;
+// Version 3: errors and field apart (version 2 kept both per record).
+inline constexpr uint32_t kHzFormatVersion = 3;
 inline constexpr size_t kHzHeaderSize = 4096;
 inline constexpr size_t kHzIndexEntrySize = 40;
 inline constexpr size_t kHzMaxSource = 1024;
 // 4096 records: 12 KiB decoded for u16 errors and 8-bit voxels, a 16^3 box
 // of cubes (8^4 in the HP) at the fine levels.
 inline constexpr int kHzDefaultBlockBits = 12;
+// Bricks of 16^3 points in the HT, 8^4 in the HP: 4096 either way.
+inline constexpr int HzDefaultBrickBits(int dimension) { return dimension == 3 ? 4 : 3; }
+// Header flags.
+inline constexpr uint8_t kHzFinestStored = 1;  // the finest octave's errors are in blocks
 
 struct HzHeader {
   uint32_t version = kHzFormatVersion;
@@ -63,6 +81,8 @@ struct HzHeader {
   VoxelType voxel_type = VoxelType::kU8;  // the stored field's type
   uint8_t domain_bits = 0;                // k: the domain has side 2^k
   uint8_t block_bits = kHzDefaultBlockBits;
+  uint8_t brick_bits = 4;                 // bricks of 2^brick_bits points per axis
+  uint8_t flags = 0;                      // kHzFinestStored
   std::array<uint32_t, 4> dims = {1, 1, 1, 1};  // the real grid (unused axes 1)
   std::array<double, 4> spacing = {1, 1, 1, 1};
   std::array<double, 4> origin = {0, 0, 0, 0};
@@ -77,9 +97,18 @@ struct HzHeader {
   uint64_t file_size = 0;
   uint64_t bitmap_checksum = 0;  // XXH3-64 of the bitmap bytes
   uint64_t index_checksum = 0;   // XXH3-64 of the index bytes
+  uint64_t bricks = 0;                // field bricks (BrickGrid::bricks())
+  uint64_t brick_index_offset = 0;    // index_offset + 40 * stored_blocks
+  uint64_t brick_index_checksum = 0;  // XXH3-64 of the brick index bytes
   std::string source;            // what the store was built from (<= kHzMaxSource bytes)
 
   int leaf_level() const { return dimension * domain_bits; }
+  bool finest_stored() const { return (flags & kHzFinestStored) != 0; }
+  // The HZ positions whose errors the blocks hold: all of them
+  // (2^(D (k + 1))) or all but the finest octave's (2^(D k)).
+  uint64_t error_positions() const {
+    return uint64_t{1} << (dimension * (domain_bits + (finest_stored() ? 1 : 0)));
+  }
   uint64_t block_records() const { return uint64_t{1} << block_bits; }
   uint64_t bitmap_words() const { return (virtual_blocks + 63) / 64; }
 };
@@ -92,15 +121,17 @@ std::array<uint8_t, kHzHeaderSize> SerializeHzHeader(const HzHeader& h);
 // counts and offsets describe a file of file_size bytes.
 Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view file);
 
-// One stored block.
+// One stored block or brick.
 struct HzIndexEntry {
   uint64_t offset = 0;       // in the file
   uint32_t stored_size = 0;  // bytes in the file
-  BlockEncoding encoding = BlockEncoding::kRaw;  // kRaw or kZstd
+  // Blocks: BlockEncoding kRaw or kZstd; bricks: BrickCoding.
+  uint8_t encoding = 1;
   uint64_t checksum = 0;     // XXH3-64 of the stored bytes
-  float field_min = 0;       // the field over the block's real vertices, rounded
-  float field_max = 0;       //   outward to float (0, 0 when it holds none)
-  uint32_t error_max = 0;    // the largest stored error entry (code or f32 bits)
+  float field_min = 0;       // bricks: the field over the brick, rounded outward
+  float field_max = 0;       //   to float (0, 0 when every value is missing)
+  uint32_t error_max = 0;    // the largest error code: a block's entries, a
+                             //   brick's finest vertices (code or f32 bits)
 };
 
 void SerializeHzIndexEntry(const HzIndexEntry& e, uint8_t* out);  // kHzIndexEntrySize bytes
@@ -109,7 +140,7 @@ inline HzIndexEntry ParseHzIndexEntry(const uint8_t* in) {
   HzIndexEntry e;
   e.offset = LoadLittle<uint64_t>(in + 0);
   e.stored_size = LoadLittle<uint32_t>(in + 8);
-  e.encoding = static_cast<BlockEncoding>(in[12]);  // checked by the reader
+  e.encoding = in[12];  // checked by the reader
   e.checksum = LoadLittle<uint64_t>(in + 16);
   e.field_min = LoadLittle<float>(in + 24);
   e.field_max = LoadLittle<float>(in + 28);

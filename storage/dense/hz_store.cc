@@ -8,6 +8,8 @@
 #include <cstring>
 #include <limits>
 
+#include "storage/dense/brick_codec.h"
+#include "storage/dense/format.h"
 #include "storage/io/checksum.h"
 #include "storage/io/codec.h"
 #include "util/little_endian.h"
@@ -56,29 +58,43 @@ Result<std::unique_ptr<HzStore>> HzStore::Open(const std::string& path, const Op
                               " bytes; its header says " + std::to_string(h.file_size) +
                               (bytes.size() < h.file_size ? " (truncated)" : ""));
   }
+  s->grid_ = std::make_unique<BrickGrid>(h.dimension, h.dims, h.domain_bits, h.brick_bits);
+  if (s->grid_->bricks() != h.bricks) {
+    return Status::Corruption(path + ": header: " + std::to_string(h.bricks) +
+                              " bricks, expected " + std::to_string(s->grid_->bricks()));
+  }
   s->quantizer_ = ErrorQuantizer(h.quantization, h.quantum, h.field_max - h.field_min);
   s->error_size_ = QuantizedSize(h.quantization);
   s->voxel_size_ = VoxelSize(h.voxel_type);
-  SDB_RETURN_IF_ERROR(s->ValidateBitmapAndIndex());
-  s->raw_state_ = std::make_unique<std::atomic<uint8_t>[]>(h.stored_blocks);
-  s->touched_ = std::make_unique<std::atomic<uint8_t>[]>(h.stored_blocks);
+  SDB_RETURN_IF_ERROR(s->ValidateBitmapAndIndexes());
+  s->raw_state_ = std::make_unique<std::atomic<uint8_t>[]>(h.stored_blocks + h.bricks);
+  s->touched_ = std::make_unique<std::atomic<uint8_t>[]>(h.stored_blocks + h.bricks);
+  if (!h.finest_stored()) {
+    const int64_t box = (int64_t{1} << h.brick_bits) + 2;
+    if (h.dimension == 3) {
+      s->finest3_ = std::make_unique<FinestBoxErrors<3>>(box);
+    } else {
+      s->finest4_ = std::make_unique<FinestBoxErrors<4>>(box);
+    }
+  }
   if (options.in_memory) {
     SDB_RETURN_IF_ERROR(s->LoadAll());
+    // Finest boxes, computed on first use, are kept.
+    s->cache_ = std::make_shared<BlockCache>(std::numeric_limits<size_t>::max() / 4, 1);
+  } else if (options.cache) {
+    s->cache_ = options.cache;
   } else {
-    if (options.cache) {
-      s->cache_ = options.cache;
-    } else {
-      // Few shards for a small budget, so that one shard holds a block.
-      const int shards = static_cast<int>(
-          std::clamp<size_t>(options.cache_bytes / (4 * s->block_bytes() + 1), 1, 16));
-      s->cache_ = std::make_shared<BlockCache>(options.cache_bytes, shards);
-    }
-    s->cache_store_id_ = BlockCache::NewStoreId();
+    // Few shards for a small budget, so that one shard holds a block.
+    const size_t largest = std::max(s->block_bytes(), 4 * s->grid_->brick_voxels());
+    const int shards =
+        static_cast<int>(std::clamp<size_t>(options.cache_bytes / (4 * largest + 1), 1, 16));
+    s->cache_ = std::make_shared<BlockCache>(options.cache_bytes, shards);
   }
+  s->cache_store_id_ = BlockCache::NewStoreId();
   return s;
 }
 
-Status HzStore::ValidateBitmapAndIndex() {
+Status HzStore::ValidateBitmapAndIndexes() {
   const HzHeader& h = header_;
   const auto corrupt = [&](const std::string& why) {
     return Status::Corruption(path_ + ": " + why);
@@ -106,32 +122,30 @@ Status HzStore::ValidateBitmapAndIndex() {
     return corrupt("block bitmap: " + std::to_string(count) + " blocks marked, the header says " +
                    std::to_string(h.stored_blocks));
   }
+  if ((LoadLittle<uint64_t>(bitmap_) & 1) == 0) return corrupt("block bitmap: block 0 is not stored");
   const std::span<const uint8_t> index =
       bytes.subspan(h.index_offset, h.stored_blocks * kHzIndexEntrySize);
   if (Checksum(index) != h.index_checksum) return corrupt("block index: checksum mismatch");
   index_ = index.data();
-  const size_t raw = block_bytes();
+  const std::span<const uint8_t> brick_index =
+      bytes.subspan(h.brick_index_offset, h.bricks * kHzIndexEntrySize);
+  if (Checksum(brick_index) != h.brick_index_checksum) {
+    return corrupt("brick index: checksum mismatch");
+  }
+  brick_index_ = brick_index.data();
   const uint32_t max_code = ErrorQuantizer::MaxCode(h.quantization);
-  for (uint64_t i = 0; i < h.stored_blocks; ++i) {
-    const uint8_t* e = index_ + i * kHzIndexEntrySize;
-    const auto bad = [&](const std::string& why) {
-      return corrupt("block index: " + Describe(i) + ": " + why);
-    };
+  // What every entry shares: reserved bytes, where its bytes lie, its
+  // error maximum.
+  const auto check = [&](const uint8_t* e, const auto& bad, size_t decoded, bool raw,
+                         bool may_have_error) -> Status {
     bool reserved = false;
     for (int j : {13, 14, 15, 36, 37, 38, 39}) reserved = reserved || e[j] != 0;
     if (reserved) return bad("reserved bytes are set");
     const HzIndexEntry entry = ParseHzIndexEntry(e);
-    switch (entry.encoding) {
-      case BlockEncoding::kRaw:
-        if (entry.stored_size != raw) return bad("raw block of " + std::to_string(entry.stored_size) + " bytes");
-        break;
-      case BlockEncoding::kZstd:
-        if (entry.stored_size == 0 || entry.stored_size > ZSTD_compressBound(raw)) {
-          return bad("compressed size " + std::to_string(entry.stored_size));
-        }
-        break;
-      default:
-        return bad("unknown encoding " + std::to_string(static_cast<int>(entry.encoding)));
+    if (raw ? entry.stored_size != decoded
+            : (entry.stored_size == 0 || entry.stored_size > ZSTD_compressBound(decoded))) {
+      return bad("stored size " + std::to_string(entry.stored_size) + " for " +
+                 std::to_string(decoded) + " bytes decoded");
     }
     if (entry.offset < kHzHeaderSize || entry.offset > h.bitmap_offset ||
         entry.stored_size > h.bitmap_offset - entry.offset) {
@@ -141,6 +155,7 @@ Status HzStore::ValidateBitmapAndIndex() {
         !(entry.field_min <= entry.field_max)) {
       return bad("field range is not a finite interval");
     }
+    if (!may_have_error && entry.error_max != 0) return bad("an error maximum where none belongs");
     if (h.quantization == Quantization::kF32) {
       float f;
       std::memcpy(&f, &entry.error_max, 4);
@@ -149,6 +164,35 @@ Status HzStore::ValidateBitmapAndIndex() {
       return bad("largest error code " + std::to_string(entry.error_max) + " past " +
                  std::to_string(max_code));
     }
+    return Status::OK();
+  };
+  for (uint64_t i = 0; i < h.stored_blocks; ++i) {
+    const uint8_t* e = index_ + i * kHzIndexEntrySize;
+    const auto bad = [&](const std::string& why) {
+      return corrupt("block index: " + Describe(i) + ": " + why);
+    };
+    const uint8_t encoding = e[12];
+    if (encoding != static_cast<uint8_t>(BlockEncoding::kRaw) &&
+        encoding != static_cast<uint8_t>(BlockEncoding::kZstd)) {
+      return bad("unknown encoding " + std::to_string(encoding));
+    }
+    SDB_RETURN_IF_ERROR(check(e, bad, block_bytes(),
+                              encoding == static_cast<uint8_t>(BlockEncoding::kRaw), true));
+  }
+  for (uint64_t b = 0; b < h.bricks; ++b) {
+    const uint8_t* e = brick_index_ + b * kHzIndexEntrySize;
+    const auto bad = [&](const std::string& why) {
+      return corrupt("brick index: " + DescribeBrick(b) + ": " + why);
+    };
+    const uint8_t coding = e[12];
+    if (coding < static_cast<uint8_t>(BrickCoding::kRaw) ||
+        coding > static_cast<uint8_t>(BrickCoding::kZstdPredicted)) {
+      return bad("unknown coding " + std::to_string(coding));
+    }
+    const BrickPlace place = grid_->Place(b);
+    SDB_RETURN_IF_ERROR(check(e, bad, BrickVoxels(h.dimension, place.extent) * voxel_size_,
+                              coding == static_cast<uint8_t>(BrickCoding::kRaw),
+                              place.lattice == 0 && !h.finest_stored()));
   }
   return Status::OK();
 }
@@ -195,6 +239,26 @@ std::string HzStore::DescribeBlock(uint64_t vblock) const {
          ", odd axes " + odd + ", " + positions + ")";
 }
 
+std::string HzStore::DescribeBrick(uint64_t b) const {
+  const BrickPlace place = grid_->Place(b);
+  std::string from;
+  for (int a = 0; a < header_.dimension; ++a) {
+    from += (a == 0 ? "(" : ", ") + std::to_string(place.first[a]);
+  }
+  const std::string which = place.lattice == 0
+                                ? "the grid"
+                                : "the points at multiples of " +
+                                      std::to_string(int64_t{1} << place.lattice);
+  return "brick " + std::to_string(b) + " (" + which + ", from " + from + "))";
+}
+
+void HzStore::Touch(uint64_t i) const {
+  if (touched_[i].load(std::memory_order_relaxed) == 0 &&
+      touched_[i].exchange(1, std::memory_order_relaxed) == 0) {
+    distinct_.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
 Result<std::shared_ptr<const BlockCache::Block>> HzStore::DecodeBlock(uint64_t i) const {
   const HzIndexEntry e = entry(i);
   const std::span<const uint8_t> stored = file_->bytes().subspan(e.offset, e.stored_size);
@@ -207,7 +271,7 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::DecodeBlock(uint64_t i
   } catch (const std::bad_alloc&) {
     return NotEnoughMemory(path_ + ": " + Describe(i) + " decoded", block_bytes());
   }
-  if (e.encoding == BlockEncoding::kRaw) {
+  if (e.encoding == static_cast<uint8_t>(BlockEncoding::kRaw)) {
     std::memcpy(block->data(), stored.data(), stored.size());
   } else {
     SDB_RETURN_IF_ERROR(
@@ -221,13 +285,10 @@ Result<HzStore::BlockHandle> HzStore::Block(uint64_t i) const {
   if (i >= header_.stored_blocks) {
     return Status::InvalidArgument(path_ + ": stored block " + std::to_string(i) + " out of range");
   }
-  if (touched_[i].load(std::memory_order_relaxed) == 0 &&
-      touched_[i].exchange(1, std::memory_order_relaxed) == 0) {
-    distinct_.fetch_add(1, std::memory_order_relaxed);
-  }
+  Touch(i);
   if (!resident_.empty()) return BlockHandle{resident_[i]->data(), nullptr};
   const HzIndexEntry e = entry(i);
-  if (e.encoding == BlockEncoding::kRaw) {
+  if (e.encoding == static_cast<uint8_t>(BlockEncoding::kRaw)) {
     const uint8_t* data = file_->bytes().data() + e.offset;
     uint8_t state = raw_state_[i].load(std::memory_order_acquire);
     if (state == 0) {
@@ -245,23 +306,170 @@ Result<HzStore::BlockHandle> HzStore::Block(uint64_t i) const {
 }
 
 Status HzStore::LoadAll() {
-  const uint64_t total = header_.stored_blocks * block_bytes();
-  const std::string all = "all " + std::to_string(header_.stored_blocks) + " blocks of " + path_ +
+  const uint64_t total = header_.stored_blocks * block_bytes() + header_.bricks * brick_bytes();
+  const std::string all = "all " + std::to_string(header_.stored_blocks) + " blocks and " +
+                          std::to_string(header_.bricks) + " bricks of " + path_ +
                           " decoded in memory";
   try {
     resident_.resize(header_.stored_blocks);
+    resident_bricks_.resize(header_.bricks);
   } catch (const std::bad_alloc&) {
     return NotEnoughMemory(all, total);
   }
-  for (uint64_t i = 0; i < header_.stored_blocks; ++i) {
-    Result<std::shared_ptr<const BlockCache::Block>> block = DecodeBlock(i);
-    if (!block.ok()) {
-      if (block.status().code() == Status::Code::kResourceExhausted) return NotEnoughMemory(all, total);
-      return block.status();
+  for (uint64_t i = 0; i < header_.stored_blocks + header_.bricks; ++i) {
+    Result<std::shared_ptr<const BlockCache::Block>> decoded =
+        i < header_.stored_blocks ? DecodeBlock(i) : DecodeBrickAt(i - header_.stored_blocks);
+    if (!decoded.ok()) {
+      if (decoded.status().code() == Status::Code::kResourceExhausted) return NotEnoughMemory(all, total);
+      return decoded.status();
     }
-    resident_[i] = *std::move(block);
+    (i < header_.stored_blocks ? resident_[i] : resident_bricks_[i - header_.stored_blocks]) =
+        *std::move(decoded);
   }
   return Status::OK();
+}
+
+Result<std::shared_ptr<const BlockCache::Block>> HzStore::DecodeBrickAt(uint64_t b) const {
+  const HzIndexEntry e = brick_entry(b);
+  const std::span<const uint8_t> stored = file_->bytes().subspan(e.offset, e.stored_size);
+  if (Checksum(stored) != e.checksum) {
+    return Status::Corruption(path_ + ": " + DescribeBrick(b) + ": checksum mismatch");
+  }
+  const BrickPlace place = grid_->Place(b);
+  const size_t bytes = BrickVoxels(header_.dimension, place.extent) * voxel_size_;
+  std::shared_ptr<BlockCache::Block> brick;
+  try {
+    brick = std::make_shared<BlockCache::Block>(bytes);
+  } catch (const std::bad_alloc&) {
+    return NotEnoughMemory(path_ + ": " + DescribeBrick(b) + " decoded", bytes);
+  }
+  const auto coding = static_cast<BrickCoding>(e.encoding);
+  SDB_RETURN_IF_ERROR(DecodeBrick(stored, coding, header_.voxel_type, header_.dimension,
+                                  place.extent, ThreadDecompressor(), *brick,
+                                  path_ + ": " + DescribeBrick(b)));
+  (coding == BrickCoding::kRaw ? raw_checked_ : decoded_).fetch_add(1, std::memory_order_relaxed);
+  return std::shared_ptr<const BlockCache::Block>(std::move(brick));
+}
+
+Result<HzStore::BlockHandle> HzStore::Brick(uint64_t b) const {
+  if (b >= header_.bricks) {
+    return Status::InvalidArgument(path_ + ": brick " + std::to_string(b) + " out of range");
+  }
+  Touch(header_.stored_blocks + b);
+  if (!resident_bricks_.empty()) return BlockHandle{resident_bricks_[b]->data(), nullptr};
+  const BlockCache::Key key{cache_store_id_, header_.stored_blocks + b};
+  if (auto hit = cache_->Lookup(key)) return HandleOf(std::move(hit));
+  SDB_ASSIGN_OR_RETURN(auto fresh, DecodeBrickAt(b));
+  return HandleOf(cache_->Insert(key, std::move(fresh)));
+}
+
+HzStore::Box HzStore::FinestBox(uint64_t b) const {
+  const BrickPlace place = grid_->Place(b);
+  const int64_t side = int64_t{1} << header_.domain_bits;
+  Box box;
+  for (int a = 0; a < header_.dimension; ++a) {
+    box.first[a] = place.first[a];
+    box.extent[a] = place.extent[a];
+    const int64_t dim = header_.dims[a];
+    if (place.first[a] + place.extent[a] == dim) {
+      box.extent[a] = std::min(side, dim + 1) + 1 - place.first[a];
+    }
+  }
+  return box;
+}
+
+Result<HzStore::BlockHandle> HzStore::FinestCodes(uint64_t b) const {
+  const BlockCache::Key key{cache_store_id_, header_.stored_blocks + header_.bricks + b};
+  if (auto hit = cache_->Lookup(key)) return HandleOf(std::move(hit));
+  SDB_ASSIGN_OR_RETURN(auto fresh, ComputeFinest(b));
+  return HandleOf(cache_->Insert(key, std::move(fresh)));
+}
+
+Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinest(uint64_t b) const {
+  return header_.dimension == 3 ? ComputeFinestOf<3>(b) : ComputeFinestOf<4>(b);
+}
+
+template <int D>
+Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64_t b) const {
+  const FinestBoxErrors<D>& finest = [&]() -> const FinestBoxErrors<D>& {
+    if constexpr (D == 3) {
+      return *finest3_;
+    } else {
+      return *finest4_;
+    }
+  }();
+  const Box box = FinestBox(b);
+  const int64_t w = finest.window_side();
+  const int bits = header_.brick_bits;
+  std::array<int64_t, D> first{}, extent{}, dims{};
+  std::array<int64_t, 4> lo{}, hi{}, brick_lo{}, brick_hi{};
+  uint64_t points = 1;
+  for (int a = 0; a < D; ++a) {
+    first[a] = box.first[a];
+    extent[a] = box.extent[a];
+    dims[a] = header_.dims[a];
+    points *= static_cast<uint64_t>(extent[a]);
+    // The window's real points, and the grid bricks holding them.
+    lo[a] = std::max<int64_t>(0, first[a] - 2);
+    hi[a] = std::min<int64_t>(dims[a] - 1, first[a] - 2 + w - 1);
+    brick_lo[a] = lo[a] >> bits;
+    brick_hi[a] = hi[a] >> bits;
+  }
+  std::vector<double> window;
+  std::shared_ptr<BlockCache::Block> codes;
+  try {
+    window.assign(finest.window_points(), 0.0);
+    codes = std::make_shared<BlockCache::Block>(4 * points);
+  } catch (const std::bad_alloc&) {
+    return NotEnoughMemory(path_ + ": the finest errors of " + DescribeBrick(b), 8 * finest.window_points());
+  }
+  std::array<int64_t, 4> c = brick_lo;
+  while (true) {
+    std::array<int64_t, 4> p{};
+    for (int a = 0; a < D; ++a) p[a] = c[a] << bits;
+    size_t unused = 0;
+    const uint64_t nb = grid_->BrickOf(0, p, &unused);
+    SDB_ASSIGN_OR_RETURN(const BlockHandle h, Brick(nb));
+    const BrickPlace place = grid_->Place(nb);
+    // The brick's points inside the window, row by row.
+    std::array<int64_t, 4> from{}, to{};
+    for (int a = 0; a < D; ++a) {
+      from[a] = std::max(lo[a], place.first[a]);
+      to[a] = std::min(hi[a], place.first[a] + int64_t{place.extent[a]} - 1);
+    }
+    std::array<int64_t, 4> q = from;
+    while (true) {
+      size_t slot = 0, wi = 0, scale = 1, wscale = 1;
+      for (int a = 0; a < D; ++a) {
+        slot += static_cast<size_t>(q[a] - place.first[a]) * scale;
+        scale *= place.extent[a];
+        wi += static_cast<size_t>(q[a] - first[a] + 2) * wscale;
+        wscale *= static_cast<size_t>(w);
+      }
+      for (int64_t x = from[0]; x <= to[0]; ++x) window[wi++] = VoxelAt(h.data, slot++);
+      int a = 1;
+      for (; a < D; ++a) {
+        if (++q[a] <= to[a]) break;
+        q[a] = from[a];
+      }
+      if (a == D) break;
+    }
+    int a = 0;
+    for (; a < D; ++a) {
+      if (++c[a] <= brick_hi[a]) break;
+      c[a] = brick_lo[a];
+    }
+    if (a == D) break;
+  }
+  std::vector<double> errors(points);
+  finest.Compute(first, extent, header_.domain_bits, dims, window.data(), errors.data());
+  // As the writer coded the builder's errors (rounded up to float first).
+  for (uint64_t i = 0; i < points; ++i) {
+    StoreLittle<uint32_t>(codes->data() + 4 * i,
+                          quantizer_.Encode(static_cast<double>(RoundUpToFloat(errors[i]))));
+  }
+  boxes_.fetch_add(1, std::memory_order_relaxed);
+  return std::shared_ptr<const BlockCache::Block>(std::move(codes));
 }
 
 uint32_t HzStore::StoredErrorAt(const uint8_t* block, uint32_t slot) const {
@@ -273,71 +481,81 @@ uint32_t HzStore::StoredErrorAt(const uint8_t* block, uint32_t slot) const {
   return 0;
 }
 
-double HzStore::FieldAt(const uint8_t* block, uint32_t slot) const {
-  return ReadVoxel(header_.voxel_type, block + error_bytes() + size_t{slot} * voxel_size_);
+double HzStore::VoxelAt(const uint8_t* brick, size_t slot) const {
+  return ReadVoxel(header_.voxel_type, brick + slot * voxel_size_);
 }
 
 Status HzStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) const {
-  const uint64_t total = header_.stored_blocks;
+  const uint64_t blocks = header_.stored_blocks, total = blocks + header_.bricks;
   const uint32_t n = static_cast<uint32_t>(header_.block_records());
-  const int d = header_.dimension;
-  const auto check = [&](const auto& order) -> Status {
-    for (uint64_t i = 0; i < total; ++i) {
-      if (progress && i % 256 == 0) progress(i, total);
-      const HzIndexEntry e = entry(i);
-      // The stored bytes, even when the block is cached or resident.
-      if (Checksum(file_->bytes().subspan(e.offset, e.stored_size)) != e.checksum) {
-        return Status::Corruption(path_ + ": " + Describe(i) + ": checksum mismatch");
+  for (uint64_t i = 0; i < blocks; ++i) {
+    if (progress && i % 256 == 0) progress(i, total);
+    const HzIndexEntry e = entry(i);
+    // The stored bytes, even when the block is cached or resident.
+    if (Checksum(file_->bytes().subspan(e.offset, e.stored_size)) != e.checksum) {
+      return Status::Corruption(path_ + ": " + Describe(i) + ": checksum mismatch");
+    }
+    SDB_ASSIGN_OR_RETURN(const BlockHandle h, Block(i));
+    const auto bad = [&](const std::string& why) {
+      return Status::Corruption(path_ + ": " + Describe(i) + ": " + why);
+    };
+    uint32_t largest = 0;
+    for (uint32_t slot = 0; slot < n; ++slot) {
+      const uint32_t code = StoredErrorAt(h.data, slot);
+      const double v = quantizer_.Decode(code);
+      if (!std::isfinite(v) || v < 0) {
+        return bad("error entry " + std::to_string(slot) + " is " + std::to_string(v));
       }
-      SDB_ASSIGN_OR_RETURN(const BlockHandle h, Block(i));
-      const auto bad = [&](const std::string& why) {
-        return Status::Corruption(path_ + ": " + Describe(i) + ": " + why);
-      };
-      const uint64_t first = VirtualBlock(i) << header_.block_bits;
-      uint32_t largest = 0;
-      for (uint32_t slot = 0; slot < n; ++slot) {
-        const uint32_t code = StoredErrorAt(h.data, slot);
-        const double v = quantizer_.Decode(code);
-        if (!std::isfinite(v) || v < 0) {
-          return bad("error entry " + std::to_string(slot) + " is " + std::to_string(v));
-        }
-        largest = std::max(largest, code);  // f32 bits of non-negative floats order as the floats
-        typename std::decay_t<decltype(order)>::GridPoint g{};
-        const uint64_t p = first + slot;
-        const bool real = p < order.size() && order.Decode(p, g) && [&] {
-          for (int a = 0; a < d; ++a) {
-            if (g[a] >= header_.dims[a]) return false;
-          }
-          return true;
-        }();
-        const double f = FieldAt(h.data, slot);
-        if (!real) {
-          if (f != 0) return bad("field entry " + std::to_string(slot) + " off the grid is " + std::to_string(f));
-          continue;
-        }
-        if (std::isnan(f)) continue;  // a missing value
-        if (!(f >= e.field_min && f <= e.field_max && f >= header_.field_min &&
-              f <= header_.field_max)) {
-          return bad("field entry " + std::to_string(slot) + " is " + std::to_string(f) +
-                     ", outside the recorded range");
-        }
-      }
-      if (largest > e.error_max) {
-        return bad("holds an error of " + std::to_string(quantizer_.Decode(largest)) +
-                   " above its recorded maximum " + std::to_string(quantizer_.Decode(e.error_max)));
+      largest = std::max(largest, code);  // f32 bits of non-negative floats order as the floats
+    }
+    if (largest > e.error_max) {
+      return bad("holds an error of " + std::to_string(quantizer_.Decode(largest)) +
+                 " above its recorded maximum " + std::to_string(quantizer_.Decode(e.error_max)));
+    }
+  }
+  for (uint64_t b = 0; b < header_.bricks; ++b) {
+    if (progress && (blocks + b) % 256 == 0) progress(blocks + b, total);
+    const HzIndexEntry e = brick_entry(b);
+    if (Checksum(file_->bytes().subspan(e.offset, e.stored_size)) != e.checksum) {
+      return Status::Corruption(path_ + ": " + DescribeBrick(b) + ": checksum mismatch");
+    }
+    SDB_ASSIGN_OR_RETURN(const BlockHandle h, Brick(b));
+    const auto bad = [&](const std::string& why) {
+      return Status::Corruption(path_ + ": " + DescribeBrick(b) + ": " + why);
+    };
+    const BrickPlace place = grid_->Place(b);
+    const size_t voxels = BrickVoxels(header_.dimension, place.extent);
+    for (size_t slot = 0; slot < voxels; ++slot) {
+      const double f = VoxelAt(h.data, slot);
+      if (std::isnan(f)) continue;  // a missing value
+      if (!(f >= e.field_min && f <= e.field_max && f >= header_.field_min &&
+            f <= header_.field_max)) {
+        return bad("field entry " + std::to_string(slot) + " is " + std::to_string(f) +
+                   ", outside the recorded range");
       }
     }
-    return Status::OK();
-  };
-  SDB_RETURN_IF_ERROR(d == 3 ? check(HzOrder<3>(header_.domain_bits))
-                             : check(HzOrder<4>(header_.domain_bits)));
+    if (place.lattice != 0 || header_.finest_stored()) continue;
+    // The finest errors the reader computes, against the builder's maximum.
+    SDB_ASSIGN_OR_RETURN(const auto codes, ComputeFinest(b));
+    uint32_t largest = 0;
+    for (size_t i = 0; i + 4 <= codes->size(); i += 4) {
+      largest = std::max(largest, LoadLittle<uint32_t>(codes->data() + i));
+    }
+    if (largest != e.error_max) {
+      return bad("its finest errors, computed from the field, reach " +
+                 std::to_string(quantizer_.Decode(largest)) + "; the builder recorded " +
+                 std::to_string(quantizer_.Decode(e.error_max)));
+    }
+  }
   if (progress) progress(total, total);
   return Status::OK();
 }
 
 template <int D>
 HzStore::Reader<D>::Reader(const HzStore& store)
-    : store_(store), order_(store.header().domain_bits) {}
+    : store_(store),
+      order_(store.header().domain_bits),
+      held_bricks_(static_cast<size_t>(store.header().domain_bits) + 1) {}
 
 template <int D>
 Status HzStore::Reader<D>::Hold(Held& held, uint64_t vblock) {
@@ -358,9 +576,45 @@ Status HzStore::Reader<D>::Hold(Held& held, uint64_t vblock) {
 }
 
 template <int D>
+Result<uint32_t> HzStore::Reader<D>::FinestCode(uint64_t p, const double* threshold, bool* skipped) {
+  std::array<int64_t, D> g{};
+  if (!order_.Decode(p, g)) return 0u;  // no vertex there
+  std::array<int64_t, 4> q{};
+  for (int a = 0; a < D; ++a) q[a] = std::min<int64_t>(g[a], int64_t{store_.header().dims[a]} - 1);
+  size_t unused = 0;
+  const uint64_t b = store_.grid().BrickOf(0, q, &unused);
+  HeldBrick& held = held_boxes_[b & 7];
+  if (held.brick != b) {
+    const uint32_t recorded = store_.brick_entry(b).error_max;
+    if (recorded == 0) return 0u;  // every finest error of the brick is 0
+    if (threshold != nullptr && store_.quantizer().Decode(recorded) <= *threshold) {
+      ++blocks_skipped_;
+      *skipped = true;
+      return recorded;
+    }
+    ++block_fetches_;
+    SDB_ASSIGN_OR_RETURN(held.handle, store_.FinestCodes(b));
+    held.brick = b;
+  }
+  const Box box = store_.FinestBox(b);
+  size_t slot = 0, scale = 1;
+  for (int a = 0; a < D; ++a) {
+    const int64_t local = g[a] - box.first[a];
+    if (local >= box.extent[a]) return 0u;  // past the box: no real point in its diamond
+    slot += static_cast<size_t>(local) * scale;
+    scale *= static_cast<size_t>(box.extent[a]);
+  }
+  return LoadLittle<uint32_t>(held.handle.data + 4 * slot);
+}
+
+template <int D>
 Result<uint32_t> HzStore::Reader<D>::StoredError(SimplexCode<D> code) {
   if (code.level() >= order_.levels()) return 0u;
   const uint64_t p = PositionOf(code);
+  if (p >= store_.header().error_positions()) {
+    bool skipped = false;
+    return FinestCode(p, nullptr, &skipped);
+  }
   const uint64_t vblock = p >> store_.header().block_bits;
   Held& held = HeldFor(p);
   if (vblock != held.vblock || held.skipped) SDB_RETURN_IF_ERROR(Hold(held, vblock));
@@ -379,6 +633,11 @@ template <int D>
 Result<double> HzStore::Reader<D>::ErrorBoundForThresholdAt(SimplexCode<D> code, uint64_t p,
                                                             double threshold) {
   if (code.level() >= order_.levels()) return 0.0;
+  if (p >= store_.header().error_positions()) {
+    bool skipped = false;
+    SDB_ASSIGN_OR_RETURN(const uint32_t c, FinestCode(p, &threshold, &skipped));
+    return store_.quantizer().Decode(c);
+  }
   const uint64_t vblock = p >> store_.header().block_bits;
   Held& held = HeldFor(p);
   if (vblock == held.vblock && held.skipped) {
@@ -409,20 +668,25 @@ Result<double> HzStore::Reader<D>::ErrorBoundForThresholdAt(SimplexCode<D> code,
 
 template <int D>
 Result<double> HzStore::Reader<D>::Field(const std::array<int64_t, D>& p) {
-  std::array<int64_t, D> q{};
+  // From the coarsest lattice holding the point: a coarse mesh reads
+  // coarse bricks only.
+  std::array<int64_t, 4> q{};
+  uint64_t bits = 0;
   const auto& dims = store_.header().dims;
-  for (int a = 0; a < D; ++a) q[a] = std::clamp<int64_t>(p[a], 0, int64_t{dims[a]} - 1);
-  const int level = order_.Level(q);
-  const uint64_t pos = order_.PositionAtLevel(q, level);
-  const uint64_t vblock = pos >> store_.header().block_bits;
-  Held& held = HeldFor(pos);
-  if (vblock != held.vblock || held.skipped) SDB_RETURN_IF_ERROR(Hold(held, vblock));
-  if (!held.stored) {
-    return Status::Corruption(store_.path() + ": " + store_.DescribeBlock(vblock) +
-                              " holds a grid point but is not stored");
+  for (int a = 0; a < D; ++a) {
+    q[a] = std::clamp<int64_t>(p[a], 0, int64_t{dims[a]} - 1);
+    bits |= static_cast<uint64_t>(q[a]);
   }
-  return store_.FieldAt(held.handle.data,
-                        static_cast<uint32_t>(pos & (store_.header().block_records() - 1)));
+  const int k = store_.header().domain_bits;
+  const int s = bits == 0 ? k : std::min(k, std::countr_zero(bits));
+  size_t slot = 0;
+  const uint64_t b = store_.grid().BrickOf(s, q, &slot);
+  HeldBrick& held = held_bricks_[static_cast<size_t>(s)];
+  if (held.brick != b) {
+    SDB_ASSIGN_OR_RETURN(held.handle, store_.Brick(b));
+    held.brick = b;
+  }
+  return store_.VoxelAt(held.handle.data, slot);
 }
 
 template class HzStore::Reader<3>;

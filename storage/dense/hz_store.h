@@ -1,38 +1,44 @@
 // HzStore: a read-only, memory-mapped store of format 2 (storage/dense/
-// hz_format.h, docs/format/dense-store-2.md): per grid vertex, its diamond's
-// error and its field value, in hierarchical Z-order, in blocks that are raw
-// (read in place) or zstd frames (decoded into a bounded cache). A node's
-// error is the error of the diamond whose split vertex it creates.
+// hz_format.h, docs/format/dense-store-2.md): per grid vertex its diamond's
+// error, in hierarchical Z-order, in blocks; the field as bricks of every
+// octave's lattice. Blocks and bricks are raw (blocks are read in place) or
+// zstd frames, decoded into a bounded cache. A node's error is the error of
+// the diamond whose split vertex it creates; where the store keeps no
+// errors for the finest octave, a brick's worth of them is computed from
+// the field around it (storage/error/finest_box_errors.h, as the builder
+// computed them) and cached like a decoded block.
 //
-// Opening checks the header, the file's size, the bitmap's and the index's
-// checksums and every index entry; a block's own checksum is checked the
-// first time it is read (and all of them by Verify()). A damaged store gives
-// Corruption naming the file and the block; nothing reads past the mapping.
+// Opening checks the header, the file's size, the bitmap's and the indexes'
+// checksums and every index entry; a block's or brick's own checksum is
+// checked the first time it is read (and all of them by Verify()). A
+// damaged store gives Corruption naming the file and the block or brick;
+// nothing reads past the mapping.
 //
 // Thread safety: an HzStore may be shared by any number of threads. Lookups
 // go through a Reader, one per thread, which keeps the last block it read
 // in each segment (a walk moves between levels at every step, and each
 // level's records of each odd-axis pattern are their own blocks; no lock
-// while a walk stays in them) and the octave steps of the last code
+// while a walk stays in them), the last brick of each lattice and a few
+// boxes of finest errors, and the octave steps of the last code
 // (hierarchy/hz_order.h SplitVertexCursor).
 //
-// Memory: decoded blocks live in the BlockCache (a budget set by the
-// caller) plus those a Reader holds (one per segment: 7 per octave in the
-// HT, 15 in the HP); raw blocks, the bitmap and the index are read from
-// the mapping. Beyond that the store keeps 8 bytes per 64
-// virtual blocks (the bitmap's rank directory) and one byte per stored block
-// (raw blocks' checksum state). With Options::in_memory every block is
-// decoded at open: the in-core case.
+// Memory: decoded blocks, bricks and finest boxes live in the BlockCache (a
+// budget set by the caller) plus those a Reader holds; raw blocks, the
+// bitmap and the indexes are read from the mapping. Beyond that the store
+// keeps 8 bytes per 64 virtual blocks (the bitmap's rank directory) and two
+// bytes per stored block and brick. With Options::in_memory every block and
+// brick is decoded at open (the in-core case); finest boxes are then
+// computed on first use and kept.
 //
 // Lifetimes: the store outlives its Readers and BlockHandles; header(),
-// path() and quantizer() live as long as the store.
+// path(), quantizer() and grid() live as long as the store.
 //
 // Errors: Open returns NotFound, InvalidArgument (not a store),
-// NotSupported (format 1: import again; another version), Corruption
-// (damaged), ResourceExhausted (in_memory and the blocks do not fit);
-// lookups return Corruption naming the block when it fails its checksum or
-// does not decode, ResourceExhausted "not enough memory for ..." when a
-// decoded block does not fit.
+// NotSupported (format 1 or an earlier format 2: import again; another
+// version), Corruption (damaged), ResourceExhausted (in_memory and the
+// blocks do not fit); lookups return Corruption naming the block or brick
+// when it fails its checksum or does not decode, ResourceExhausted "not
+// enough memory for ..." when a decoded one does not fit.
 #pragma once
 
 #include <array>
@@ -48,7 +54,9 @@
 #include "hierarchy/hz_order.h"
 #include "hierarchy/simplex_code.h"
 #include "storage/dense/block_cache.h"
+#include "storage/dense/field_bricks.h"
 #include "storage/dense/hz_format.h"
+#include "storage/error/finest_box_errors.h"
 #include "storage/error/quantize.h"
 #include "storage/io/file.h"
 #include "util/status.h"
@@ -58,7 +66,7 @@ namespace simplexdb {
 class HzStore {
  public:
   struct Options {
-    size_t cache_bytes = size_t{256} << 20;  // decoded blocks kept
+    size_t cache_bytes = size_t{256} << 20;  // decoded blocks, bricks and boxes kept
     bool in_memory = false;                  // decode everything at open
     std::shared_ptr<BlockCache> cache;       // share one cache between stores
   };
@@ -73,49 +81,75 @@ class HzStore {
   int dimension() const { return header_.dimension; }
   const std::string& path() const { return path_; }
   const ErrorQuantizer& quantizer() const { return quantizer_; }
+  const BrickGrid& grid() const { return *grid_; }
   uint64_t file_size() const { return header_.file_size; }
   uint64_t stored_blocks() const { return header_.stored_blocks; }
-  // Bytes of a decoded block: the error entries, then the field values.
-  size_t error_bytes() const { return error_size_ << header_.block_bits; }
-  size_t block_bytes() const { return (error_size_ + voxel_size_) << header_.block_bits; }
+  uint64_t bricks() const { return header_.bricks; }
+  // Bytes of a decoded block: its error entries.
+  size_t block_bytes() const { return error_size_ << header_.block_bits; }
+  // Bytes of a decoded full brick: its voxels.
+  size_t brick_bytes() const { return voxel_size_ * grid_->brick_voxels(); }
 
   // The stored block holding virtual block `vblock`, by its rank among the
   // stored blocks; nullopt when the block is not stored (all its errors are
-  // 0 and it holds no real vertex). O(1).
+  // 0). O(1).
   std::optional<uint64_t> StoredIndex(uint64_t vblock) const;
   // The virtual block of stored block `i` (O(log) over the bitmap's words).
   uint64_t VirtualBlock(uint64_t stored) const;
   HzIndexEntry entry(uint64_t stored) const {
     return ParseHzIndexEntry(index_ + stored * kHzIndexEntrySize);
   }
+  HzIndexEntry brick_entry(uint64_t brick) const {
+    return ParseHzIndexEntry(brick_index_ + brick * kHzIndexEntrySize);
+  }
 
   struct BlockHandle {
-    const uint8_t* data = nullptr;  // block_bytes() bytes
+    const uint8_t* data = nullptr;  // block_bytes() bytes, or a brick's voxels
     std::shared_ptr<const void> keep;
   };
   // Stored block `i`, decoded.
   Result<BlockHandle> Block(uint64_t stored) const;
+  // Brick `b`, decoded: its voxels, little-endian, x fastest over its extent.
+  Result<BlockHandle> Brick(uint64_t b) const;
+  // The finest-octave error codes of the vertices grid brick `b` owns
+  // (FinestBox), computed from the field. REQUIRES: !finest_stored(), b a
+  // brick of lattice 0.
+  Result<BlockHandle> FinestCodes(uint64_t b) const;
+
+  // The box of finest vertices grid brick b owns: its points, and the
+  // vertices past the real grid's last faces whose diamonds reach it
+  // (up to 2^k) when it is the last brick along an axis.
+  struct Box {
+    std::array<int64_t, 4> first{}, extent{1, 1, 1, 1};
+  };
+  Box FinestBox(uint64_t b) const;
 
   uint32_t StoredErrorAt(const uint8_t* block, uint32_t slot) const;
-  double FieldAt(const uint8_t* block, uint32_t slot) const;
+  double VoxelAt(const uint8_t* brick, size_t slot) const;
 
-  // Reads every stored block: checksum, decoding, errors finite and within
-  // the block's recorded maximum, real vertices' field values within the
-  // block's and the header's range. `progress(done, total)` now and then.
+  // Reads every stored block and brick: checksums, decoding, errors finite
+  // and within the recorded maxima, field values within the brick's and the
+  // header's range, and (finest errors not stored) each grid brick's finest
+  // errors, computed, equal to its recorded maximum. `progress(done,
+  // total)` now and then.
   Status Verify(const std::function<void(uint64_t, uint64_t)>& progress = {}) const;
 
   // "block 12 (level 7, odd axes 011, positions 49152..53247)".
   std::string DescribeBlock(uint64_t vblock) const;
+  // "brick 40 (the points at multiples of 2, from (0, 32, 16))".
+  std::string DescribeBrick(uint64_t b) const;
 
   struct Stats {
-    uint64_t blocks_decoded = 0;  // zstd frames decoded (cache misses)
-    uint64_t raw_checked = 0;     // raw blocks checksummed on first use
-    uint64_t distinct = 0;        // different blocks asked for since the open
+    uint64_t blocks_decoded = 0;  // zstd frames decoded (cache misses), blocks and bricks
+    uint64_t raw_checked = 0;     // raw blocks and bricks checksummed on first use
+    uint64_t distinct = 0;        // different blocks and bricks asked for since the open
+    uint64_t boxes_computed = 0;  // bricks' finest errors computed (cache misses)
   };
   Stats stats() const {
     return Stats{decoded_.load(std::memory_order_relaxed),
                  raw_checked_.load(std::memory_order_relaxed),
-                 distinct_.load(std::memory_order_relaxed)};
+                 distinct_.load(std::memory_order_relaxed),
+                 boxes_.load(std::memory_order_relaxed)};
   }
   const BlockCache* cache() const { return cache_.get(); }
 
@@ -131,8 +165,9 @@ class HzStore {
     Result<double> ErrorBound(SimplexCode<D> code);
     Result<uint32_t> StoredError(SimplexCode<D> code);
     // For a query that only asks whether the bound exceeds `threshold`: the
-    // bound, or, when the node's block is not the one held and the index
-    // records a maximum at most `threshold`, that maximum (nothing decoded).
+    // bound, or, when the node's block (or brick, for the finest octave) is
+    // not the one held and the index records a maximum at most `threshold`,
+    // that maximum (nothing decoded or computed).
     Result<double> ErrorBoundForThreshold(SimplexCode<D> code, double threshold) {
       if (code.level() >= order_.levels()) return 0.0;
       return ErrorBoundForThresholdAt(code, Position(code), threshold);
@@ -177,38 +212,64 @@ class HzStore {
       return order_.PositionAtLevel(LatticeToGrid<D>(cursor_.Of(code), order_.domain_bits()),
                                     code.level());
     }
+    // The error code of finest vertex at position p (not stored), from its
+    // brick's box; with `threshold`, the brick's recorded maximum when it
+    // is at most that (*skipped set).
+    Result<uint32_t> FinestCode(uint64_t p, const double* threshold, bool* skipped);
 
     const HzStore& store_;
     HzOrder<D> order_;
     SplitVertexCursor<D> cursor_;
     std::array<Held, (kCoordBits<D> + 1) << D> held_;
+    // The last brick read per lattice (Field) and a few finest boxes, by
+    // brick number.
+    struct HeldBrick {
+      uint64_t brick = ~uint64_t{0};
+      BlockHandle handle;
+    };
+    std::vector<HeldBrick> held_bricks_;
+    std::array<HeldBrick, 8> held_boxes_;
     uint64_t block_fetches_ = 0;
     uint64_t blocks_skipped_ = 0;
   };
 
  private:
   HzStore() = default;
-  Status ValidateBitmapAndIndex();
+  Status ValidateBitmapAndIndexes();
   Status LoadAll();
   Result<std::shared_ptr<const BlockCache::Block>> DecodeBlock(uint64_t stored) const;
+  Result<std::shared_ptr<const BlockCache::Block>> DecodeBrickAt(uint64_t b) const;
+  Result<std::shared_ptr<const BlockCache::Block>> ComputeFinest(uint64_t b) const;
+  template <int D>
+  Result<std::shared_ptr<const BlockCache::Block>> ComputeFinestOf(uint64_t b) const;
   std::string Describe(uint64_t stored) const { return DescribeBlock(VirtualBlock(stored)); }
+  // Counts a first request of block or brick `i` (blocks first, then bricks).
+  void Touch(uint64_t i) const;
 
   std::string path_;
   HzHeader header_;
   ErrorQuantizer quantizer_{Quantization::kU16, 1, 0};
+  std::unique_ptr<BrickGrid> grid_;
   std::unique_ptr<MappedFile> file_;
   const uint8_t* bitmap_ = nullptr;  // in the mapping; validated at open
   const uint8_t* index_ = nullptr;
+  const uint8_t* brick_index_ = nullptr;
   std::vector<uint64_t> rank_;       // stored blocks before each bitmap word
   size_t error_size_ = 2, voxel_size_ = 1;
   std::shared_ptr<BlockCache> cache_;
   uint64_t cache_store_id_ = 0;
-  std::vector<std::shared_ptr<const BlockCache::Block>> resident_;  // in_memory
-  std::unique_ptr<std::atomic<uint8_t>[]> raw_state_;  // 1 checked, 2 bad
-  std::unique_ptr<std::atomic<uint8_t>[]> touched_;    // 1: asked for by Block()
+  // in_memory: every block and brick decoded.
+  std::vector<std::shared_ptr<const BlockCache::Block>> resident_, resident_bricks_;
+  // Finest errors from the field (the stencils for a box's window), the
+  // store's dimension's one; null when the store keeps them.
+  std::unique_ptr<FinestBoxErrors<3>> finest3_;
+  std::unique_ptr<FinestBoxErrors<4>> finest4_;
+  std::unique_ptr<std::atomic<uint8_t>[]> raw_state_;  // blocks then bricks: 1 checked, 2 bad
+  std::unique_ptr<std::atomic<uint8_t>[]> touched_;    // blocks then bricks: 1 asked for
   mutable std::atomic<uint64_t> decoded_{0};
   mutable std::atomic<uint64_t> raw_checked_{0};
   mutable std::atomic<uint64_t> distinct_{0};
+  mutable std::atomic<uint64_t> boxes_{0};
 };
 
 }  // namespace simplexdb

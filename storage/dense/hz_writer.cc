@@ -1,6 +1,7 @@
 #include "storage/dense/hz_writer.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <chrono>
 #include <cmath>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "hierarchy/hz_order.h"
+#include "storage/dense/field_bricks.h"
 #include "storage/dense/parallel_run.h"
 #include "storage/error/quantize.h"
 #include "storage/io/checksum.h"
@@ -46,76 +48,105 @@ bool MayHoldData(const HzHeader& h, uint64_t vblock) {
   return true;
 }
 
-template <int D>
-bool IsRealVertex(const HzOrder<D>& order, const HzHeader& h, uint64_t p) {
-  std::array<int64_t, D> g{};
-  if (!order.Decode(p, g)) return false;
-  for (int a = 0; a < D; ++a) {
-    if (g[a] >= int64_t{h.dims[a]}) return false;
-  }
-  return true;
-}
-
 struct Worker {
-  std::vector<double> errors, fields;
+  std::vector<double> errors;
   std::vector<uint8_t> raw;
-  std::vector<std::byte> voxels;
   std::unique_ptr<ZstdCompressor> zstd;
 };
 
+// The stored block or brick: appended, checksummed, its entry filled.
+Status Append(AtomicFileWriter& writer, std::span<const uint8_t> stored, HzIndexEntry& e) {
+  SDB_ASSIGN_OR_RETURN(e.offset, writer.Append(stored));
+  e.stored_size = static_cast<uint32_t>(stored.size());
+  e.checksum = Checksum(stored);
+  return Status::OK();
+}
+
+// OK when every value of the field fits the stored type.
+template <int D>
+Status CheckField(const std::string& path, const HzHeader& h, const double* field) {
+  uint64_t n = 1;
+  for (int a = 0; a < D; ++a) n *= h.dims[a];
+  for (uint64_t i = 0; i < n; ++i) {
+    if (IsRepresentable(h.voxel_type, field[i])) continue;
+    std::string at;
+    uint64_t rest = i;
+    for (int a = 0; a < D; ++a) {
+      at += (a == 0 ? "(" : ", ") + std::to_string(rest % h.dims[a]);
+      rest /= h.dims[a];
+    }
+    return Status::InvalidArgument(path + ": the field value " + std::to_string(field[i]) +
+                                   " at grid point " + at + ") is not a " +
+                                   std::string(VoxelTypeName(h.voxel_type)));
+  }
+  return Status::OK();
+}
+
 template <int D>
 Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions& options,
-                       const HzFill& fill) {
+                       const HzFill& fill, const double* field) {
   const auto start = std::chrono::steady_clock::now();
+  SDB_RETURN_IF_ERROR(CheckField<D>(path, h, field));
   const HzOrder<D> order(h.domain_bits);
   const int position_bits = D * (h.domain_bits + 1);
   h.version = kHzFormatVersion;
-  h.virtual_blocks =
+  const uint64_t stored_positions = h.error_positions();
+  const int stored_bits = std::countr_zero(stored_positions);
+  h.virtual_blocks = stored_bits <= h.block_bits ? 1 : uint64_t{1} << (stored_bits - h.block_bits);
+  const uint64_t all_blocks =
       position_bits <= h.block_bits ? 1 : uint64_t{1} << (position_bits - h.block_bits);
   const double range = h.field_max - h.field_min;
   h.quantum = ErrorQuantizer::QuantumFor(h.quantization, range);
   const ErrorQuantizer quantizer(h.quantization, h.quantum, range);
   const size_t n = h.block_records();
   const size_t error_size = QuantizedSize(h.quantization);
-  const size_t voxel_size = VoxelSize(h.voxel_type);
+  std::array<uint32_t, 4> dims4 = h.dims;
+  const BrickGrid grid(D, dims4, h.domain_bits, h.brick_bits);
+  h.bricks = grid.bricks();
 
   std::vector<uint64_t> candidates;
-  std::vector<HzIndexEntry> entries;
+  std::vector<HzIndexEntry> entries, brick_entries;
   std::vector<uint8_t> kept;
+  std::unique_ptr<std::atomic<uint32_t>[]> finest_max;  // per grid brick
   try {
-    for (uint64_t b = 0; b < h.virtual_blocks; ++b) {
+    for (uint64_t b = 0; b < all_blocks; ++b) {
       if (MayHoldData<D>(h, b)) candidates.push_back(b);
     }
     entries.resize(candidates.size());
     kept.assign(candidates.size(), 0);
+    brick_entries.resize(h.bricks);
+    finest_max = std::make_unique<std::atomic<uint32_t>[]>(grid.Count(0));
   } catch (const std::bad_alloc&) {
-    return NotEnoughMemory(path + ": the block list", h.virtual_blocks * 8);
+    return NotEnoughMemory(path + ": the block list", all_blocks * 8 + h.bricks * 48);
   }
   SDB_ASSIGN_OR_RETURN(auto writer, AtomicFileWriter::Create(path));
   writer->Reserve(kHzHeaderSize);
 
   std::vector<Worker> workers(static_cast<size_t>(options.threads));
+  const auto prepare = [&](Worker& wk) {
+    if (!wk.errors.empty()) return;
+    wk.errors.resize(n);
+    wk.raw.resize(n * error_size);
+    if (options.compression == Compression::kZstd) {
+      wk.zstd = std::make_unique<ZstdCompressor>(options.zstd_level);
+    }
+  };
   std::mutex max_mu;
   double error_max = 0;
-  const auto work = [&](int w, uint64_t item) -> Status {
+  const auto block = [&](int w, uint64_t item) -> Status {
     Worker& wk = workers[static_cast<size_t>(w)];
-    if (wk.errors.empty()) {
-      wk.errors.resize(n);
-      wk.fields.resize(n);
-      wk.raw.resize(n * (error_size + voxel_size));
-      wk.voxels.resize(n * voxel_size);
-      if (options.compression == Compression::kZstd) {
-        wk.zstd = std::make_unique<ZstdCompressor>(options.zstd_level);
-      }
-    }
+    prepare(wk);
     const uint64_t first = candidates[item] << h.block_bits;
     const size_t count =
         static_cast<size_t>(std::min<uint64_t>(n, order.size() > first ? order.size() - first : 0));
     std::fill(wk.errors.begin(), wk.errors.end(), 0.0);
-    std::fill(wk.fields.begin(), wk.fields.end(), 0.0);
-    if (count > 0) SDB_RETURN_IF_ERROR(fill(w, first, count, wk.errors.data(), wk.fields.data()));
-    bool any_real = false, any_error = false;
-    double fmin = std::numeric_limits<double>::infinity(), fmax = -fmin, emax = 0;
+    std::fill(wk.raw.begin(), wk.raw.end(), uint8_t{0});
+    if (count > 0) SDB_RETURN_IF_ERROR(fill(w, first, count, wk.errors.data()));
+    // Block 0 may hold the finest octave too (a small domain): those
+    // entries stay 0, their maxima go to the bricks.
+    const bool stored = first < stored_positions;
+    bool any_error = false;
+    double emax = 0;
     uint32_t code_max = 0;
     for (size_t i = 0; i < n; ++i) {
       const double e = wk.errors[i];
@@ -124,60 +155,68 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
                                        " is " + std::to_string(e));
       }
       const uint32_t code = options.errors_are_bounds ? quantizer.EncodeBound(e) : quantizer.Encode(e);
+      emax = std::max(emax, e);
+      if (first + i >= stored_positions) {
+        // A finest vertex: its grid brick records the largest code.
+        std::array<int64_t, D> g{};
+        if (code == 0 || !order.Decode(first + i, g)) continue;
+        std::array<int64_t, 4> p{};
+        for (int a = 0; a < D; ++a) p[a] = std::min<int64_t>(g[a], int64_t{h.dims[a]} - 1);
+        size_t slot = 0;
+        std::atomic<uint32_t>& m = finest_max[grid.BrickOf(0, p, &slot) - grid.FirstBrick(0)];
+        for (uint32_t seen = m.load(); seen < code && !m.compare_exchange_weak(seen, code);) {
+        }
+        continue;
+      }
       any_error = any_error || code != 0;
       code_max = std::max(code_max, code);  // f32 bits of non-negative floats order as the floats
-      emax = std::max(emax, e);
       switch (h.quantization) {
         case Quantization::kU16: StoreLittle<uint16_t>(wk.raw.data() + 2 * i, static_cast<uint16_t>(code)); break;
         case Quantization::kU8: wk.raw[i] = static_cast<uint8_t>(code); break;
         case Quantization::kF32: StoreLittle<uint32_t>(wk.raw.data() + 4 * i, code); break;
       }
-      if (i < count && IsRealVertex<D>(order, h, first + i)) {
-        any_real = true;
-        const double f = wk.fields[i];
-        if (!IsRepresentable(h.voxel_type, f)) {
-          return Status::InvalidArgument(path + ": the field value " + std::to_string(f) +
-                                         " at position " + std::to_string(first + i) +
-                                         " is not a " + std::string(VoxelTypeName(h.voxel_type)));
-        }
-        if (!std::isnan(f)) {
-          fmin = std::min(fmin, f);
-          fmax = std::max(fmax, f);
-        }
-      } else {
-        wk.fields[i] = 0;
-      }
     }
-    if (!any_real && !any_error) return Status::OK();  // not stored
-    EncodeVoxels(h.voxel_type, ByteOrder::kLittle, wk.fields.data(), n, wk.voxels.data());
-    std::memcpy(wk.raw.data() + n * error_size, wk.voxels.data(), n * voxel_size);
+    {
+      std::lock_guard<std::mutex> lock(max_mu);
+      error_max = std::max(error_max, emax);
+    }
+    if (!stored || (!any_error && candidates[item] != 0)) return Status::OK();  // not stored
     HzIndexEntry& e = entries[item];
     std::vector<uint8_t> compressed;
-    std::span<const uint8_t> stored(wk.raw);
-    e.encoding = BlockEncoding::kRaw;
+    std::span<const uint8_t> bytes(wk.raw);
+    e.encoding = static_cast<uint8_t>(BlockEncoding::kRaw);
     if (wk.zstd) {
       SDB_ASSIGN_OR_RETURN(compressed, wk.zstd->Compress(wk.raw));
       if (compressed.size() < wk.raw.size()) {
-        stored = compressed;
-        e.encoding = BlockEncoding::kZstd;
+        bytes = compressed;
+        e.encoding = static_cast<uint8_t>(BlockEncoding::kZstd);
       }
     }
-    SDB_ASSIGN_OR_RETURN(e.offset, writer->Append(stored));
-    e.stored_size = static_cast<uint32_t>(stored.size());
-    e.checksum = Checksum(stored);
-    e.field_min = any_real && fmin <= fmax ? RoundDownToFloat(fmin) : 0.0f;
-    e.field_max = any_real && fmin <= fmax ? RoundUpToFloat(fmax) : 0.0f;
+    SDB_RETURN_IF_ERROR(Append(*writer, bytes, e));
     e.error_max = code_max;
     kept[item] = 1;
-    std::lock_guard<std::mutex> lock(max_mu);
-    error_max = std::max(error_max, emax);
     return Status::OK();
   };
   SDB_RETURN_IF_ERROR(RunParallel(candidates.size(), options.threads, "blocks", start,
-                                  options.progress, work));
+                                  options.progress, block));
 
-  // Bitmap and index, in block order.
-  std::vector<uint8_t> bitmap(8 * h.bitmap_words(), 0), index;
+  const auto brick = [&](int w, uint64_t b) -> Status {
+    Worker& wk = workers[static_cast<size_t>(w)];
+    prepare(wk);
+    SDB_ASSIGN_OR_RETURN(EncodedBrick coded,
+                         EncodeBrick(grid, b, field, h.voxel_type, wk.zstd.get()));
+    HzIndexEntry& e = brick_entries[b];
+    e.encoding = static_cast<uint8_t>(coded.coding);
+    SDB_RETURN_IF_ERROR(Append(*writer, coded.bytes, e));
+    e.field_min = RoundDownToFloat(coded.min);
+    e.field_max = RoundUpToFloat(coded.max);
+    if (b >= grid.FirstBrick(0)) e.error_max = finest_max[b - grid.FirstBrick(0)].load();
+    return Status::OK();
+  };
+  SDB_RETURN_IF_ERROR(RunParallel(h.bricks, options.threads, "bricks", start, options.progress, brick));
+
+  // Bitmap and indexes, in block and brick order.
+  std::vector<uint8_t> bitmap(8 * h.bitmap_words(), 0), index, brick_index;
   uint64_t stored = 0;
   for (size_t i = 0; i < candidates.size(); ++i) stored += kept[i];
   index.resize(stored * kHzIndexEntrySize);
@@ -188,13 +227,19 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
     bitmap[b / 8] |= static_cast<uint8_t>(1u << (b % 8));  // little-endian words: bit b of the map
     SerializeHzIndexEntry(entries[i], index.data() + j++ * kHzIndexEntrySize);
   }
+  brick_index.resize(h.bricks * kHzIndexEntrySize);
+  for (uint64_t b = 0; b < h.bricks; ++b) {
+    SerializeHzIndexEntry(brick_entries[b], brick_index.data() + b * kHzIndexEntrySize);
+  }
   h.stored_blocks = stored;
   h.error_max = error_max;
   SDB_ASSIGN_OR_RETURN(h.bitmap_offset, writer->Append(bitmap));
   SDB_ASSIGN_OR_RETURN(h.index_offset, writer->Append(index));
+  SDB_ASSIGN_OR_RETURN(h.brick_index_offset, writer->Append(brick_index));
   h.file_size = writer->size();
   h.bitmap_checksum = Checksum(bitmap);
   h.index_checksum = Checksum(index);
+  h.brick_index_checksum = Checksum(brick_index);
   const auto header = SerializeHzHeader(h);
   SDB_RETURN_IF_ERROR(writer->WriteAt(0, header));
   SDB_RETURN_IF_ERROR(writer->Commit());
@@ -204,15 +249,18 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
 }  // namespace
 
 Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
-                              const HzWriteOptions& options, const HzFill& fill) {
+                              const HzWriteOptions& options, const HzFill& fill,
+                              const double* field) {
   const int max_bits = params.dimension == 3 ? 18 : 13;
   if ((params.dimension != 3 && params.dimension != 4) || params.domain_bits < 1 ||
       params.domain_bits > max_bits || params.block_bits < 6 || params.block_bits > 20 ||
-      options.threads < 1 || !(params.field_min <= params.field_max)) {
+      params.brick_bits < 1 || params.brick_bits > (params.dimension == 3 ? 6 : 4) ||
+      (params.flags & ~kHzFinestStored) != 0 || options.threads < 1 ||
+      !(params.field_min <= params.field_max)) {
     return Status::InvalidArgument(path + ": store parameters out of range");
   }
-  if (params.dimension == 3) return Write<3>(path, params, options, fill);
-  return Write<4>(path, params, options, fill);
+  if (params.dimension == 3) return Write<3>(path, params, options, fill, field);
+  return Write<4>(path, params, options, fill, field);
 }
 
 }  // namespace simplexdb

@@ -1,14 +1,18 @@
-// Writes a format-2 store (storage/dense/hz_format.h) from its records: for
-// each HZ position, the diamond error and the field value, given by the
-// caller a block at a time.
+// Writes a format-2 store (storage/dense/hz_format.h): the diamond errors
+// the caller gives a block at a time, and the field, in memory, as bricks.
 //
-// The writer decides which virtual blocks can hold data from geometry alone
-// (a block inside the real grid, or near enough that a diamond of its level
-// reaches it), asks the caller to fill those, drops the ones that turn out
-// to hold no real vertex and no error, quantizes errors (always rounded up:
-// storage/error/quantize.h), compresses blocks on `threads` workers and
-// appends them as they finish. The store is written under a temporary name,
-// synced and renamed (AtomicFileWriter): a failure leaves nothing.
+// The writer decides which virtual blocks can hold a non-zero error from
+// geometry alone (a block inside the real grid, or near enough that a
+// diamond of its level reaches it), asks the caller to fill those, drops
+// the ones that turn out to hold only zeros, quantizes errors (always
+// rounded up: storage/error/quantize.h), compresses blocks and bricks on
+// `threads` workers and appends them as they finish. Unless the header's
+// flags say kHzFinestStored, the finest octave's errors are asked for too
+// but not stored: each grid brick records the largest of its vertices'
+// (the reader computes them from the field, storage/error/
+// finest_box_errors.h, and must find the same). The store is written under
+// a temporary name, synced and renamed (AtomicFileWriter): a failure leaves
+// nothing.
 //
 // Thread safety: `fill` is called concurrently from the workers, with the
 // worker's index (0 .. threads - 1) so it can keep per-worker state;
@@ -16,7 +20,8 @@
 // Lifetimes: nothing is kept after the call; the workers are joined.
 // Errors: those of `fill` (the first failure stops the work), of the output
 // (storage/io/file.h: the path refused, a full disk), ResourceExhausted
-// "not enough memory for ..."; InvalidArgument for parameters out of range.
+// "not enough memory for ..."; InvalidArgument for parameters out of range
+// or a field value the voxel type cannot hold (naming the grid point).
 #pragma once
 
 #include <cstdint>
@@ -38,22 +43,22 @@ struct HzWriteOptions {
   // store): stored as the nearest code not below them, with no margin for
   // the rounding of a computation.
   bool errors_are_bounds = false;
-  std::function<void(const BuildProgress&)> progress;  // phase "blocks"
+  std::function<void(const BuildProgress&)> progress;  // phases "blocks", "bricks"
 };
 
-// Fills the records at HZ positions [first, first + count): errors[i] the
+// Fills the errors at HZ positions [first, first + count): errors[i] the
 // diamond error of the vertex at first + i (0 when it has none: a corner, a
-// hole past the domain's faces, a diamond with no real point), fields[i]
-// its field value (read only where the vertex is on the real grid).
-using HzFill = std::function<Status(int worker, uint64_t first, size_t count, double* errors,
-                                    double* fields)>;
+// hole past the domain's faces, a diamond with no real point).
+using HzFill = std::function<Status(int worker, uint64_t first, size_t count, double* errors)>;
 
 // Writes `path`. From `params` the writer takes dimension, domain_bits,
-// dims, voxel_type (the stored field's type: every value given must be
-// representable in it), quantization, block_bits, field_min/max (the range
-// over the real grid: it sets the quantum), spacing, origin, scaling and
-// source; it sets the rest. Returns the header written.
+// dims, voxel_type (the stored field's type), quantization, block_bits,
+// brick_bits, flags, field_min/max (the range over the real grid: it sets
+// the quantum), spacing, origin, scaling and source; it sets the rest.
+// `field` holds the real grid's values, x fastest (NaN: missing), each
+// representable in voxel_type. Returns the header written.
 Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
-                              const HzWriteOptions& options, const HzFill& fill);
+                              const HzWriteOptions& options, const HzFill& fill,
+                              const double* field);
 
 }  // namespace simplexdb

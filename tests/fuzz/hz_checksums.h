@@ -1,7 +1,7 @@
 // Recomputes every checksum of a (possibly damaged) format-2 store in place
-// (docs/format/dense-store-2.md): each block's, the bitmap's, the index's
-// and the header's, wherever the offsets the damaged header and index give
-// stay inside the bytes. Damage then gets past the checksums and reaches the
+// (docs/format/dense-store-2.md): each block's and brick's, the bitmap's,
+// the two indexes' and the header's, wherever the offsets the damaged
+// header and indexes give stay inside the bytes. Damage then gets past the checksums and reaches the
 // structural checks behind them: the fuzz target and the damage tests use it.
 #ifndef SIMPLEXDB_TESTS_FUZZ_HZ_CHECKSUMS_H_
 #define SIMPLEXDB_TESTS_FUZZ_HZ_CHECKSUMS_H_
@@ -30,19 +30,20 @@ inline void RepairHzChecksums(std::vector<uint8_t>& f) {
   if (words <= f.size() / 8 && inside(bitmap_offset, 8 * words)) {
     StoreLittle(h + 192, Checksum(std::span<const uint8_t>(h + bitmap_offset, 8 * words)));
   }
-  if (stored_blocks <= f.size() / kHzIndexEntrySize &&
-      inside(index_offset, stored_blocks * kHzIndexEntrySize)) {
-    for (uint64_t b = 0; b < stored_blocks; ++b) {
-      uint8_t* e = h + index_offset + b * kHzIndexEntrySize;
-      const uint64_t offset = LoadLittle<uint64_t>(e);
+  // Each entry's data, then the index itself.
+  const auto repair_index = [&](uint64_t offset, uint64_t count, size_t checksum_at) {
+    if (count > f.size() / kHzIndexEntrySize || !inside(offset, count * kHzIndexEntrySize)) return;
+    for (uint64_t i = 0; i < count; ++i) {
+      uint8_t* e = h + offset + i * kHzIndexEntrySize;
+      const uint64_t at = LoadLittle<uint64_t>(e);
       const uint64_t stored = LoadLittle<uint32_t>(e + 8);
-      if (inside(offset, stored)) {
-        StoreLittle(e + 16, Checksum(std::span<const uint8_t>(h + offset, stored)));
-      }
+      if (inside(at, stored)) StoreLittle(e + 16, Checksum(std::span<const uint8_t>(h + at, stored)));
     }
-    StoreLittle(h + 200, Checksum(std::span<const uint8_t>(h + index_offset,
-                                                            stored_blocks * kHzIndexEntrySize)));
-  }
+    StoreLittle(h + checksum_at,
+                Checksum(std::span<const uint8_t>(h + offset, count * kHzIndexEntrySize)));
+  };
+  repair_index(index_offset, stored_blocks, 200);
+  repair_index(LoadLittle<uint64_t>(h + 216), LoadLittle<uint64_t>(h + 208), 224);
   StoreLittle(h + kHzHeaderSize - 8, Checksum(std::span<const uint8_t>(h, kHzHeaderSize - 8)));
 }
 

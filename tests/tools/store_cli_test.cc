@@ -88,13 +88,13 @@ TEST(StoreCli, Format2ImportInfoVerifyExtract) {
     r = RunCli("import " + in + " -o " + f2 + " --format 2 --quantization f32 --json --force");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto report = nlohmann::json::parse(r.out);
-    EXPECT_EQ(report["format_version"], 2);
+    EXPECT_EQ(report["format_version"], 3);
     EXPECT_EQ(report["file_bytes"].get<uint64_t>(), fs::file_size(f2));
     ASSERT_EQ(RunCli("import " + in + " -o " + f1 + " --quantization f32 -q --force").exit_code, 0);
     r = RunCli("info " + f2 + " --json");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto info = nlohmann::json::parse(r.out);
-    EXPECT_EQ(info["format_version"], 2);
+    EXPECT_EQ(info["format_version"], 3);
     EXPECT_EQ(info["voxel_type"], "int16");
     EXPECT_EQ(info["grid_points"], report["grid_points"]);
     EXPECT_GT(info["stored_blocks"].get<uint64_t>(), 0u);

@@ -113,29 +113,25 @@ void ExpectFields(const HzStore& store, const TestVolume& volume) {
   }
 }
 
-// The blocks stored are exactly those holding a real vertex or a non-zero
-// error, counted over every HZ position.
+// The blocks stored are exactly block 0 and those holding a non-zero error,
+// counted over every node; every brick of every lattice is stored.
 template <int D>
 void ExpectOnlyBlocksWithData(const HzStore& store) {
   const HzHeader& h = store.header();
   const HzOrder<D> order(h.domain_bits);
   HzStore::Reader<D> reader(store);
-  std::set<uint64_t> needed;
-  // Errors: every code's diamond; real vertices: every real grid point.
+  std::set<uint64_t> needed = {0};
   ForEachInternalCode<D>(h.leaf_level(), [&](SimplexCode<D> c) {
-    if (*reader.ErrorBound(c) > 0) needed.insert(order.PositionOf(c) >> h.block_bits);
+    const uint64_t p = order.PositionOf(c);
+    if (p < h.error_positions() && *reader.ErrorBound(c) > 0) needed.insert(p >> h.block_bits);
   });
-  for (uint64_t p = 0; p < order.size(); ++p) {
-    std::array<int64_t, D> g{};
-    if (!order.Decode(p, g)) continue;
-    bool real = true;
-    for (int a = 0; a < D; ++a) real = real && g[a] < int64_t{h.dims[a]};
-    if (real) needed.insert(p >> h.block_bits);
-  }
   EXPECT_EQ(h.stored_blocks, needed.size());
   for (uint64_t b = 0; b < h.virtual_blocks; ++b) {
     ASSERT_EQ(store.StoredIndex(b).has_value(), needed.count(b) == 1) << b;
   }
+  uint64_t bricks = 0;
+  for (int s = 0; s < store.grid().lattices(); ++s) bricks += store.grid().Count(s);
+  EXPECT_EQ(h.bricks, bricks);
 }
 
 TEST(HzStore, Ht17DiamondErrorsAndFields) {
@@ -283,6 +279,10 @@ void ExpectDirectBuildMatchesTheEngine(const TestVolume& v, const std::string& n
 TEST(HzStore, DirectBuildMatchesTheEngine) {
   ExpectDirectBuildMatchesTheEngine<3>(TestVolume::Random(3, {17, 17, 17, 1}, VoxelType::kF32, 31), "ht17");
   ExpectDirectBuildMatchesTheEngine<3>(TestVolume::Random(3, {21, 7, 12, 1}, VoxelType::kU8, 32), "ht_padded");
+  // A domain whose every octave fits in block 0 (D k < block bits): the
+  // finest octave's part of it is not stored.
+  ExpectDirectBuildMatchesTheEngine<3>(TestVolume::Random(3, {9, 8, 7, 1}, VoxelType::kF32, 36), "ht9");
+  ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {5, 4, 5, 3}, VoxelType::kU8, 37), "hp5");
   ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kI16, 33), "hp9");
   ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {7, 10, 5, 3}, VoxelType::kF32, 34), "hp_short");
 }
@@ -346,17 +346,26 @@ std::optional<std::vector<double>> AllAnswers(const HzStore& store) {
 // (open, a lookup or Verify fails) or harmless (the same answers), and with
 // its checksums repaired fails cleanly or answers. Run in the sanitizer
 // build too: nothing may crash or read out of bounds.
+// `direct`: the store built from the field (finest errors computed by the
+// reader), else through ConvertToHz (every error stored).
 template <int D>
 void DamageCampaign(const TestVolume& volume, Compression compression, int block_bits,
-                    uint64_t seed, int cases) {
+                    uint64_t seed, int cases, bool direct) {
   TempDir dir;
   HzBuildOptions o;
   o.compression = compression;
   o.block_bits = block_bits;
   const Built b = Build(volume, dir, "good", o);
-  const auto truth = AllAnswers<D>(*b.hz);
+  if (direct) {
+    ASSERT_TRUE(BuildHzStore(*OpenVolume(dir / "good.nrrd"), dir / "good.sdb", o).ok());
+  }
+  auto good = HzStore::Open(dir / "good.sdb");
+  ASSERT_TRUE(good.ok()) << good.status().message();
+  ASSERT_EQ((*good)->header().finest_stored(), !direct);
+  const auto truth = AllAnswers<D>(**good);
   ASSERT_TRUE(truth.has_value());
   const std::vector<uint8_t> bytes = ReadBytes(dir / "good.sdb");
+  good->reset();
   std::mt19937_64 rng(seed);
   int detected = 0, harmless = 0;
   for (int i = 0; i < cases; ++i) {
@@ -414,22 +423,23 @@ void DamageCampaign(const TestVolume& volume, Compression compression, int block
   EXPECT_GT(detected, cases * 3 / 4) << harmless << " harmless";
 }
 
-// 4 x 300 damaged stores, HT and HP, zstd and raw blocks.
+// 4 x 300 damaged stores, HT and HP, zstd and raw, finest errors computed
+// and stored.
 TEST(HzStore, DamagedHtZstdIsDetectedOrHarmless) {
   DamageCampaign<3>(TestVolume::Random(3, {13, 11, 9, 1}, VoxelType::kU8, 7), Compression::kZstd,
-                    6, 11, 300);
+                    6, 11, 300, true);
 }
 TEST(HzStore, DamagedHtRawIsDetectedOrHarmless) {
   DamageCampaign<3>(TestVolume::Random(3, {9, 7, 12, 1}, VoxelType::kI16, 8), Compression::kNone,
-                    6, 12, 300);
+                    6, 12, 300, false);
 }
 TEST(HzStore, DamagedHpZstdIsDetectedOrHarmless) {
   DamageCampaign<4>(TestVolume::Random(4, {5, 5, 4, 5}, VoxelType::kF32, 9), Compression::kZstd,
-                    8, 13, 300);
+                    8, 13, 300, false);
 }
 TEST(HzStore, DamagedHpRawIsDetectedOrHarmless) {
   DamageCampaign<4>(TestVolume::Random(4, {5, 3, 5, 4}, VoxelType::kU16, 10), Compression::kNone,
-                    8, 14, 300);
+                    8, 14, 300, true);
 }
 
 }  // namespace
