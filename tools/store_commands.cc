@@ -362,16 +362,17 @@ void RunInfo(const std::string& path, bool as_json) {
 
 // --- verify ----------------------------------------------------------------
 
-// Store: DenseStore or HzStore, whose Verify reports progress by block.
+// Store: DenseStore or HzStore, whose Verify reports progress by block
+// (format 2: blocks, then bricks). `what`: "12 blocks", "12 blocks and 40 bricks".
 template <class Store>
-void VerifyStore(const Store& store, const std::string& path, uint64_t blocks, bool quiet) {
+void VerifyStore(const Store& store, const std::string& path, const std::string& what, bool quiet) {
   ProgressLine line(!quiet);
   const Status s = store.Verify([&](uint64_t done, uint64_t total) {
-    line.Update(fmt::format("{}: verifying block {}/{}", path, done, total));
+    line.Update(fmt::format("{}: verifying {}/{}", path, done, total));
   });
   line.Finish();
   if (!s.ok()) Fail(s);
-  if (!quiet) fmt::print("{}: ok ({} blocks, every checksum and value range)\n", path, blocks);
+  if (!quiet) fmt::print("{}: ok ({}, every checksum and value range)\n", path, what);
 }
 
 void RunVerify(const std::string& path, bool quiet) {
@@ -382,11 +383,14 @@ void RunVerify(const std::string& path, bool quiet) {
   if (LooksLikeFormat2(path)) {
     Result<std::unique_ptr<HzStore>> hz = HzStore::Open(path);  // header, bitmap, index
     if (!hz.ok()) Fail(hz.status());
-    VerifyStore(**hz, path, (*hz)->stored_blocks(), quiet);
+    VerifyStore(**hz, path,
+                fmt::format("{} blocks and {} bricks{}", (*hz)->stored_blocks(), (*hz)->bricks(),
+                            (*hz)->header().finest_stored() ? "" : ", the finest errors recomputed"),
+                quiet);
     return;
   }
   const auto store = OpenDenseStore(path);  // header, size, index
-  VerifyStore(*store, path, store->block_count(), quiet);
+  VerifyStore(*store, path, fmt::format("{} blocks", store->block_count()), quiet);
 }
 
 // --- export ----------------------------------------------------------------
