@@ -12,9 +12,6 @@
 //                  cmake --build build/fuzz --target hz_store_reader_fuzz
 //                  build/fuzz/tests/hz_store_reader_fuzz tests/fuzz/corpus/hz_store_reader
 //   Replay (ctest): hz_store_reader_fuzz_replay runs every saved input.
-#include <sys/mman.h>
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -23,6 +20,7 @@
 #include "hierarchy/simplex_code.h"
 #include "storage/dense/hz_store.h"
 #include "tests/fuzz/hz_checksums.h"
+#include "tests/fuzz/memory_file.h"
 
 namespace simplexdb {
 namespace {
@@ -51,15 +49,9 @@ void Exercise(const HzStore& store) {
 }
 
 void OpenAndRead(const uint8_t* data, size_t size) {
-  const int fd = memfd_create("store", 0);
-  if (fd < 0) return;
-  size_t done = 0;
-  while (done < size) {
-    const ssize_t n = write(fd, data + done, size - done);
-    if (n <= 0) break;
-    done += static_cast<size_t>(n);
-  }
-  const std::string path = "/proc/self/fd/" + std::to_string(fd);
+  const fuzz::MemoryFile file(data, size);
+  if (!file.ok()) return;
+  const std::string& path = file.path();
   for (const bool in_memory : {false, true}) {
     HzStore::Options options;
     options.cache_bytes = 64 << 10;
@@ -72,7 +64,6 @@ void OpenAndRead(const uint8_t* data, size_t size) {
       Exercise<4>(**store);
     }
   }
-  close(fd);
 }
 
 }  // namespace

@@ -12,9 +12,6 @@
 //                  cmake --build build/fuzz --target store_reader_fuzz
 //                  build/fuzz/tests/store_reader_fuzz tests/fuzz/corpus/store_reader
 //   Replay (ctest): store_reader_fuzz_replay runs every saved input.
-#include <sys/mman.h>
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -25,6 +22,7 @@
 #include "storage/dense/dense_store.h"
 #include "storage/dense/format.h"
 #include "storage/io/checksum.h"
+#include "tests/fuzz/memory_file.h"
 #include "util/little_endian.h"
 
 namespace simplexdb {
@@ -78,15 +76,9 @@ void Exercise(const DenseStore& store) {
 }
 
 void OpenAndRead(const uint8_t* data, size_t size) {
-  const int fd = memfd_create("store", 0);
-  if (fd < 0) return;
-  size_t done = 0;
-  while (done < size) {
-    const ssize_t n = write(fd, data + done, size - done);
-    if (n <= 0) break;
-    done += static_cast<size_t>(n);
-  }
-  const std::string path = "/proc/self/fd/" + std::to_string(fd);
+  const fuzz::MemoryFile file(data, size);
+  if (!file.ok()) return;
+  const std::string& path = file.path();
   for (const bool in_memory : {false, true}) {
     DenseStore::Options options;
     options.cache_bytes = 1 << 20;
@@ -99,7 +91,6 @@ void OpenAndRead(const uint8_t* data, size_t size) {
       Exercise<4>(**store);
     }
   }
-  close(fd);
 }
 
 }  // namespace
