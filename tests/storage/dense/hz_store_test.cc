@@ -20,6 +20,7 @@
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
 #include "storage/dense/hz_builder.h"
+#include "storage/dense/hz_lattice.h"
 #include "storage/dense/hz_store.h"
 #include "storage/volume/volume.h"
 #include "tests/fuzz/hz_checksums.h"
@@ -440,6 +441,69 @@ TEST(HzStore, DamagedHpZstdIsDetectedOrHarmless) {
 TEST(HzStore, DamagedHpRawIsDetectedOrHarmless) {
   DamageCampaign<4>(TestVolume::Random(4, {5, 3, 5, 4}, VoxelType::kU16, 10), Compression::kNone,
                     8, 14, 300, true);
+}
+
+}  // namespace
+}  // namespace simplexdb
+
+namespace simplexdb {
+namespace {
+
+// Coarse reads from one lattice's bricks against the reader's Field, point
+// by point: every lattice, the whole grid and a box inside it.
+template <int D>
+void ExpectLatticeReads(const TestVolume& v, const std::string& name) {
+  SCOPED_TRACE(name);
+  TempDir dir;
+  ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
+  ASSERT_TRUE(BuildHzStore(*OpenVolume(dir / "v.nrrd"), dir / "v.sdb", HzBuildOptions{}).ok());
+  const auto store = *HzStore::Open(dir / "v.sdb");
+  HzStore::Reader<D> reader(*store);
+  const HzHeader& h = store->header();
+  for (int s = 0; s <= h.domain_bits; ++s) {
+    const int64_t step = int64_t{1} << s;
+    std::array<int64_t, 4> lo{}, hi{}, inner_lo{}, inner_hi{};
+    for (int a = 0; a < D; ++a) {
+      hi[a] = int64_t{h.dims[a]} - 1;
+      inner_lo[a] = (h.dims[a] / 3) / step * step;
+      inner_hi[a] = std::max(inner_lo[a], int64_t{h.dims[a]} * 2 / 3);
+    }
+    for (const auto& [from, to] : {std::pair{lo, hi}, std::pair{inner_lo, inner_hi}}) {
+      std::array<int64_t, 4> n{1, 1, 1, 1};
+      uint64_t count = 1;
+      for (int a = 0; a < D; ++a) {
+        n[a] = (to[a] - from[a]) / step + 1;
+        count *= static_cast<uint64_t>(n[a]);
+      }
+      std::vector<double> got(count);
+      ASSERT_TRUE(ReadLattice(*store, s, from, to, got.data()).ok()) << "lattice " << s;
+      for (uint64_t i = 0; i < count; ++i) {
+        std::array<int64_t, D> p{};
+        uint64_t rest = i;
+        for (int a = 0; a < D; ++a) {
+          p[a] = from[a] + static_cast<int64_t>(rest % static_cast<uint64_t>(n[a])) * step;
+          rest /= static_cast<uint64_t>(n[a]);
+        }
+        ASSERT_EQ(got[i], *reader.Field(p)) << "lattice " << s << " " << ::testing::PrintToString(p);
+      }
+    }
+  }
+  // A box not starting on the lattice, or past the grid, is refused.
+  std::array<int64_t, 4> lo{}, hi{};
+  for (int a = 0; a < D; ++a) hi[a] = int64_t{h.dims[a]} - 1;
+  lo[0] = 1;
+  std::vector<double> out(size_t{1} << 20);
+  EXPECT_TRUE(ReadLattice(*store, 1, lo, hi, out.data()).IsInvalidArgument());
+  lo[0] = 0;
+  hi[0] = h.dims[0];
+  EXPECT_TRUE(ReadLattice(*store, 0, lo, hi, out.data()).IsInvalidArgument());
+  EXPECT_TRUE(ReadLattice(*store, h.domain_bits + 1, lo, lo, out.data()).IsInvalidArgument());
+}
+
+TEST(HzStore, LatticeReadsEqualTheFieldPointByPoint) {
+  ExpectLatticeReads<3>(TestVolume::Random(3, {37, 21, 18, 1}, VoxelType::kU8, 41), "ht");
+  ExpectLatticeReads<3>(TestVolume::Random(3, {9, 17, 5, 1}, VoxelType::kF32, 42), "ht_float");
+  ExpectLatticeReads<4>(TestVolume::Random(4, {11, 9, 5, 7}, VoxelType::kI16, 43), "hp");
 }
 
 }  // namespace
