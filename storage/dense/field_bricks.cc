@@ -76,6 +76,27 @@ uint64_t BrickGrid::BrickOf(int s, const std::array<int64_t, 4>& p, size_t* slot
   return first_brick_[static_cast<size_t>(s)] + brick;
 }
 
+BrickGrid::Box BrickGrid::FinestBox(uint64_t b) const {
+  const BrickPlace place = Place(b);
+  assert(place.lattice == 0);
+  const int64_t side = int64_t{1} << k_;
+  Box box;
+  for (int a = 0; a < dimension_; ++a) {
+    box.first[a] = place.first[a];
+    box.extent[a] = place.extent[a];
+    const int64_t dim = dims_[a];
+    if (place.first[a] + place.extent[a] == dim) box.extent[a] = std::min(side, dim + 1) + 1 - place.first[a];
+  }
+  return box;
+}
+
+uint64_t BrickGrid::FinestOwner(const std::array<int64_t, 4>& g) const {
+  std::array<int64_t, 4> q{};
+  for (int a = 0; a < dimension_; ++a) q[a] = std::min<int64_t>(g[a], int64_t{dims_[a]} - 1);
+  size_t unused = 0;
+  return BrickOf(0, q, &unused);
+}
+
 Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const double* field,
                                  VoxelType type, ZstdCompressor* zstd,
                                  std::optional<BrickCoding> only) {

@@ -72,6 +72,19 @@ class BrickGrid {
   // O(D): shifts and multiplies.
   uint64_t BrickOf(int s, const std::array<int64_t, 4>& p, size_t* slot) const;
 
+  // The finest-octave vertices grid brick b (lattice 0) owns: those g with
+  // min(g, dims - 1) in it, per axis. The brick's points, and past the real
+  // grid's last faces (when it is the last brick along an axis) the
+  // vertices up to min(2^k, dims[a] + 1), whose diamonds reach real points.
+  // A format-2 store records each grid brick's largest finest error over
+  // this box. REQUIRES: b a brick of lattice 0.
+  struct Box {
+    std::array<int64_t, 4> first{}, extent{1, 1, 1, 1};
+  };
+  Box FinestBox(uint64_t b) const;
+  // The grid brick owning finest vertex g (coordinates up to 2^k).
+  uint64_t FinestOwner(const std::array<int64_t, 4>& g) const;
+
  private:
   int dimension_, k_, side_bits_;
   std::array<uint32_t, 4> dims_;

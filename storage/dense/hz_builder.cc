@@ -13,6 +13,7 @@
 #include "hierarchy/geometry.h"
 #include "hierarchy/hz_order.h"
 #include "storage/dense/dense_builder.h"
+#include "storage/dense/field_bricks.h"
 #include "storage/dense/hz_writer.h"
 #include "storage/dense/layout.h"
 #include "storage/dense/parallel_run.h"
@@ -193,7 +194,7 @@ Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
     }
     return Status::OK();
   };
-  SDB_ASSIGN_OR_RETURN(report.header, WriteHzStore(out, params, write, fill, field.data()));
+  SDB_ASSIGN_OR_RETURN(report.header, WriteHzStore(out, params, write, fill, field.data(), nullptr));
   report.grid_points = n;
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return report;
@@ -295,8 +296,37 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
     }
     return Status::OK();
   };
+  // Each grid brick's largest finest error, from the table: the store
+  // keeps that, not the errors (its reader computes them as the table did).
+  const BrickGrid grid(D, input.dims, k, params.brick_bits);
+  std::vector<double> finest_max(grid.Count(0), 0.0);
+  const int64_t side = int64_t{1} << k;
+  SDB_RETURN_IF_ERROR(RunParallel(
+      grid.Count(0), threads, "finest", start, options.progress, [&](int, uint64_t i) {
+        const BrickGrid::Box box = grid.FinestBox(grid.FirstBrick(0) + i);
+        std::array<int64_t, D> g{}, local{};
+        double m = 0;
+        while (true) {
+          bool finest = false, inside = true;
+          for (int a = 0; a < D; ++a) {
+            g[a] = box.first[a] + local[a];
+            finest = finest || (g[a] & 1) != 0;
+            inside = inside && g[a] <= side;
+          }
+          if (finest && inside) m = std::max(m, diamonds.At(g, 0));  // never past the table
+          int a = 0;
+          for (; a < D; ++a) {
+            if (++local[a] < box.extent[a]) break;
+            local[a] = 0;
+          }
+          if (a == D) break;
+        }
+        finest_max[i] = m;
+        return Status::OK();
+      }));
   HzBuildReport report;
-  SDB_ASSIGN_OR_RETURN(report.header, WriteHzStore(out, params, write, fill, field.data()));
+  SDB_ASSIGN_OR_RETURN(report.header,
+                       WriteHzStore(out, params, write, fill, field.data(), finest_max.data()));
   report.grid_points = n;
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return std::optional<HzBuildReport>(report);

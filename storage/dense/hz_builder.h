@@ -49,7 +49,7 @@ struct HzBuildOptions {
   size_t memory_bytes = size_t{1} << 30;
   int threads = 0;  // 0: one per core
   std::optional<VolumeInfo> mask;  // as DenseBuildOptions::mask
-  std::function<void(const BuildProgress&)> progress;  // "field", "errors", "diamonds", "blocks", "bricks"
+  std::function<void(const BuildProgress&)> progress;  // "field", "errors", "finest", "diamonds", "blocks", "bricks"
 };
 
 struct HzBuildReport {

@@ -363,21 +363,6 @@ Result<HzStore::BlockHandle> HzStore::Brick(uint64_t b) const {
   return HandleOf(cache_->Insert(key, std::move(fresh)));
 }
 
-HzStore::Box HzStore::FinestBox(uint64_t b) const {
-  const BrickPlace place = grid_->Place(b);
-  const int64_t side = int64_t{1} << header_.domain_bits;
-  Box box;
-  for (int a = 0; a < header_.dimension; ++a) {
-    box.first[a] = place.first[a];
-    box.extent[a] = place.extent[a];
-    const int64_t dim = header_.dims[a];
-    if (place.first[a] + place.extent[a] == dim) {
-      box.extent[a] = std::min(side, dim + 1) + 1 - place.first[a];
-    }
-  }
-  return box;
-}
-
 Result<HzStore::BlockHandle> HzStore::FinestCodes(uint64_t b) const {
   const BlockCache::Key key{cache_store_id_, header_.stored_blocks + header_.bricks + b};
   if (auto hit = cache_->Lookup(key)) return HandleOf(std::move(hit));
@@ -398,7 +383,7 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64
       return *finest4_;
     }
   }();
-  const Box box = FinestBox(b);
+  const BrickGrid::Box box = grid_->FinestBox(b);
   const int64_t w = finest.window_side();
   const int bits = header_.brick_bits;
   std::array<int64_t, D> first{}, extent{}, dims{};
@@ -579,10 +564,9 @@ template <int D>
 Result<uint32_t> HzStore::Reader<D>::FinestCode(uint64_t p, const double* threshold, bool* skipped) {
   std::array<int64_t, D> g{};
   if (!order_.Decode(p, g)) return 0u;  // no vertex there
-  std::array<int64_t, 4> q{};
-  for (int a = 0; a < D; ++a) q[a] = std::min<int64_t>(g[a], int64_t{store_.header().dims[a]} - 1);
-  size_t unused = 0;
-  const uint64_t b = store_.grid().BrickOf(0, q, &unused);
+  std::array<int64_t, 4> g4{};
+  for (int a = 0; a < D; ++a) g4[a] = g[a];
+  const uint64_t b = store_.grid().FinestOwner(g4);
   HeldBrick& held = held_boxes_[b & 7];
   if (held.brick != b) {
     const uint32_t recorded = store_.brick_entry(b).error_max;
@@ -596,7 +580,7 @@ Result<uint32_t> HzStore::Reader<D>::FinestCode(uint64_t p, const double* thresh
     SDB_ASSIGN_OR_RETURN(held.handle, store_.FinestCodes(b));
     held.brick = b;
   }
-  const Box box = store_.FinestBox(b);
+  const BrickGrid::Box box = store_.grid().FinestBox(b);
   size_t slot = 0, scale = 1;
   for (int a = 0; a < D; ++a) {
     const int64_t local = g[a] - box.first[a];

@@ -112,17 +112,10 @@ class HzStore {
   // Brick `b`, decoded: its voxels, little-endian, x fastest over its extent.
   Result<BlockHandle> Brick(uint64_t b) const;
   // The finest-octave error codes of the vertices grid brick `b` owns
-  // (FinestBox), computed from the field. REQUIRES: !finest_stored(), b a
+  // (BrickGrid::FinestBox), computed from the field. REQUIRES: !finest_stored(), b a
   // brick of lattice 0.
   Result<BlockHandle> FinestCodes(uint64_t b) const;
 
-  // The box of finest vertices grid brick b owns: its points, and the
-  // vertices past the real grid's last faces whose diamonds reach it
-  // (up to 2^k) when it is the last brick along an axis.
-  struct Box {
-    std::array<int64_t, 4> first{}, extent{1, 1, 1, 1};
-  };
-  Box FinestBox(uint64_t b) const;
 
   uint32_t StoredErrorAt(const uint8_t* block, uint32_t slot) const;
   double VoxelAt(const uint8_t* brick, size_t slot) const;

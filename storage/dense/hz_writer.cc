@@ -84,17 +84,14 @@ Status CheckField(const std::string& path, const HzHeader& h, const double* fiel
 
 template <int D>
 Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions& options,
-                       const HzFill& fill, const double* field) {
+                       const HzFill& fill, const double* field, const double* finest_max) {
   const auto start = std::chrono::steady_clock::now();
   SDB_RETURN_IF_ERROR(CheckField<D>(path, h, field));
   const HzOrder<D> order(h.domain_bits);
-  const int position_bits = D * (h.domain_bits + 1);
   h.version = kHzFormatVersion;
   const uint64_t stored_positions = h.error_positions();
   const int stored_bits = std::countr_zero(stored_positions);
   h.virtual_blocks = stored_bits <= h.block_bits ? 1 : uint64_t{1} << (stored_bits - h.block_bits);
-  const uint64_t all_blocks =
-      position_bits <= h.block_bits ? 1 : uint64_t{1} << (position_bits - h.block_bits);
   const double range = h.field_max - h.field_min;
   h.quantum = ErrorQuantizer::QuantumFor(h.quantization, range);
   const ErrorQuantizer quantizer(h.quantization, h.quantum, range);
@@ -107,17 +104,15 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
   std::vector<uint64_t> candidates;
   std::vector<HzIndexEntry> entries, brick_entries;
   std::vector<uint8_t> kept;
-  std::unique_ptr<std::atomic<uint32_t>[]> finest_max;  // per grid brick
   try {
-    for (uint64_t b = 0; b < all_blocks; ++b) {
+    for (uint64_t b = 0; b < h.virtual_blocks; ++b) {
       if (MayHoldData<D>(h, b)) candidates.push_back(b);
     }
     entries.resize(candidates.size());
     kept.assign(candidates.size(), 0);
     brick_entries.resize(h.bricks);
-    finest_max = std::make_unique<std::atomic<uint32_t>[]>(grid.Count(0));
   } catch (const std::bad_alloc&) {
-    return NotEnoughMemory(path + ": the block list", all_blocks * 8 + h.bricks * 48);
+    return NotEnoughMemory(path + ": the block list", h.virtual_blocks * 8 + h.bricks * 48);
   }
   SDB_ASSIGN_OR_RETURN(auto writer, AtomicFileWriter::Create(path));
   writer->Reserve(kHzHeaderSize);
@@ -142,9 +137,6 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
     std::fill(wk.errors.begin(), wk.errors.end(), 0.0);
     std::fill(wk.raw.begin(), wk.raw.end(), uint8_t{0});
     if (count > 0) SDB_RETURN_IF_ERROR(fill(w, first, count, wk.errors.data()));
-    // Block 0 may hold the finest octave too (a small domain): those
-    // entries stay 0, their maxima go to the bricks.
-    const bool stored = first < stored_positions;
     bool any_error = false;
     double emax = 0;
     uint32_t code_max = 0;
@@ -155,19 +147,10 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
                                        " is " + std::to_string(e));
       }
       const uint32_t code = options.errors_are_bounds ? quantizer.EncodeBound(e) : quantizer.Encode(e);
+      // Block 0 may reach into the finest octave (a small domain): those
+      // entries stay 0; the grid bricks record their maxima.
+      if (first + i >= stored_positions) continue;
       emax = std::max(emax, e);
-      if (first + i >= stored_positions) {
-        // A finest vertex: its grid brick records the largest code.
-        std::array<int64_t, D> g{};
-        if (code == 0 || !order.Decode(first + i, g)) continue;
-        std::array<int64_t, 4> p{};
-        for (int a = 0; a < D; ++a) p[a] = std::min<int64_t>(g[a], int64_t{h.dims[a]} - 1);
-        size_t slot = 0;
-        std::atomic<uint32_t>& m = finest_max[grid.BrickOf(0, p, &slot) - grid.FirstBrick(0)];
-        for (uint32_t seen = m.load(); seen < code && !m.compare_exchange_weak(seen, code);) {
-        }
-        continue;
-      }
       any_error = any_error || code != 0;
       code_max = std::max(code_max, code);  // f32 bits of non-negative floats order as the floats
       switch (h.quantization) {
@@ -180,7 +163,7 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
       std::lock_guard<std::mutex> lock(max_mu);
       error_max = std::max(error_max, emax);
     }
-    if (!stored || (!any_error && candidates[item] != 0)) return Status::OK();  // not stored
+    if (!any_error && candidates[item] != 0) return Status::OK();  // not stored
     HzIndexEntry& e = entries[item];
     std::vector<uint8_t> compressed;
     std::span<const uint8_t> bytes(wk.raw);
@@ -210,7 +193,12 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
     SDB_RETURN_IF_ERROR(Append(*writer, coded.bytes, e));
     e.field_min = RoundDownToFloat(coded.min);
     e.field_max = RoundUpToFloat(coded.max);
-    if (b >= grid.FirstBrick(0)) e.error_max = finest_max[b - grid.FirstBrick(0)].load();
+    if (b >= grid.FirstBrick(0) && finest_max != nullptr) {
+      const double m = finest_max[b - grid.FirstBrick(0)];
+      e.error_max = options.errors_are_bounds ? quantizer.EncodeBound(m) : quantizer.Encode(m);
+      std::lock_guard<std::mutex> lock(max_mu);
+      error_max = std::max(error_max, m);
+    }
     return Status::OK();
   };
   SDB_RETURN_IF_ERROR(RunParallel(h.bricks, options.threads, "bricks", start, options.progress, brick));
@@ -250,7 +238,7 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
 
 Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
                               const HzWriteOptions& options, const HzFill& fill,
-                              const double* field) {
+                              const double* field, const double* finest_max) {
   const int max_bits = params.dimension == 3 ? 18 : 13;
   if ((params.dimension != 3 && params.dimension != 4) || params.domain_bits < 1 ||
       params.domain_bits > max_bits || params.block_bits < 6 || params.block_bits > 20 ||
@@ -259,8 +247,12 @@ Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
       !(params.field_min <= params.field_max)) {
     return Status::InvalidArgument(path + ": store parameters out of range");
   }
-  if (params.dimension == 3) return Write<3>(path, params, options, fill, field);
-  return Write<4>(path, params, options, fill, field);
+  if ((finest_max == nullptr) != ((params.flags & kHzFinestStored) != 0)) {
+    return Status::InvalidArgument(path + ": the finest errors' maxima go with a store that "
+                                          "does not keep them");
+  }
+  if (params.dimension == 3) return Write<3>(path, params, options, fill, field, finest_max);
+  return Write<4>(path, params, options, fill, field, finest_max);
 }
 
 }  // namespace simplexdb

@@ -7,9 +7,9 @@
 // the ones that turn out to hold only zeros, quantizes errors (always
 // rounded up: storage/error/quantize.h), compresses blocks and bricks on
 // `threads` workers and appends them as they finish. Unless the header's
-// flags say kHzFinestStored, the finest octave's errors are asked for too
-// but not stored: each grid brick records the largest of its vertices'
-// (the reader computes them from the field, storage/error/
+// flags say kHzFinestStored, the finest octave's errors are not asked for:
+// each grid brick records the largest of its vertices', which the caller
+// gives (the reader computes them from the field, storage/error/
 // finest_box_errors.h, and must find the same). The store is written under
 // a temporary name, synced and renamed (AtomicFileWriter): a failure leaves
 // nothing.
@@ -56,9 +56,12 @@ using HzFill = std::function<Status(int worker, uint64_t first, size_t count, do
 // brick_bits, flags, field_min/max (the range over the real grid: it sets
 // the quantum), spacing, origin, scaling and source; it sets the rest.
 // `field` holds the real grid's values, x fastest (NaN: missing), each
-// representable in voxel_type. Returns the header written.
+// representable in voxel_type. `finest_max`: unless flags has
+// kHzFinestStored (then null), per grid brick (lattice 0, in brick order)
+// the largest finest-octave error of the vertices it owns
+// (BrickGrid::FinestBox). Returns the header written.
 Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
                               const HzWriteOptions& options, const HzFill& fill,
-                              const double* field);
+                              const double* field, const double* finest_max);
 
 }  // namespace simplexdb
