@@ -10,6 +10,7 @@
 
 #include "storage/dense/brick_codec.h"
 #include "storage/dense/format.h"
+#include "storage/dense/hz_lattice.h"
 #include "storage/io/checksum.h"
 #include "storage/io/codec.h"
 #include "util/little_endian.h"
@@ -67,7 +68,7 @@ Result<std::unique_ptr<HzStore>> HzStore::Open(const std::string& path, const Op
   s->error_size_ = QuantizedSize(h.quantization);
   s->voxel_size_ = VoxelSize(h.voxel_type);
   SDB_RETURN_IF_ERROR(s->ValidateBitmapAndIndexes());
-  s->raw_state_ = std::make_unique<std::atomic<uint8_t>[]>(h.stored_blocks + h.bricks);
+  s->raw_state_ = std::make_unique<std::atomic<uint8_t>[]>(h.stored_blocks);
   s->touched_ = std::make_unique<std::atomic<uint8_t>[]>(h.stored_blocks + h.bricks);
   if (!h.finest_stored()) {
     const int64_t box = (int64_t{1} << h.brick_bits) + 2;
@@ -385,64 +386,43 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64
   }();
   const BrickGrid::Box box = grid_->FinestBox(b);
   const int64_t w = finest.window_side();
-  const int bits = header_.brick_bits;
   std::array<int64_t, D> first{}, extent{}, dims{};
-  std::array<int64_t, 4> lo{}, hi{}, brick_lo{}, brick_hi{};
-  uint64_t points = 1;
+  std::array<int64_t, 4> lo{}, hi{};
+  uint64_t points = 1, real_points = 1;
   for (int a = 0; a < D; ++a) {
     first[a] = box.first[a];
     extent[a] = box.extent[a];
     dims[a] = header_.dims[a];
     points *= static_cast<uint64_t>(extent[a]);
-    // The window's real points, and the grid bricks holding them.
+    // The window's real points.
     lo[a] = std::max<int64_t>(0, first[a] - 2);
     hi[a] = std::min<int64_t>(dims[a] - 1, first[a] - 2 + w - 1);
-    brick_lo[a] = lo[a] >> bits;
-    brick_hi[a] = hi[a] >> bits;
+    real_points *= static_cast<uint64_t>(hi[a] - lo[a] + 1);
   }
-  std::vector<double> window;
+  std::vector<double> window, real;
   std::shared_ptr<BlockCache::Block> codes;
   try {
     window.assign(finest.window_points(), 0.0);
+    real.resize(real_points);
     codes = std::make_shared<BlockCache::Block>(4 * points);
   } catch (const std::bad_alloc&) {
     return NotEnoughMemory(path_ + ": the finest errors of " + DescribeBrick(b), 8 * finest.window_points());
   }
-  std::array<int64_t, 4> c = brick_lo;
-  while (true) {
-    std::array<int64_t, 4> p{};
-    for (int a = 0; a < D; ++a) p[a] = c[a] << bits;
-    size_t unused = 0;
-    const uint64_t nb = grid_->BrickOf(0, p, &unused);
-    SDB_ASSIGN_OR_RETURN(const BlockHandle h, Brick(nb));
-    const BrickPlace place = grid_->Place(nb);
-    // The brick's points inside the window, row by row.
-    std::array<int64_t, 4> from{}, to{};
+  // Read from the grid's bricks, then placed in the window row by row.
+  SDB_RETURN_IF_ERROR(ReadLattice(*this, 0, lo, hi, real.data()));
+  const int64_t row = hi[0] - lo[0] + 1;
+  std::array<int64_t, 4> q = lo;
+  for (const double* from = real.data();; from += row) {
+    size_t at = 0, scale = 1;
     for (int a = 0; a < D; ++a) {
-      from[a] = std::max(lo[a], place.first[a]);
-      to[a] = std::min(hi[a], place.first[a] + int64_t{place.extent[a]} - 1);
+      at += static_cast<size_t>(q[a] - first[a] + 2) * scale;
+      scale *= static_cast<size_t>(w);
     }
-    std::array<int64_t, 4> q = from;
-    while (true) {
-      size_t slot = 0, wi = 0, scale = 1, wscale = 1;
-      for (int a = 0; a < D; ++a) {
-        slot += static_cast<size_t>(q[a] - place.first[a]) * scale;
-        scale *= place.extent[a];
-        wi += static_cast<size_t>(q[a] - first[a] + 2) * wscale;
-        wscale *= static_cast<size_t>(w);
-      }
-      for (int64_t x = from[0]; x <= to[0]; ++x) window[wi++] = VoxelAt(h.data, slot++);
-      int a = 1;
-      for (; a < D; ++a) {
-        if (++q[a] <= to[a]) break;
-        q[a] = from[a];
-      }
-      if (a == D) break;
-    }
-    int a = 0;
+    std::copy(from, from + row, window.begin() + static_cast<std::ptrdiff_t>(at));
+    int a = 1;
     for (; a < D; ++a) {
-      if (++c[a] <= brick_hi[a]) break;
-      c[a] = brick_lo[a];
+      if (++q[a] <= hi[a]) break;
+      q[a] = lo[a];
     }
     if (a == D) break;
   }

@@ -25,9 +25,9 @@
 // Memory: decoded blocks, bricks and finest boxes live in the BlockCache (a
 // budget set by the caller) plus those a Reader holds; raw blocks, the
 // bitmap and the indexes are read from the mapping. Beyond that the store
-// keeps 8 bytes per 64 virtual blocks (the bitmap's rank directory) and two
-// bytes per stored block and brick. With Options::in_memory every block and
-// brick is decoded at open (the in-core case); finest boxes are then
+// keeps 8 bytes per 64 virtual blocks (the bitmap's rank directory), two
+// bytes per stored block and one per brick. With Options::in_memory every
+// block and brick is decoded at open (the in-core case); finest boxes are then
 // computed on first use and kept.
 //
 // Lifetimes: the store outlives its Readers and BlockHandles; header(),
@@ -257,7 +257,7 @@ class HzStore {
   // store's dimension's one; null when the store keeps them.
   std::unique_ptr<FinestBoxErrors<3>> finest3_;
   std::unique_ptr<FinestBoxErrors<4>> finest4_;
-  std::unique_ptr<std::atomic<uint8_t>[]> raw_state_;  // blocks then bricks: 1 checked, 2 bad
+  std::unique_ptr<std::atomic<uint8_t>[]> raw_state_;  // raw blocks: 1 checked, 2 bad
   std::unique_ptr<std::atomic<uint8_t>[]> touched_;    // blocks then bricks: 1 asked for
   mutable std::atomic<uint64_t> decoded_{0};
   mutable std::atomic<uint64_t> raw_checked_{0};

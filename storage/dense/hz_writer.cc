@@ -97,8 +97,7 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
   const ErrorQuantizer quantizer(h.quantization, h.quantum, range);
   const size_t n = h.block_records();
   const size_t error_size = QuantizedSize(h.quantization);
-  std::array<uint32_t, 4> dims4 = h.dims;
-  const BrickGrid grid(D, dims4, h.domain_bits, h.brick_bits);
+  const BrickGrid grid(D, h.dims, h.domain_bits, h.brick_bits);
   h.bricks = grid.bricks();
 
   std::vector<uint64_t> candidates;
