@@ -5,6 +5,12 @@
 //                        stored bytes (the coding EncodeBrick chose) to doubles
 //   FinestBoxErrors/<h>  the finest diamond errors of one brick's vertices from
 //                        a window of doubles around it (FinestBoxErrors)
+//   DiamondErrors/<h>/s  what the builder spends on the diamonds of octave
+//                        scale s (vertices multiples of 2^s, s = 0 finest)
+//                        of a float32 field, one thread: the counter is the
+//                        grid's points per second, so the figures of all
+//                        scales add up (as inverse rates) to one pass of the
+//                        builder's errors
 //
 // Both per brick; the counter gives the brick's grid points per second. A
 // query that touches a brick of the finest octave pays both (and the window's
@@ -20,6 +26,7 @@
 
 #include "storage/dense/brick_codec.h"
 #include "storage/dense/field_bricks.h"
+#include "storage/error/diamond_errors.h"
 #include "storage/error/finest_box_errors.h"
 #include "storage/volume/generate.h"
 
@@ -116,10 +123,49 @@ void FinestBoxBench(benchmark::State& state) {
       static_cast<double>(state.iterations() * out.size()), benchmark::Counter::kIsRate);
 }
 
+// Perlin noise as float32, not rounded: the stencils' and scans' double path.
+template <int D>
+void DiamondErrorsBench(benchmark::State& state) {
+  const int s = static_cast<int>(state.range(0));
+  const int64_t n = D == 3 ? 129 : 33;
+  const int k = D == 3 ? 7 : 5;
+  static const std::vector<double> field = [&] {
+    GenerateOptions o;
+    o.dimension = D;
+    for (int a = 0; a < D; ++a) o.dims[a] = static_cast<uint32_t>(n);
+    std::vector<double> f(static_cast<size_t>(std::pow(n, D)));
+    FieldGenerator(o).Fill(0, f.size(), f.data());
+    for (double& v : f) v = static_cast<float>(v);
+    return f;
+  }();
+  std::array<int64_t, D> dims{};
+  dims.fill(n);
+  const auto [lo, hi] = std::minmax_element(field.begin(), field.end());
+  DiamondErrors<D> errors(field.data(), dims, k, false, *hi - *lo, 1);
+  errors.Allocate();
+  // Items run coarse first, one slab of one scale each: those of scale s.
+  std::vector<uint64_t> items;
+  uint64_t item = 0;
+  for (int scale = k - 1; scale >= 0; --scale) {
+    const int64_t h = int64_t{1} << scale;
+    for (int64_t j = 0; j * h <= (int64_t{1} << k) && j * h - 2 * h <= n - 1; ++j, ++item) {
+      if (scale == s) items.push_back(item);
+    }
+  }
+  for (auto _ : state) {
+    for (const uint64_t i : items) errors.ComputeItem(0, i);
+  }
+  state.counters["points_per_s"] = benchmark::Counter(
+      static_cast<double>(state.iterations()) * static_cast<double>(field.size()),
+      benchmark::Counter::kIsRate);
+}
+
 BENCHMARK(DecodeBrickBench<3>)->Name("DecodeBrick/ht");
 BENCHMARK(DecodeBrickBench<4>)->Name("DecodeBrick/hp");
 BENCHMARK(FinestBoxBench<3>)->Name("FinestBoxErrors/ht");
 BENCHMARK(FinestBoxBench<4>)->Name("FinestBoxErrors/hp");
+BENCHMARK(DiamondErrorsBench<3>)->Name("DiamondErrors/ht")->DenseRange(0, 6)->Unit(benchmark::kMillisecond);
+BENCHMARK(DiamondErrorsBench<4>)->Name("DiamondErrors/hp")->DenseRange(0, 4)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace simplexdb

@@ -327,6 +327,26 @@ class Interpolant {
     const W gx = static_cast<W>(g_[0]);
     W n_x = -along - gx * static_cast<W>(p[0] - v0_[0]);  // the interpolant's part at x
     const int64_t count = x1 - p[0] + 1;
+    if constexpr (std::is_same_v<W, double>) {
+      // Four points at a time, each with its own running maximum and the
+      // interpolant's part computed from x rather than accumulated: no
+      // chain from one point to the next (the loop ran at a point per
+      // maximum's latency), and no rounding accumulating along a row.
+      const double base = n_x, f0 = f0_;
+      double w[4] = {worst, 0, 0, 0};
+      int64_t i = 0;
+      for (; i + 4 <= count; i += 4) {
+        for (int j = 0; j < 4; ++j) {
+          const double n = (row[i + j] - f0) * det + (base - gx * static_cast<double>(i + j));
+          w[j] = std::max(w[j], std::abs(n));
+        }
+      }
+      for (; i < count; ++i) {
+        const double n = (row[i] - f0) * det + (base - gx * static_cast<double>(i));
+        w[0] = std::max(w[0], std::abs(n));
+      }
+      return std::max(std::max(w[0], w[1]), std::max(w[2], w[3]));
+    }
     for (int64_t i = 0; i < count; ++i) {
       W value;
       if constexpr (std::is_same_v<W, double>) {
