@@ -22,7 +22,7 @@ fi
 
 volume="$WORK/perlin_513.nrrd"
 [[ -f "$volume" ]] || "$B" generate --field perlin --dims 513,513,513 -o "$volume" -q
-[[ -f "$WORK/p513.sdb" ]] || "$B" import "$volume" --format 2 --memory-mb 4096 -o "$WORK/p513.sdb" -q
+[[ -f "$WORK/p513.sdb" ]] || "$B" import "$volume" --memory-mb 4096 -o "$WORK/p513.sdb" -q
 # The pyramid level: every 4th point of the generated volume (its voxels are
 # the file's last 4 * 513^3 bytes), 129^3 float32.
 [[ -d "$WORK/level4.zarr" ]] || /usr/bin/python3 - "$volume" "$WORK/level4.zarr" <<'PY'

@@ -6,9 +6,10 @@ grid point:
   - peers, the field alone: `zstd -19` of the raw voxels; HDF5 with 64^3
     chunks (64^4 for 4D) and Blosc-zstd (level 5, byte shuffle) through
     h5py; Zarr with the same chunks and compressor;
-  - ours: the format-1 store `simplexdb import` writes; format 2
-    (`import --format 2`) with u16 and u8 errors, and the u16 store's two
-    parts as `info` reports them: the field's bricks and the error blocks;
+  - ours: the dense store (format 2) `simplexdb import` writes with u16
+    and u8 errors, and the u16 store's two parts as `info` reports them:
+    the field's bricks and the error blocks (format 1's figures, before it
+    was replaced, are in bench/README.md);
   - the ratio of format 2 (u16 and u8) to the smaller peer: the target is
     at most 2.0.
 
@@ -95,13 +96,10 @@ def peers(values, work):
 
 
 def ours(source_args, work):
-    f1 = os.path.join(work, "f1.sdb")
-    run(CLI, "import", *source_args, "-o", f1, "-q", "--force")
-    out = {"format1": os.path.getsize(f1)}
+    out = {}
     for q in ("u16", "u8"):
         store = os.path.join(work, f"f2_{q}.sdb")
-        run(CLI, "import", *source_args, "--format", "2", "--quantization", q, "-o", store,
-            "-q", "--force")
+        run(CLI, "import", *source_args, "--quantization", q, "-o", store, "-q", "--force")
         out[f"format2_{q}"] = os.path.getsize(store)
         if q == "u16":
             info = json.loads(run(CLI, "info", store, "--json"))
@@ -149,7 +147,7 @@ def main():
         row["ratio_u8"] = row["format2_u8"] / best
         rows.append(row)
         print(f"{name}: done", file=sys.stderr)
-    cols = ["zstd19", "hdf5", "zarr", "format1", "format2_u16", "format2_u8", "f2_field",
+    cols = ["zstd19", "hdf5", "zarr", "format2_u16", "format2_u8", "f2_field",
             "f2_errors_u16"]
     print("| volume | points | " + " | ".join(cols) + " | f2 u16 / peer | f2 u8 / peer |")
     print("|---|---:|" + "---:|" * (len(cols) + 2))

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Would prediction inside format 2's current blocks make them small enough?
 
-For a format-2 store (`simplexdb import --format 2`), re-codes every stored
+For a format-2 store (`simplexdb import`), re-codes every stored
 block and prints bytes per grid point, zstd level 3 per part:
   base        the blocks as stored (errors and field in one frame);
   err_raw     the error entries alone, bytes shuffled;

@@ -33,6 +33,7 @@
 #include "query/source.h"
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
+#include "storage/dense/hz_builder.h"
 #include "storage/sparse/sparse_builder.h"
 #include "storage/volume/volume.h"
 
@@ -59,11 +60,11 @@ QueryStores MakeStores(int dimension, uint32_t side) {
   QueryStores s;
   const VolumeInfo in = *OpenVolume(PerlinVolume(dimension, side));
   const std::string base = WorkDir() + "/query" + std::to_string(dimension);
-  DenseBuildOptions options;
+  HzBuildOptions options;
   options.compression = Compression::kNone;
-  if (!BuildDenseStore(in, base + "_raw.sdb", options).ok()) std::abort();
+  if (!BuildHzStore(in, base + "_raw.sdb", options).ok()) std::abort();
   options.compression = Compression::kZstd;
-  if (!BuildDenseStore(in, base + "_zstd.sdb", options).ok()) std::abort();
+  if (!BuildHzStore(in, base + "_zstd.sdb", options).ok()) std::abort();
   s.zstd_path = base + "_zstd.sdb";
   StoreOptions in_memory, raw, warm, nocache;
   in_memory.in_memory = true;
@@ -73,8 +74,10 @@ QueryStores MakeStores(int dimension, uint32_t side) {
   s.open.emplace_back("raw", OpenOrDie(base + "_raw.sdb", raw));
   s.open.emplace_back("zstd-warm", OpenOrDie(s.zstd_path, warm));
   s.open.emplace_back("zstd-nocache", OpenOrDie(s.zstd_path, nocache));
-  const DenseStore& dense = *s.open[2].second.dense();
-  if (!ConvertDenseToSparse(dense, base + ".lmdb", SparseBuildOptions{}).ok()) std::abort();
+  // The sparse store from the per-node engine's store, as import --sparse.
+  if (!BuildDenseStore(in, base + "_nodes.sdb", DenseBuildOptions{}).ok()) std::abort();
+  const std::unique_ptr<DenseStore> nodes = *DenseStore::Open(base + "_nodes.sdb");
+  if (!ConvertDenseToSparse(*nodes, base + ".lmdb", SparseBuildOptions{}).ok()) std::abort();
   s.open.emplace_back("lmdb", OpenOrDie(base + ".lmdb", StoreOptions{}));
   return s;
 }

@@ -15,24 +15,24 @@
 // visitor). The dispatch costs a branch per Visit() call; inside the visitor
 // every error lookup is a direct (inlinable) call on the concrete source:
 // no virtual call in the refinement's hot path. Each Visit() instantiates
-// the visitor six times (DenseSource, HzSource and SparseSource, each for
-// D = 3 and 4).
+// the visitor four times (HzSource and SparseSource, each for D = 3 and 4).
 //
 // The kind is recognized from the file's first bytes (an LMDB meta page is
-// the sparse store, anything else is opened as a dense store: format 2
-// (storage/dense/hz_store.h) when its header says so, format 1 otherwise),
-// so a file that is neither gets the dense store's InvalidArgument naming
-// it.
+// the sparse store, anything else is opened as a dense store of format 2,
+// storage/dense/hz_store.h), so a file that is neither gets the dense
+// store's InvalidArgument naming it, and a dense store of format 1 (the
+// engine's scratch format, storage/dense/dense_store.h) is refused with a
+// message that says to import the volume again.
 //
 // Thread safety: an AnyStore may be shared by threads (the stores are);
 // Visit() is const and may run in several threads at once, each call with
 // its own source. The source a visitor gets is its thread's alone.
 //
 // Lifetimes: the source passed to the visitor lives only for that call;
-// the visitor must not keep a reference or pointer to it. dense() and
+// the visitor must not keep a reference or pointer to it. hz() and
 // sparse() point into the AnyStore and live as long as it does; moving an
 // AnyStore keeps them valid (the stores are held by pointer). Sources made
-// by hand over dense() or sparse() must not outlive the AnyStore.
+// by hand over hz() or sparse() must not outlive the AnyStore.
 #pragma once
 
 #include <cstddef>
@@ -43,7 +43,6 @@
 
 #include "query/source.h"
 #include "storage/dense/block_cache.h"
-#include "storage/dense/dense_store.h"
 #include "storage/dense/hz_store.h"
 #include "storage/sparse/sparse_store.h"
 #include "util/status.h"
@@ -70,15 +69,11 @@ struct StoreOptions {
 // unreadable file is kDense, and opening it reports why.
 StoreKind ProbeStoreKind(const std::string& path);
 
-// Whether the file at `path` starts as a dense store of format 2 (its magic,
-// then version 2). Cost: one read of 12 bytes; false when it cannot be read.
-bool LooksLikeFormat2(const std::string& path);
-
 class AnyStore {
  public:
   // Opens and validates the store at `path`. Errors: those of
-  // DenseStore::Open (NotFound, InvalidArgument when the file is not a
-  // store, NotSupported for another format version, Corruption) or of
+  // HzStore::Open (NotFound, InvalidArgument when the file is not a store,
+  // NotSupported for format 1 and other format versions, Corruption) or of
   // SparseStore::Open (the same codes; InvalidArgument also for another
   // program's LMDB file); InvalidArgument for options.in_memory on a sparse
   // store (it is read in place).
@@ -94,8 +89,7 @@ class AnyStore {
   const SourceInfo& info() const { return info_; }
   // The store itself, for what only one kind has (a dense store's cache, a
   // sparse store's header); null for the other kind.
-  const DenseStore* dense() const { return dense_.get(); }
-  const HzStore* hz() const { return hz_.get(); }  // a dense store of format 2
+  const HzStore* hz() const { return hz_.get(); }
   const SparseStore* sparse() const { return sparse_.get(); }
 
   // Makes a source of this store's kind and dimension and calls
@@ -113,14 +107,6 @@ class AnyStore {
         return Call<3>(visitor, source);
       }
       HzSource<4> source(*hz_);
-      return Call<4>(visitor, source);
-    }
-    if (dense_) {
-      if (dense_->dimension() == 3) {
-        DenseSource<3> source(*dense_);
-        return Call<3>(visitor, source);
-      }
-      DenseSource<4> source(*dense_);
       return Call<4>(visitor, source);
     }
     if (sparse_->dimension() == 3) {
@@ -149,7 +135,6 @@ class AnyStore {
   }
 
   // Exactly one is set.
-  std::unique_ptr<DenseStore> dense_;
   std::unique_ptr<HzStore> hz_;
   std::unique_ptr<SparseStore> sparse_;
   SourceInfo info_;

@@ -101,11 +101,10 @@ void WriteSliceSeries(const Mesh<4>& mesh, Source& source, const std::vector<dou
   if (Status st = WriteFileAtomically(output, pvd); !st.ok()) Fail(st);
 }
 
-// `dense`, `hz`: the store behind `source` when it is a dense one of format
-// 1 or 2 (its cache and blocks are reported), null otherwise.
+// `hz`: the store behind `source` when it is a dense one (its cache and
+// blocks are reported), null otherwise.
 template <int D, class Source>
-void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nullptr,
-             const HzStore* hz = nullptr) {
+void Extract(Source& source, const ExtractArgs& a, const HzStore* hz = nullptr) {
   const SourceInfo& info = source.info();
   CriteriaSpec spec;
   spec.error.value = ParseAmount(a.error, "--error", info.field_range());
@@ -210,14 +209,11 @@ void Extract(Source& source, const ExtractArgs& a, const DenseStore* dense = nul
   // and (peak only) the store's mapped file pages the query touched.
   j["peak_memory_bytes"] = PeakResidentBytes();
   j["anonymous_memory_bytes"] = AnonymousResidentBytes();  // the mesh is still alive
-  if (dense != nullptr && dense->cache() != nullptr) {
-    // Decoded blocks held at the end (never more than --cache-mb).
-    j["cache_bytes"] = dense->cache()->charge();
-  }
   if (hz != nullptr) {
-    // Format 2: zstd frames decoded plus raw ones read, blocks and bricks
-    // (repeats counted), how many different ones the query needed, and how
-    // many bricks' finest errors it computed from the field.
+    // Zstd frames decoded plus raw ones read, blocks and bricks (repeats
+    // counted), how many different ones the query needed, and how many
+    // bricks' finest errors it computed from the field; the decoded blocks
+    // held at the end (never more than --cache-mb).
     const HzStore::Stats hs = hz->stats();
     j["blocks_decoded"] = hs.blocks_decoded + hs.raw_checked;
     j["distinct_blocks"] = hs.distinct;
@@ -257,7 +253,7 @@ void RunExtract(ExtractArgs a) {
   Status s;
   try {
     s = store->Visit(
-        [&]<int D, class Source>(Source& source) { Extract<D>(source, a, store->dense(), store->hz()); });
+        [&]<int D, class Source>(Source& source) { Extract<D>(source, a, store->hz()); });
   } catch (const std::bad_alloc&) {
     // After the refinement (which names itself): the leaves, the slice,
     // the output's cells.

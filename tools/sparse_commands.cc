@@ -11,7 +11,11 @@
 #include <nlohmann/json.hpp>
 
 #include "query/open_store.h"
+#include "storage/dense/hz_builder.h"
+#include "storage/dense/hz_lattice.h"
+#include "storage/dense/hz_store.h"
 #include "storage/io/file.h"
+#include "storage/volume/nrrd_writer.h"
 #include "storage/sparse/sparse_builder.h"
 #include "storage/sparse/sparse_store.h"
 #include "storage/sparse/sparse_update.h"
@@ -87,6 +91,47 @@ void PrintSparseReport(const SparseBuildReport& r, const std::string& output, bo
   }
 }
 
+// The dense store's field, written losslessly to a scratch NRRD beside the
+// output, imported as a sparse store (as import --sparse does): the sparse
+// store keeps each node's own error, which the dense store does not.
+void ConvertDenseToSparse(const std::string& input, const std::string& output,
+                          const std::string& tolerance, uint64_t memory_bytes, bool as_json,
+                          bool quiet) {
+  Result<std::unique_ptr<HzStore>> opened = HzStore::Open(input);
+  if (!opened.ok()) Fail(opened.status());
+  const HzStore& dense = **opened;
+  const HzHeader& h = dense.header();
+  std::array<int64_t, 4> lo = {0, 0, 0, 0}, hi = {0, 0, 0, 0};
+  uint64_t n = 1;
+  for (int a = 0; a < h.dimension; ++a) {
+    hi[a] = h.dims[a] - 1;
+    n *= h.dims[a];
+  }
+  if (memory_bytes != 0 && n * sizeof(double) > memory_bytes) {
+    Fail(Status::ResourceExhausted(fmt::format(
+        "{}: converting to a sparse store reads the field into memory, {}, more than the bound of "
+        "{} (--memory-mb)",
+        input, HumanBytes(n * sizeof(double)), HumanBytes(memory_bytes))));
+  }
+  if (Status s = PrepareOutput(output); !s.ok()) Fail(s);
+  const TemporaryFile field(output, "field.nrrd");
+  {
+    std::vector<double> values(n);
+    if (Status s = ReadLattice(dense, 0, lo, hi, values.data()); !s.ok()) Fail(s);
+    if (Status s = WriteNrrd(field.path(), h.dimension, h.dims, h.voxel_type, values, h.spacing);
+        !s.ok()) {
+      Fail(s);
+    }
+  }
+  Result<VolumeInfo> volume = OpenVolume(field.path());
+  if (!volume.ok()) Fail(volume.status());
+  volume->description = h.source;  // the dense store's source, not the scratch file
+  DenseBuildOptions options;
+  options.memory_bytes = memory_bytes;
+  options.quantization = h.quantization;
+  ImportSparse(*volume, output, options, tolerance, as_json, quiet);
+}
+
 void RunConvert(const std::string& input, const std::string& output, const std::string& to,
                 const std::string& tolerance, const std::string& compression, size_t memory_mb,
                 bool as_json, bool quiet) {
@@ -99,9 +144,7 @@ void RunConvert(const std::string& input, const std::string& output, const std::
     if (ProbeStoreKind(input) == StoreKind::kSparse) {
       throw CommandError(input + " is already a sparse store; convert it --to dense first", 2);
     }
-    const auto dense = OpenDenseStore(input);
-    PrintSparseReport(Convert(*dense, output, tolerance, quiet, memory_mb << 20), output,
-                      as_json, quiet);
+    ConvertDenseToSparse(input, output, tolerance, memory_mb << 20, as_json, quiet);
     return;
   }
   if (tolerance != "0") throw CommandError("--tolerance applies to --to sparse", 2);
@@ -109,27 +152,41 @@ void RunConvert(const std::string& input, const std::string& output, const std::
     throw CommandError(input + " is not a sparse store; only sparse stores convert --to dense", 2);
   }
   const auto sparse = OpenSparse(input);
-  DenseBuildOptions options;
   Result<Compression> c = ParseCompression(compression);
   if (!c.ok()) throw CommandError("--compression: " + std::string(c.status().message()), 2);
+  // Through the sparse store's own dense form (one error per node, as it
+  // keeps them, no compression) in a scratch file beside the output, whose
+  // errors the dense store takes per diamond (the largest of its nodes').
+  if (Status s = PrepareOutput(output); !s.ok()) Fail(s);
+  const TemporaryFile scratch(output, "nodes");
+  DenseBuildOptions nodes;
+  nodes.compression = Compression::kNone;
+  nodes.memory_bytes = memory_mb << 20;
+  ProgressLine line(!quiet);
+  nodes.progress = ProgressTo(line, output);
+  const Result<DenseBuildReport> built = ConvertSparseToDense(*sparse, scratch.path(), nodes);
+  if (!built.ok()) Fail(built.status());
+  const auto per_node = OpenDenseStore(scratch.path());
+  HzBuildOptions options;
+  options.quantization = per_node->header().quantization;
   options.compression = *c;
   options.memory_bytes = memory_mb << 20;
-  ProgressLine line(!quiet);
-  options.progress = ProgressTo(line, output);
-  const Result<DenseBuildReport> built = ConvertSparseToDense(*sparse, output, options);
+  options.progress = nodes.progress;
+  const Result<HzBuildReport> converted = ConvertToHz(*per_node, output, options);
   line.Finish();
-  if (!built.ok()) Fail(built.status());
+  if (!converted.ok()) Fail(converted.status());
+  const double seconds = built->seconds + converted->seconds;
   if (as_json) {
     json j;
     SetJsonBytes(j, "store", output);
     j["kind"] = sparse->dimension() == 3 ? "ht-dense" : "hp-dense";
     j["nodes"] = built->nodes;
-    j["seconds"] = built->seconds;
-    j["file_bytes"] = built->header.file_size;
+    j["seconds"] = seconds;
+    j["file_bytes"] = converted->header.file_size;
     std::cout << j.dump() << "\n";
   } else if (!quiet) {
     fmt::print("{}: dense store from {} ({} nodes) in {:.2f} s, {} on disk\n", output, input,
-               built->nodes, built->seconds, HumanBytes(built->header.file_size));
+               built->nodes, seconds, HumanBytes(converted->header.file_size));
   }
 }
 

@@ -16,7 +16,6 @@
 #include "query/open_store.h"
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/brick_codec.h"
-#include "storage/dense/dense_store.h"
 #include "storage/dense/hz_builder.h"
 #include "storage/dense/hz_lattice.h"
 #include "storage/dense/hz_store.h"
@@ -44,7 +43,6 @@ struct ImportArgs {
   std::string quantization = "u16";
   std::string compression = "zstd";
   bool sparse = false;
-  int format = 1;
   std::string tolerance = "0";
   std::string mask;
   size_t memory_mb = 1024;
@@ -56,8 +54,8 @@ struct ImportArgs {
   bool force = false;
 };
 
-// import --format 2: the dense store of format 2 (storage/dense/hz_builder.h).
-void ImportFormat2(const VolumeInfo& input, const ImportArgs& a, const DenseBuildOptions& f1) {
+// The dense store (format 2, storage/dense/hz_builder.h).
+void ImportDense(const VolumeInfo& input, const ImportArgs& a, const DenseBuildOptions& f1) {
   HzBuildOptions options;
   options.quantization = f1.quantization;
   options.compression = f1.compression;
@@ -91,10 +89,13 @@ void ImportFormat2(const VolumeInfo& input, const ImportArgs& a, const DenseBuil
     if (input.scaled()) j["scaling"] = {{"slope", input.scale}, {"intercept", input.shift}};
     std::cout << j.dump() << "\n";
   } else if (!a.quiet) {
-    fmt::print("{}: format 2, {} over {} {} (domain 2^{} + 1 per axis, {} levels), {} errors, {}\n",
+    fmt::print("{}: {} over {} {} (domain 2^{} + 1 per axis, {} levels), {} errors, {}\n",
                a.output, h.dimension == 3 ? "HT" : "HP", FormatDims(h.dimension, h.dims),
                VoxelTypeName(h.voxel_type), h.domain_bits, h.leaf_level(),
                QuantizationName(h.quantization), a.compression);
+    if (input.scaled()) {
+      fmt::print("  scaled: {} -> {}\n", FormatScaling(input), VoxelTypeName(h.voxel_type));
+    }
     fmt::print("  built in {:.2f} s: {:.3g} grid points/s, peak memory {}\n", built->seconds,
                points_per_second, HumanBytes(peak));
     if (std::string(built->method) == "engine") {
@@ -108,9 +109,6 @@ void ImportFormat2(const VolumeInfo& input, const ImportArgs& a, const DenseBuil
 
 void RunImport(ImportArgs a) {
   if (!a.sparse && a.tolerance != "0") throw CommandError("--tolerance needs --sparse", 2);
-  if (a.format == 2 && a.sparse) {
-    throw CommandError("--format 2 builds dense stores; the sparse store is format 1 for now", 2);
-  }
   const VolumeInfo input = OpenInputs(a.inputs, a.raw);
   const std::string expected = HierarchyName(input.dimension);
   if (!a.hierarchy.empty() && a.hierarchy != expected) {
@@ -153,46 +151,7 @@ void RunImport(ImportArgs a) {
     ImportSparse(input, a.output, options, a.tolerance, a.json, a.quiet);
     return;
   }
-  if (a.format == 2) {
-    ImportFormat2(input, a, options);
-    return;
-  }
-  ProgressLine line(!a.quiet);
-  options.progress = ProgressTo(line, a.output);
-  const Result<DenseBuildReport> built = BuildDenseStore(input, a.output, options);
-  line.Finish();
-  if (!built.ok()) Fail(built.status());
-  const DenseHeader& h = built->header;
-  const double points_per_second = built->grid_points / std::max(built->seconds, 1e-9);
-  const uint64_t peak = PeakResidentBytes();
-  if (a.json) {
-    json j;
-    SetJsonBytes(j, "store", a.output);
-    j["hierarchy"] = HierarchyName(h.dimension);
-    j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
-    j["domain_bits"] = h.domain_bits;
-    j["leaf_level"] = h.leaf_level();
-    j["nodes"] = built->nodes;
-    j["grid_points"] = built->grid_points;
-    j["seconds"] = built->seconds;
-    j["grid_points_per_second"] = points_per_second;
-    j["peak_memory_bytes"] = peak;
-    j["file_bytes"] = h.file_size;
-    if (input.scaled()) j["scaling"] = {{"slope", input.scale}, {"intercept", input.shift}};
-    std::cout << j.dump() << "\n";
-  } else if (!a.quiet) {
-    fmt::print("{}: {} over {} {} (domain 2^{} + 1 per axis, {} levels), {} errors, {}\n",
-               a.output, h.dimension == 3 ? "HT" : "HP", FormatDims(h.dimension, h.dims),
-               VoxelTypeName(h.voxel_type), h.domain_bits, h.leaf_level(),
-               QuantizationName(h.quantization), a.compression);
-    if (input.scaled()) {
-      fmt::print("  scaled: {} -> {}\n", FormatScaling(input), VoxelTypeName(h.voxel_type));
-    }
-    fmt::print("  built in {:.2f} s: {:.3g} grid points/s, {} nodes, peak memory {}\n",
-               built->seconds, points_per_second, built->nodes, HumanBytes(peak));
-    fmt::print("  {} on disk ({:.2f} bytes per grid point)\n", HumanBytes(h.file_size),
-               static_cast<double>(h.file_size) / built->grid_points);
-  }
+  ImportDense(input, a, options);
 }
 
 // --- info ------------------------------------------------------------------
@@ -290,85 +249,13 @@ void RunInfo(const std::string& path, bool as_json) {
     RunSparseInfo(path, as_json);
     return;
   }
-  if (LooksLikeFormat2(path)) {
-    RunHzInfo(path, as_json);
-    return;
-  }
-  const auto store = OpenDenseStore(path);
-  const DenseHeader& h = store->header();
-  uint64_t logical_errors = 0, logical_field = 0, stored_errors = 0, stored_field = 0;
-  uint64_t encodings[3] = {0, 0, 0};
-  for (uint64_t b = 0; b < store->block_count(); ++b) {
-    const IndexEntry e = store->entry(b);
-    const bool is_error = b < store->error_block_count();
-    (is_error ? logical_errors : logical_field) += e.raw_size;
-    (is_error ? stored_errors : stored_field) += e.stored_size;
-    ++encodings[static_cast<int>(e.encoding)];
-  }
-  uint64_t points = 1;
-  for (int a = 0; a < h.dimension; ++a) points *= h.dims[a];
-  const uint64_t logical = logical_errors + logical_field;
-  const double ratio = static_cast<double>(logical) / static_cast<double>(h.file_size);
-  if (as_json) {
-    json j;
-    SetJsonBytes(j, "store", path);
-    j["kind"] = h.dimension == 3 ? "ht-dense" : "hp-dense";
-    j["hierarchy"] = HierarchyName(h.dimension);
-    j["format_version"] = h.version;
-    j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
-    j["grid_points"] = points;
-    j["domain_bits"] = h.domain_bits;
-    j["domain_side"] = (uint64_t{1} << h.domain_bits) + 1;
-    j["leaf_level"] = h.leaf_level();
-    j["voxel_type"] = VoxelTypeName(h.voxel_type);
-    j["quantization"] = QuantizationName(h.quantization);
-    j["quantum"] = h.quantum;
-    j["field_min"] = h.field_min;
-    j["field_max"] = h.field_max;
-    j["error_max"] = h.error_max;
-    j["levels_per_block"] = h.levels_per_block;
-    j["error_blocks"] = h.error_block_count;
-    j["field_bricks"] = h.brick_count;
-    j["blocks_zero"] = encodings[0];
-    j["blocks_raw"] = encodings[1];
-    j["blocks_zstd"] = encodings[2];
-    j["file_bytes"] = h.file_size;
-    j["logical_bytes"] = logical;
-    j["logical_error_bytes"] = logical_errors;
-    j["logical_field_bytes"] = logical_field;
-    j["stored_error_bytes"] = stored_errors;
-    j["stored_field_bytes"] = stored_field;
-    j["compression_ratio"] = ratio;
-    j["bytes_per_grid_point"] = static_cast<double>(h.file_size) / static_cast<double>(points);
-    SetJsonBytes(j, "source", h.source);
-    std::cout << j.dump() << "\n";
-    return;
-  }
-  fmt::print("{}: dense {} store (format {})\n", path, h.dimension == 3 ? "HT" : "HP", h.version);
-  fmt::print("  grid        {} {} ({} points), from {}\n", FormatDims(h.dimension, h.dims),
-             VoxelTypeName(h.voxel_type), points, h.source.empty() ? "?" : h.source);
-  fmt::print("  domain      side 2^{} + 1 = {}, {} levels ({} roots)\n", h.domain_bits,
-             (uint64_t{1} << h.domain_bits) + 1, h.leaf_level(), h.dimension == 3 ? 6 : 24);
-  fmt::print("  field       {} .. {}\n", h.field_min, h.field_max);
-  fmt::print("  errors      {} (quantum {:.6g}), largest {:.6g} ({:.3g}% of the range)\n",
-             QuantizationName(h.quantization), h.quantum, h.error_max,
-             h.field_max > h.field_min ? 100 * h.error_max / (h.field_max - h.field_min) : 0.0);
-  fmt::print("  blocks      {} error blocks of up to {} levels, {} field bricks; {} zero, {} raw, "
-             "{} zstd\n",
-             h.error_block_count, h.levels_per_block, h.brick_count, encodings[0], encodings[1],
-             encodings[2]);
-  fmt::print("  size        {} on disk, {} logical (errors {}, field {}): {:.2f}x, {:.2f} bytes "
-             "per grid point\n",
-             HumanBytes(h.file_size), HumanBytes(logical), HumanBytes(logical_errors),
-             HumanBytes(logical_field), ratio, static_cast<double>(h.file_size) / points);
+  RunHzInfo(path, as_json);
 }
 
 // --- verify ----------------------------------------------------------------
 
-// Store: DenseStore or HzStore, whose Verify reports progress by block
-// (format 2: blocks, then bricks). `what`: "12 blocks", "12 blocks and 40 bricks".
-template <class Store>
-void VerifyStore(const Store& store, const std::string& path, const std::string& what, bool quiet) {
+// Verify reports progress by block, then by brick. `what`: "12 blocks and 40 bricks".
+void VerifyStore(const HzStore& store, const std::string& path, const std::string& what, bool quiet) {
   ProgressLine line(!quiet);
   const Status s = store.Verify([&](uint64_t done, uint64_t total) {
     line.Update(fmt::format("{}: verifying {}/{}", path, done, total));
@@ -383,17 +270,12 @@ void RunVerify(const std::string& path, bool quiet) {
     RunSparseVerify(path, quiet);
     return;
   }
-  if (LooksLikeFormat2(path)) {
-    Result<std::unique_ptr<HzStore>> hz = HzStore::Open(path);  // header, bitmap, index
-    if (!hz.ok()) Fail(hz.status());
-    VerifyStore(**hz, path,
-                fmt::format("{} blocks and {} bricks{}", (*hz)->stored_blocks(), (*hz)->bricks(),
-                            (*hz)->header().finest_stored() ? "" : ", the finest errors recomputed"),
-                quiet);
-    return;
-  }
-  const auto store = OpenDenseStore(path);  // header, size, index
-  VerifyStore(*store, path, fmt::format("{} blocks", store->block_count()), quiet);
+  Result<std::unique_ptr<HzStore>> hz = HzStore::Open(path);  // header, bitmap, index
+  if (!hz.ok()) Fail(hz.status());
+  VerifyStore(**hz, path,
+              fmt::format("{} blocks and {} bricks{}", (*hz)->stored_blocks(), (*hz)->bricks(),
+                          (*hz)->header().finest_stored() ? "" : ", the finest errors recomputed"),
+              quiet);
 }
 
 // --- export ----------------------------------------------------------------
@@ -406,9 +288,8 @@ struct ExportArgs {
   bool force = false;
 };
 
-// Store: DenseStore or HzStore (format 2), read through its Reader<D>.
-template <int D, class Store>
-void ExportField(const Store& store, const ExportArgs& a) {
+template <int D>
+void ExportField(const HzStore& store, const ExportArgs& a) {
   const auto& h = store.header();
   std::array<int64_t, 4> lo = {0, 0, 0, 0}, hi = {0, 0, 0, 0};
   for (int c = 0; c < D; ++c) hi[c] = h.dims[c] - 1;
@@ -431,10 +312,10 @@ void ExportField(const Store& store, const ExportArgs& a) {
   uint64_t count = 1;
   for (uint32_t d : dims) count *= d;
   std::vector<double> values(count);
-  // Format 2 at a power-of-two step from a multiple of it: one lattice's
-  // bricks (a coarse read decodes only them).
+  // A power-of-two step from a multiple of it: one lattice's bricks (a
+  // coarse read decodes only them); otherwise point by point.
   bool read = false;
-  if constexpr (std::is_same_v<Store, HzStore>) {
+  {
     const int s = std::countr_zero(static_cast<uint64_t>(a.step));
     bool aligned = (a.step & (a.step - 1)) == 0 && s <= h.domain_bits;
     for (int c = 0; c < D; ++c) aligned = aligned && lo[c] % a.step == 0;
@@ -444,7 +325,7 @@ void ExportField(const Store& store, const ExportArgs& a) {
       read = true;
     }
   }
-  typename Store::template Reader<D> reader(store);
+  HzStore::Reader<D> reader(store);
   std::array<int64_t, D> p{};
   for (uint64_t i = 0; i < count && !read; ++i) {
     uint64_t rest = i;
@@ -504,12 +385,6 @@ void RegisterStoreCommands(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--compression", a->compression, "blocks as zstd frames or none (raw)")
         ->capture_default_str();
-    cmd->add_option("--format", a->format,
-                    "dense store format: 1, or 2 (diamond errors in hierarchical Z-order, the "
-                    "field in compressed octave bricks: 1.2-1.9x the field alone in HDF5; info, "
-                    "verify, extract and export read it, the other commands not yet)")
-        ->capture_default_str()
-        ->check(CLI::IsMember({1, 2}));
     cmd->add_flag("--sparse", a->sparse,
                   "build the variable-resolution LMDB store (through a temporary dense one)");
     cmd->add_option("--tolerance", a->tolerance,
@@ -525,7 +400,9 @@ void RegisterStoreCommands(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")
         ->capture_default_str();
-    cmd->add_option("--levels-per-block", a->levels_per_block, "levels of the hierarchy per error block")
+    cmd->add_option("--levels-per-block", a->levels_per_block,
+                    "--sparse: levels of the hierarchy per error block of the dense store it is "
+                    "made through")
         ->capture_default_str()
         ->check(CLI::Range(1, 24));
     cmd->add_option("--zstd-level", a->zstd_level, "zstd compression level")->capture_default_str();
@@ -573,21 +450,12 @@ void RegisterStoreCommands(CLI::App& app) {
       if (ProbeStoreKind(a->store) == StoreKind::kSparse) {
         throw CommandError(a->store + " is a sparse store: convert it --to dense to export", 2);
       }
-      if (LooksLikeFormat2(a->store)) {
-        Result<std::unique_ptr<HzStore>> hz = HzStore::Open(a->store);
-        if (!hz.ok()) Fail(hz.status());
-        if ((*hz)->dimension() == 3) {
-          ExportField<3>(**hz, *a);
-        } else {
-          ExportField<4>(**hz, *a);
-        }
-        return;
-      }
-      const auto store = OpenDenseStore(a->store);
-      if (store->dimension() == 3) {
-        ExportField<3>(*store, *a);
+      Result<std::unique_ptr<HzStore>> hz = HzStore::Open(a->store);
+      if (!hz.ok()) Fail(hz.status());
+      if ((*hz)->dimension() == 3) {
+        ExportField<3>(**hz, *a);
       } else {
-        ExportField<4>(*store, *a);
+        ExportField<4>(**hz, *a);
       }
     });
   }

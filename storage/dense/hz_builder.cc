@@ -332,11 +332,42 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   return std::optional<HzBuildReport>(report);
 }
 
+// The store's block bitmap covers the padded domain: a bit per block of
+// 2^block_bits positions (2^(D k) of them, 2^(D (k + 1)) when the finest
+// octave is stored), which the writer walks and a reader holds. Padding
+// costs nothing else, but a grid far longer on one axis than the others
+// (a domain of side 2^18 for 200000x2x2) would make the bitmap itself
+// terabytes: refused, with the figures, before anything is computed.
+Status CheckBlockBitmap(int dimension, const std::array<uint32_t, 4>& dims, int k,
+                        const HzBuildOptions& options, bool finest_stored,
+                        const std::string& out, const std::string& what) {
+  const int position_bits = dimension * (k + (finest_stored ? 1 : 0));
+  const int block_bits = std::min(options.block_bits, position_bits);
+  const int bitmap_bits = position_bits - block_bits;  // log2 of the virtual blocks
+  constexpr int kMaxBits = 30;  // a 128 MiB bitmap, walked in seconds
+  const uint64_t bytes = bitmap_bits >= 3 ? uint64_t{1} << std::min(bitmap_bits - 3, 60) : 1;
+  if (bitmap_bits <= kMaxBits && bytes <= options.memory_bytes) return Status::OK();
+  std::string grid;
+  for (int a = 0; a < dimension; ++a) {
+    if (a > 0) grid += 'x';
+    grid += std::to_string(dims[a]);
+  }
+  return Status::ResourceExhausted(
+      out + ": " + what + " (" + grid + ") has a domain of side 2^" + std::to_string(k) +
+      " + 1, whose block index of 2^" + std::to_string(bitmap_bits) +
+      " virtual blocks needs a bitmap of " + MiB(bytes) + "; this build indexes at most 2^" +
+      std::to_string(kMaxBits) + " blocks within the memory bound of " + MiB(options.memory_bytes) +
+      " (--memory-mb): cut the volume into pieces closer to a cube");
+}
+
 }  // namespace
 
 Result<HzBuildReport> ConvertToHz(const DenseStore& f1, const std::string& out_path,
                                   const HzBuildOptions& options) {
   const auto start = Clock::now();
+  SDB_RETURN_IF_ERROR(CheckBlockBitmap(f1.dimension(), f1.header().dims,
+                                       f1.header().domain_bits, options, true, out_path,
+                                       f1.path()));
   if (f1.dimension() == 3) return Convert<3>(f1, out_path, options, start);
   return Convert<4>(f1, out_path, options, start);
 }
@@ -346,6 +377,12 @@ Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& o
   const auto start = Clock::now();
   // Check the output before the long part.
   SDB_RETURN_IF_ERROR(PrepareOutput(out_path));
+  if (input.dimension == 3 || input.dimension == 4) {
+    SDB_RETURN_IF_ERROR(CheckBlockBitmap(input.dimension, input.dims,
+                                         std::max(1, DomainBitsFor(input.dimension, input.dims)),
+                                         options, options.mask.has_value(), out_path,
+                                         input.description));
+  }
   if (!options.mask && (input.dimension == 3 || input.dimension == 4)) {
     try {
       std::optional<HzBuildReport> direct;

@@ -98,11 +98,12 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
       std::memcmp(b + kOffMagic, kDenseMagic.data(), kDenseMagic.size()) != 0) {
     return Status::InvalidArgument(where + ": not a SimplexDB dense store (bad magic)");
   }
-  if (bytes.size() < kHzHeaderSize) {
+  HzHeader h;
+  // The version first, so an older store is named as such however short.
+  if (bytes.size() < kOffVersion + 4) {
     return corrupt("the file is " + std::to_string(bytes.size()) +
                    " bytes, shorter than a header (" + std::to_string(kHzHeaderSize) + ")");
   }
-  HzHeader h;
   h.version = LoadLittle<uint32_t>(b + kOffVersion);
   if (h.version == 1) {
     return Status::NotSupported(where +
@@ -118,6 +119,10 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
   if (h.version != kHzFormatVersion) {
     return Status::NotSupported(where + ": format version " + std::to_string(h.version) +
                                 "; this build reads version " + std::to_string(kHzFormatVersion));
+  }
+  if (bytes.size() < kHzHeaderSize) {
+    return corrupt("the file is " + std::to_string(bytes.size()) +
+                   " bytes, shorter than a header (" + std::to_string(kHzHeaderSize) + ")");
   }
   if (LoadLittle<uint64_t>(b + kOffChecksum) !=
       Checksum(std::span<const uint8_t>(b, kOffChecksum))) {

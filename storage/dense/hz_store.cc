@@ -317,15 +317,21 @@ Status HzStore::LoadAll() {
   } catch (const std::bad_alloc&) {
     return NotEnoughMemory(all, total);
   }
-  for (uint64_t i = 0; i < header_.stored_blocks + header_.bricks; ++i) {
-    Result<std::shared_ptr<const BlockCache::Block>> decoded =
-        i < header_.stored_blocks ? DecodeBlock(i) : DecodeBrickAt(i - header_.stored_blocks);
-    if (!decoded.ok()) {
-      if (decoded.status().code() == Status::Code::kResourceExhausted) return NotEnoughMemory(all, total);
-      return decoded.status();
+  try {  // the decoders' own allocations (a zstd context) included
+    for (uint64_t i = 0; i < header_.stored_blocks + header_.bricks; ++i) {
+      Result<std::shared_ptr<const BlockCache::Block>> decoded =
+          i < header_.stored_blocks ? DecodeBlock(i) : DecodeBrickAt(i - header_.stored_blocks);
+      if (!decoded.ok()) {
+        if (decoded.status().code() == Status::Code::kResourceExhausted) {
+          return NotEnoughMemory(all, total);
+        }
+        return decoded.status();
+      }
+      (i < header_.stored_blocks ? resident_[i] : resident_bricks_[i - header_.stored_blocks]) =
+          *std::move(decoded);
     }
-    (i < header_.stored_blocks ? resident_[i] : resident_bricks_[i - header_.stored_blocks]) =
-        *std::move(decoded);
+  } catch (const std::bad_alloc&) {
+    return NotEnoughMemory(all, total);
   }
   return Status::OK();
 }

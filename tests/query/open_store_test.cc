@@ -11,6 +11,7 @@
 
 #include "query/refine.h"
 #include "query/source.h"
+#include "storage/dense/hz_builder.h"
 #include "tests/query/query_test_util.h"
 
 namespace simplexdb {
@@ -20,8 +21,9 @@ using testing::TempDir;
 using testing::TestVolume;
 
 // The read interface's concept: the stores' sources and the tests' own model
-// it; only the dense source answers threshold tests from its index.
+// it; only the dense sources answer threshold tests from their indexes.
 static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);
+static_assert(ReadSource<HzSource<3>, 3> && ReadSource<HzSource<4>, 4>);
 static_assert(ReadSource<SparseSource<3>, 3> && !ThresholdReadSource<SparseSource<3>, 3>);
 static_assert(ReadSource<testing::FullSource<3>, 3> && ReadSource<testing::FullSource<4>, 4>);
 static_assert(!ReadSource<DenseSource<3>, 4>);  // a source serves one hierarchy
@@ -38,21 +40,40 @@ std::vector<uint64_t> DepthFirstLeaves(auto& source, double threshold) {
   return testing::Keys(mesh.Leaves());
 }
 
+// The dense store (format 2) of `volume`, as import makes it, at dir/name.sdb.
+std::unique_ptr<HzStore> BuildHz(const TestVolume& volume, const std::string& dir,
+                                 const std::string& name) {
+  const std::string nrrd = dir + "/" + name + ".nrrd";
+  EXPECT_TRUE(volume.WriteNrrd(nrrd).ok());
+  const std::string path = dir + "/" + name + ".sdb";
+  const auto built = BuildHzStore(*OpenVolume(nrrd), path, HzBuildOptions{});
+  EXPECT_TRUE(built.ok()) << built.status().message();
+  auto store = HzStore::Open(path);
+  EXPECT_TRUE(store.ok()) << store.status().message();
+  return std::move(store).value();
+}
+
 template <int D>
 void CheckVisits(uint32_t side) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(D, {side, side, side, D == 4 ? side : 1}, VoxelType::kU8, 3);
-  auto dense = testing::BuildDense(volume, dir.path(), "d");
-  auto sparse = testing::BuildSparse(*dense, dir.path() + "/s.lmdb", 0);
-  const double threshold = (dense->header().field_max - dense->header().field_min) * 0.1;
-  DenseSource<D> direct(*dense);
-  const std::vector<uint64_t> want = DepthFirstLeaves<D>(direct, threshold);
-  ASSERT_GT(want.size(), size_t{SimplexCode<D>::kRoots});
+  auto hz = BuildHz(volume, dir.path(), "d");
+  // The sparse store keeps each node's own error: its own mesh.
+  auto per_node = testing::BuildDense(volume, dir.path(), "f1");
+  auto sparse = testing::BuildSparse(*per_node, dir.path() + "/s.lmdb", 0);
+  const double threshold = (hz->header().field_max - hz->header().field_min) * 0.1;
+  HzSource<D> hz_direct(*hz);
+  SparseSource<D> sparse_direct = *SparseSource<D>::Create(*sparse);
+  const std::vector<uint64_t> want_dense = DepthFirstLeaves<D>(hz_direct, threshold);
+  const std::vector<uint64_t> want_sparse = DepthFirstLeaves<D>(sparse_direct, threshold);
+  ASSERT_GT(want_dense.size(), size_t{SimplexCode<D>::kRoots});
+  ASSERT_GT(want_sparse.size(), size_t{SimplexCode<D>::kRoots});
 
   for (const auto& [store_path, store_kind] : {std::pair{dir.path() + "/d.sdb", StoreKind::kDense},
                                                std::pair{dir.path() + "/s.lmdb", StoreKind::kSparse}}) {
     const std::string path = store_path;
     const StoreKind kind = store_kind;
+    const std::vector<uint64_t>& want = kind == StoreKind::kDense ? want_dense : want_sparse;
     SCOPED_TRACE(path);
     EXPECT_EQ(ProbeStoreKind(path), kind);
     Result<AnyStore> store = AnyStore::Open(path);
@@ -60,13 +81,13 @@ void CheckVisits(uint32_t side) {
     EXPECT_EQ(store->kind(), kind);
     EXPECT_EQ(store->dimension(), D);
     EXPECT_EQ(store->path(), path);
-    EXPECT_EQ(store->dense() != nullptr, kind == StoreKind::kDense);
+    EXPECT_EQ(store->hz() != nullptr, kind == StoreKind::kDense);
     EXPECT_EQ(store->sparse() != nullptr, kind == StoreKind::kSparse);
     int calls = 0;
     const Status s = store->Visit([&]<int E, class Source>(Source& source) -> Status {
       ++calls;
       EXPECT_EQ(E, D);
-      EXPECT_EQ((std::is_same_v<Source, DenseSource<E>>), kind == StoreKind::kDense);
+      EXPECT_EQ((std::is_same_v<Source, HzSource<E>>), kind == StoreKind::kDense);
       EXPECT_EQ((std::is_same_v<Source, SparseSource<E>>), kind == StoreKind::kSparse);
       EXPECT_EQ(source.info().path, path);
       EXPECT_EQ(source.info().domain_bits, store->info().domain_bits);
@@ -82,10 +103,10 @@ void CheckVisits(uint32_t side) {
                     .IsCorruption());
     EXPECT_TRUE(store->Visit([]<int E, class Source>(Source&) {}).ok());
     // Moving the handle keeps the stores where they are.
-    const DenseStore* d = store->dense();
+    const HzStore* d = store->hz();
     const SparseStore* sp = store->sparse();
     AnyStore moved = *std::move(store);
-    EXPECT_EQ(moved.dense(), d);
+    EXPECT_EQ(moved.hz(), d);
     EXPECT_EQ(moved.sparse(), sp);
     // VisitStore opens, visits once and closes.
     calls = 0;
@@ -100,18 +121,24 @@ TEST(OpenStore, VisitsEveryKindWithItsSourceHp) { CheckVisits<4>(5); }
 TEST(OpenStore, OptionsReachTheDenseStore) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(3, {9, 9, 9, 1}, VoxelType::kU8, 4);
-  auto dense = testing::BuildDense(volume, dir.path(), "d");
-  auto sparse = testing::BuildSparse(*dense, dir.path() + "/s.lmdb", 0);
+  BuildHz(volume, dir.path(), "d");
+  auto per_node = testing::BuildDense(volume, dir.path(), "f1");
+  auto sparse = testing::BuildSparse(*per_node, dir.path() + "/s.lmdb", 0);
   StoreOptions options;
   options.cache_bytes = 12345;
   Result<AnyStore> cached = AnyStore::Open(dir.path() + "/d.sdb", options);
   ASSERT_TRUE(cached.ok());
-  ASSERT_NE(cached->dense()->cache(), nullptr);
-  EXPECT_EQ(cached->dense()->cache()->capacity(), 12345u);
+  ASSERT_NE(cached->hz()->cache(), nullptr);
+  EXPECT_EQ(cached->hz()->cache()->capacity(), 12345u);
   options.in_memory = true;
   Result<AnyStore> in_memory = AnyStore::Open(dir.path() + "/d.sdb", options);
   ASSERT_TRUE(in_memory.ok());
-  EXPECT_EQ(in_memory->dense()->cache(), nullptr);
+  // Every block and brick decoded at open; the cache holds only the finest
+  // errors computed from them, unbounded.
+  const HzStore::Stats opened = in_memory->hz()->stats();
+  EXPECT_EQ(opened.blocks_decoded + opened.raw_checked,
+            in_memory->hz()->stored_blocks() + in_memory->hz()->bricks());
+  EXPECT_GT(in_memory->hz()->cache()->capacity(), options.cache_bytes);
   // The LMDB store is read in place: in_memory is a mistake, said so.
   Result<AnyStore> lmdb = AnyStore::Open(dir.path() + "/s.lmdb", options);
   ASSERT_FALSE(lmdb.ok());
@@ -132,6 +159,20 @@ TEST(OpenStore, SaysWhyAPathIsNotAStore) {
   EXPECT_EQ(ProbeStoreKind(text), StoreKind::kDense);
   EXPECT_TRUE(VisitStore(text, StoreOptions{}, visitor).IsInvalidArgument());
   EXPECT_EQ(calls, 0);
+}
+
+// A dense store of format 1 (one error per simplex: what the engine still
+// writes as scratch) is refused, saying to import again.
+TEST(OpenStore, RefusesFormatOneSayingToImportAgain) {
+  TempDir dir;
+  const TestVolume volume = TestVolume::Random(3, {9, 9, 9, 1}, VoxelType::kU8, 5);
+  testing::BuildDense(volume, dir.path(), "f1");
+  const Result<AnyStore> store = AnyStore::Open(dir.path() + "/f1.sdb");
+  ASSERT_FALSE(store.ok());
+  EXPECT_TRUE(store.status().IsNotSupported()) << store.status().ToString();
+  EXPECT_NE(store.status().message().find("f1.sdb"), std::string_view::npos);
+  EXPECT_NE(store.status().message().find("format-1"), std::string_view::npos);
+  EXPECT_NE(store.status().message().find("import the volume again"), std::string_view::npos);
 }
 
 }  // namespace

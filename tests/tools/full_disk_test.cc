@@ -26,7 +26,7 @@ class FullDisk : public ::testing::Test {
   void SetUp() override {
     disk_ = dir_.path() + "/disk";
     fs::create_directory(disk_);
-    if (mount("tmpfs", disk_.c_str(), "tmpfs", 0, "size=400k") != 0) {
+    if (mount("tmpfs", disk_.c_str(), "tmpfs", 0, "size=128k") != 0) {
       GTEST_SKIP() << "cannot mount a small tmpfs here (needs root): " << std::strerror(errno);
     }
     mounted_ = true;

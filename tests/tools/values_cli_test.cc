@@ -65,17 +65,18 @@ void WriteRawF64(const std::string& path, const std::vector<double>& values) {
   std::ofstream(path, std::ios::binary) << b;
 }
 
-// Format 2 holds a scaled volume as float32 too, built by the direct
-// builder: at a uniform threshold, format 1's mesh.
-TEST(ValuesCli, ScaledNiftiFormat2IsFormat1sMesh) {
+// The dense store holds a scaled volume as float32, built by the direct
+// builder: at a uniform threshold, the mesh of the lossless sparse store's
+// per-node errors (made through the per-node engine).
+TEST(ValuesCli, ScaledNiftiDenseStoreHasThePerNodeMesh) {
   const TempDir dir;
   const std::string nii = dir.path() + "/s.nii";
   std::vector<int16_t> stored;
   for (int i = 0; i < 9 * 8 * 7; ++i) stored.push_back(static_cast<int16_t>((i * i) % 97 - 40));
   WriteScaledNifti(nii, {9, 8, 7}, stored, 0.1f, 0.3f);
-  const std::string f1 = dir.path() + "/a.sdb", f2 = dir.path() + "/b.sdb";
-  ASSERT_EQ(RunCli("import " + nii + " --quantization f32 -q -o " + f1).exit_code, 0);
-  auto r = RunCli("import " + nii + " --format 2 --quantization f32 --json -o " + f2);
+  const std::string f1 = dir.path() + "/a.lmdb", f2 = dir.path() + "/b.sdb";
+  ASSERT_EQ(RunCli("import " + nii + " --sparse --quantization f32 -q -o " + f1).exit_code, 0);
+  auto r = RunCli("import " + nii + " --quantization f32 --json -o " + f2);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_EQ(nlohmann::json::parse(r.out)["error_method"], "diamonds");
   r = RunCli("info " + f2 + " --json");

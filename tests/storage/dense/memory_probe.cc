@@ -1,4 +1,5 @@
-// memory_probe STORE CACHE_BYTES LOOKUPS: opens a dense store with a cache
+// memory_probe STORE CACHE_BYTES LOOKUPS: opens a dense store (format 2, or
+// the per-node engine's format 1) with a cache
 // budget, looks up the errors of LOOKUPS random nodes (random levels, every
 // root) and the field at LOOKUPS random points, and prints the process's
 // anonymous memory (RssAnon) before opening and after the lookups, in KiB,
@@ -15,6 +16,8 @@
 #include <string>
 
 #include "storage/dense/dense_store.h"
+#include "storage/dense/hz_store.h"
+#include "util/little_endian.h"
 
 namespace simplexdb {
 namespace {
@@ -33,9 +36,9 @@ long AnonKib() {
   return -1;
 }
 
-template <int D>
-Status Lookups(const DenseStore& store, uint64_t count) {
-  DenseStore::Reader<D> reader(store);
+template <int D, class Store>
+Status Lookups(const Store& store, uint64_t count) {
+  typename Store::template Reader<D> reader(store);
   std::mt19937_64 rng(7);
   const int leaf = store.header().leaf_level();
   const int64_t side = int64_t{1} << store.header().domain_bits;
@@ -53,20 +56,16 @@ Status Lookups(const DenseStore& store, uint64_t count) {
   return Status::OK();
 }
 
-int Main(int argc, char** argv) {
-  if (argc != 4) {
-    std::fprintf(stderr, "usage: memory_probe STORE CACHE_BYTES LOOKUPS\n");
-    return 2;
-  }
-  const long before = AnonKib();
-  DenseStore::Options options;
-  options.cache_bytes = std::strtoull(argv[2], nullptr, 10);
-  auto store = DenseStore::Open(argv[1], options);
+// Opens the store with the cache budget, runs the lookups, prints the line.
+template <class Store>
+int Probe(const char* path, size_t cache_bytes, uint64_t count, long before) {
+  typename Store::Options options;
+  options.cache_bytes = cache_bytes;
+  auto store = Store::Open(path, options);
   if (!store.ok()) {
     std::fprintf(stderr, "%s\n", store.status().ToString().c_str());
     return 1;
   }
-  const uint64_t count = std::strtoull(argv[3], nullptr, 10);
   const Status s = (*store)->dimension() == 3 ? Lookups<3>(**store, count)
                                               : Lookups<4>(**store, count);
   if (!s.ok()) {
@@ -76,6 +75,24 @@ int Main(int argc, char** argv) {
   std::printf("anon_before_kib=%ld anon_after_kib=%ld blocks_decoded=%llu\n", before, AnonKib(),
               static_cast<unsigned long long>((*store)->stats().blocks_decoded));
   return 0;
+}
+
+int Main(int argc, char** argv) {
+  if (argc != 4) {
+    std::fprintf(stderr, "usage: memory_probe STORE CACHE_BYTES LOOKUPS\n");
+    return 2;
+  }
+  const long before = AnonKib();
+  const size_t cache_bytes = std::strtoull(argv[2], nullptr, 10);
+  const uint64_t count = std::strtoull(argv[3], nullptr, 10);
+  // The dense store (format 2), or the per-node engine's store (format 1).
+  uint8_t head[12] = {};
+  if (FILE* f = std::fopen(argv[1], "rb")) {
+    if (std::fread(head, 1, sizeof head, f) != sizeof head) head[8] = 0;
+    std::fclose(f);
+  }
+  if (LoadLittle<uint32_t>(head + 8) == 1) return Probe<DenseStore>(argv[1], cache_bytes, count, before);
+  return Probe<HzStore>(argv[1], cache_bytes, count, before);
 }
 
 }  // namespace
