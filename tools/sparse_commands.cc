@@ -15,10 +15,10 @@
 #include "storage/dense/hz_lattice.h"
 #include "storage/dense/hz_store.h"
 #include "storage/io/file.h"
-#include "storage/volume/nrrd_writer.h"
 #include "storage/sparse/sparse_builder.h"
 #include "storage/sparse/sparse_store.h"
 #include "storage/sparse/sparse_update.h"
+#include "storage/volume/nrrd_writer.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 
@@ -165,7 +165,10 @@ void RunConvert(const std::string& input, const std::string& output, const std::
   ProgressLine line(!quiet);
   nodes.progress = ProgressTo(line, output);
   const Result<DenseBuildReport> built = ConvertSparseToDense(*sparse, scratch.path(), nodes);
-  if (!built.ok()) Fail(built.status());
+  if (!built.ok()) {
+    line.Finish();
+    Fail(built.status());
+  }
   const auto per_node = OpenDenseStore(scratch.path());
   HzBuildOptions options;
   options.quantization = per_node->header().quantization;

@@ -24,7 +24,9 @@
 // storable values (storage/error/field_values.h), of the format-1 builder
 // (input, mask, memory, output) and of WriteHzStore; ResourceExhausted
 // naming the figures when the field and the diamond table do not fit in
-// memory_bytes.
+// memory_bytes, or when the padded domain's block bitmap would exceed 2^30
+// blocks or memory_bytes (a grid far longer on one axis than the others),
+// before anything is computed.
 #pragma once
 
 #include <cstdint>
