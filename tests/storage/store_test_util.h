@@ -9,6 +9,8 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -54,6 +56,12 @@ inline std::vector<double> ReadVolumeValues(const std::string& path) {
   std::vector<double> v(info.voxel_count());
   if (!reader->Read(0, v.size(), v.data()).ok()) v.clear();
   return v;
+}
+
+// The bytes of the file at `path` (empty when it cannot be read).
+inline std::vector<uint8_t> ReadFileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
 }
 
 // A fresh directory, removed with everything in it at scope exit.

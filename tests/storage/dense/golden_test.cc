@@ -13,7 +13,6 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 
 #include "storage/dense/dense_builder.h"
@@ -24,13 +23,9 @@
 namespace simplexdb {
 namespace {
 
+using testing::ReadFileBytes;
 using testing::TempDir;
 using testing::TestVolume;
-
-std::vector<uint8_t> ReadBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
-}
 
 struct Golden {
   const char* file;
@@ -110,7 +105,7 @@ TEST(Golden, ReferenceStoresStillReadAndRebuildIdentically) {
       CheckAnswers<4>(**store, volume);
     }
     // A fresh build writes the same bytes, but for the header's source.
-    const std::vector<uint8_t> a = ReadBytes(GoldenPath(g)), b = ReadBytes(fresh);
+    const std::vector<uint8_t> a = ReadFileBytes(GoldenPath(g)), b = ReadFileBytes(fresh);
     ASSERT_EQ(a.size(), b.size());
     ASSERT_TRUE(std::equal(a.begin() + kHeaderSize, a.end(), b.begin() + kHeaderSize))
         << "blocks or index changed: a format change needs a new version";

@@ -14,7 +14,6 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <unordered_map>
 
 #include "hierarchy/cluster.h"
@@ -27,13 +26,9 @@
 namespace simplexdb {
 namespace {
 
+using testing::ReadFileBytes;
 using testing::TempDir;
 using testing::TestVolume;
-
-std::vector<uint8_t> ReadBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
-}
 
 struct Golden {
   const char* file;
@@ -130,7 +125,7 @@ TEST(HzGolden, ReferenceStoresStillReadAndRebuildIdentically) {
       CheckAnswers<4>(**store, volume);
     }
     // A fresh build writes the same bytes, but for the header's source.
-    const std::vector<uint8_t> a = ReadBytes(GoldenPath(g)), b = ReadBytes(fresh);
+    const std::vector<uint8_t> a = ReadFileBytes(GoldenPath(g)), b = ReadFileBytes(fresh);
     ASSERT_EQ(a.size(), b.size());
     ASSERT_TRUE(std::equal(a.begin() + kHzHeaderSize, a.end(), b.begin() + kHzHeaderSize))
         << "blocks, bricks or indexes changed: a layout change needs a new version";

@@ -29,6 +29,7 @@
 namespace simplexdb {
 namespace {
 
+using testing::ReadFileBytes;
 using testing::TempDir;
 using testing::TestVolume;
 
@@ -303,11 +304,6 @@ TEST(HzStore, MissingValuesTakeTheEnginesPath) {
   });
 }
 
-std::vector<uint8_t> ReadBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
-}
-
 // Every answer a store gives; nullopt when some lookup fails.
 template <int D>
 std::optional<std::vector<double>> AllAnswers(const HzStore& store) {
@@ -365,7 +361,7 @@ void DamageCampaign(const TestVolume& volume, Compression compression, int block
   ASSERT_EQ((*good)->header().finest_stored(), !direct);
   const auto truth = AllAnswers<D>(**good);
   ASSERT_TRUE(truth.has_value());
-  const std::vector<uint8_t> bytes = ReadBytes(dir / "good.sdb");
+  const std::vector<uint8_t> bytes = ReadFileBytes(dir / "good.sdb");
   good->reset();
   std::mt19937_64 rng(seed);
   int detected = 0, harmless = 0;
