@@ -548,12 +548,31 @@ Status HzStore::Reader<D>::Hold(Held& held, uint64_t vblock) {
 
 template <int D>
 Result<uint32_t> HzStore::Reader<D>::FinestCode(uint64_t p, const double* threshold, bool* skipped) {
-  std::array<int64_t, D> g{};
-  if (!order_.Decode(p, g)) return 0u;  // no vertex there
+  std::array<int64_t, D> g = last_vertex_;
+  if (p != last_position_ && !order_.Decode(p, g)) return 0u;  // no vertex there
+  // The slot of g in a held box, or -1 when g is outside it.
+  const auto slot_in = [&g](const BrickGrid::Box& box) -> int64_t {
+    int64_t slot = 0, scale = 1;
+    for (int a = 0; a < D; ++a) {
+      const int64_t local = g[a] - box.first[a];
+      if (local < 0 || local >= box.extent[a]) return -1;
+      slot += local * scale;
+      scale *= box.extent[a];
+    }
+    return slot;
+  };
+  // A walk asks for the vertices of one box many times in a row.
+  if (last_box_ >= 0) {
+    const HeldBrick& last = held_boxes_[static_cast<size_t>(last_box_)];
+    if (const int64_t slot = slot_in(last.box); slot >= 0) {
+      return LoadLittle<uint32_t>(last.handle.data + 4 * static_cast<size_t>(slot));
+    }
+  }
   std::array<int64_t, 4> g4{};
   for (int a = 0; a < D; ++a) g4[a] = g[a];
   const uint64_t b = store_.grid().FinestOwner(g4);
-  HeldBrick& held = held_boxes_[b & 7];
+  const int index = static_cast<int>(b & 7);
+  HeldBrick& held = held_boxes_[static_cast<size_t>(index)];
   if (held.brick != b) {
     const uint32_t recorded = store_.brick_entry(b).error_max;
     if (recorded == 0) return 0u;  // every finest error of the brick is 0
@@ -563,18 +582,15 @@ Result<uint32_t> HzStore::Reader<D>::FinestCode(uint64_t p, const double* thresh
       return recorded;
     }
     ++block_fetches_;
+    if (index == last_box_) last_box_ = -1;
     SDB_ASSIGN_OR_RETURN(held.handle, store_.FinestCodes(b));
     held.brick = b;
+    held.box = store_.grid().FinestBox(b);
   }
-  const BrickGrid::Box box = store_.grid().FinestBox(b);
-  size_t slot = 0, scale = 1;
-  for (int a = 0; a < D; ++a) {
-    const int64_t local = g[a] - box.first[a];
-    if (local >= box.extent[a]) return 0u;  // past the box: no real point in its diamond
-    slot += static_cast<size_t>(local) * scale;
-    scale *= static_cast<size_t>(box.extent[a]);
-  }
-  return LoadLittle<uint32_t>(held.handle.data + 4 * slot);
+  const int64_t slot = slot_in(held.box);
+  if (slot < 0) return 0u;  // past the box: no real point in its diamond
+  last_box_ = index;
+  return LoadLittle<uint32_t>(held.handle.data + 4 * static_cast<size_t>(slot));
 }
 
 template <int D>

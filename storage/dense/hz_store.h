@@ -201,9 +201,12 @@ class HzStore {
       if (octave < 0 || (p >> store_.header().block_bits) == 0) return held_[0];
       return held_[static_cast<size_t>(octave) * (1 << D) + static_cast<size_t>(p >> (D * (octave + 1)))];
     }
+    // Remembers the vertex of the last position computed: a finest lookup
+    // for it needs the vertex, not the position.
     uint64_t PositionOf(SimplexCode<D> code) {
-      return order_.PositionAtLevel(LatticeToGrid<D>(cursor_.Of(code), order_.domain_bits()),
-                                    code.level());
+      last_vertex_ = LatticeToGrid<D>(cursor_.Of(code), order_.domain_bits());
+      last_position_ = order_.PositionAtLevel(last_vertex_, code.level());
+      return last_position_;
     }
     // The error code of finest vertex at position p (not stored), from its
     // brick's box; with `threshold`, the brick's recorded maximum when it
@@ -219,9 +222,13 @@ class HzStore {
     struct HeldBrick {
       uint64_t brick = ~uint64_t{0};
       BlockHandle handle;
+      BrickGrid::Box box;  // held_boxes_: the brick's finest box
     };
     std::vector<HeldBrick> held_bricks_;
     std::array<HeldBrick, 8> held_boxes_;
+    int last_box_ = -1;  // index of the held box used last (-1: none)
+    std::array<int64_t, D> last_vertex_{};
+    uint64_t last_position_ = ~uint64_t{0};
     uint64_t block_fetches_ = 0;
     uint64_t blocks_skipped_ = 0;
   };
