@@ -210,21 +210,31 @@ class DiamondStencils {
   double Run(const double* center, uint32_t odd, uint32_t parity, const std::array<int64_t, D>& g,
              int64_t side) const {
     const Flat& f = flat_[odd][parity];
-    double worst = 0;
+    double worst = 0, other = 0;
     for (size_t s = 0; s < f.simplex_end.size(); ++s) {
       if constexpr (kClip) {
         if (!Inside(f.box[s], g, side)) continue;
       }
       std::array<double, D + 1> v;
       for (int i = 0; i <= D; ++i) v[i] = center[f.vertex[s * (D + 1) + static_cast<size_t>(i)]];
-      size_t p = s == 0 ? 0 : f.simplex_end[s - 1];
-      for (size_t w = p * (D + 1); p < f.simplex_end[s]; ++p, w += D + 1) {
+      // Two running maxima: points alternate between them, so a point's
+      // maximum need not wait for the previous one's (the maximum of a set
+      // is the same in any order).
+      const auto error_at = [&](size_t p) {
+        const double* w = &f.weight[p * (D + 1)];
         double interp = 0;
-        for (int i = 0; i <= D; ++i) interp += f.weight[w + static_cast<size_t>(i)] * v[i];
-        worst = std::max(worst, std::abs(center[f.point[p]] - interp));
+        for (int i = 0; i <= D; ++i) interp += w[i] * v[i];
+        return std::abs(center[f.point[p]] - interp);
+      };
+      size_t p = s == 0 ? 0 : f.simplex_end[s - 1];
+      const size_t end = f.simplex_end[s];
+      for (; p + 2 <= end; p += 2) {
+        worst = std::max(worst, error_at(p));
+        other = std::max(other, error_at(p + 1));
       }
+      if (p < end) worst = std::max(worst, error_at(p));
     }
-    return worst;
+    return std::max(worst, other);
   }
 
   struct Flat {
@@ -315,7 +325,7 @@ class DiamondRowStencils {
   double Run(const double* center, uint32_t odd, uint32_t parity, const std::array<int64_t, D>& g,
              int64_t side) const {
     const Flat& f = flat_[odd][parity];
-    double worst = 0;
+    double w[4] = {0, 0, 0, 0};
     for (const Simplex& sx : f.simplices) {
       if constexpr (kClip) {
         bool inside = true;
@@ -336,13 +346,24 @@ class DiamondRowStencils {
         double at = f0;
         for (int c = 0; c < D; ++c) at += grad[c] * row.from_first[c];
         const double* v = center + row.index;
-        for (int32_t i = 0; i < row.count; ++i) {
+        // Four running maxima, as in DiamondStencils::Run.
+        // x counted in double as well (the same small integers, exactly):
+        // no conversion per point.
+        int32_t i = 0;
+        double x = 0;
+        for (; i + 4 <= row.count; i += 4, x += 4) {
+          for (int j = 0; j < 4; ++j) {
+            const double e = std::abs(v[i + j] - (at + grad[0] * (x + j)));
+            w[j] = e > w[j] ? e : w[j];
+          }
+        }
+        for (; i < row.count; ++i) {
           const double e = std::abs(v[i] - (at + grad[0] * i));
-          worst = e > worst ? e : worst;
+          w[0] = e > w[0] ? e : w[0];
         }
       }
     }
-    return worst;
+    return std::max(std::max(w[0], w[1]), std::max(w[2], w[3]));
   }
 
   struct Simplex {

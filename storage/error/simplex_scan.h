@@ -393,6 +393,11 @@ bool MaxErrors(const ScannableSimplex<D>& rows, const Interpolant<D, T>* interps
     rows.ForEachRow(lo, hi, [&](const IPoint<D>& p, int64_t x_end) {
       any = true;
       const double* row = view.Row(p);
+      // The next row (y + 1) starts about here: ask for it now, so its
+      // first lines arrive while this one is scanned (rows are short and
+      // a stride apart, which the hardware's prefetcher does not follow).
+      const double* next = row + view.stride[1];
+      for (int64_t i = 0; i <= x_end - p[0]; i += 8) __builtin_prefetch(next + i);
       for (int j = 0; j < count; ++j) worst[j] = interps[j].RowMax(p, x_end, row, worst[j]);
     });
     for (int j = 0; j < count; ++j) errors[j] = std::max(errors[j], interps[j].ErrorOf(worst[j]));
