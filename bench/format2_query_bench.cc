@@ -14,7 +14,10 @@
 // cache holding everything decodes for it). The targets: cache-2% at least
 // 0.5x in-memory's splits/s, decoded at most 2x distinct; in-memory at least
 // f1-in-memory. The stores are built once per run (format 2 as `simplexdb
-// import` builds it).
+// import` builds it). At the default sizes 2% of the store (about 0.1 MiB)
+// holds less than one finest box's window (up to 27 bricks), so cache-2%
+// recomputes a box for nearly every finest lookup and takes minutes: it
+// shows that floor; the 513^3 run is the one the target is about.
 //
 //   build/release/bench/format2_query_bench
 //   SIMPLEXDB_BENCH_SIDE=513 build/release/bench/format2_query_bench   (issue 16's size)
