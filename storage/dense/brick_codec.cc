@@ -86,8 +86,9 @@ void PredictTyped(bool is_float, int dimension, const std::array<uint32_t, 4>& e
                   const uint8_t* voxels, uint8_t* coded) {
   std::vector<U>& values = Scratch<U>(n);
   U* v = values.data();
-  std::memcpy(v, voxels, n * sizeof(U));
-  if constexpr (std::endian::native != std::endian::little) {
+  if constexpr (std::endian::native == std::endian::little) {
+    std::memcpy(v, voxels, n * sizeof(U));
+  } else {
     for (size_t i = 0; i < n; ++i) v[i] = LoadLittle<U>(voxels + i * sizeof(U));
   }
   if (is_float) {
