@@ -21,6 +21,7 @@
 #include "storage/error/field_values.h"
 #include "storage/error/mask.h"
 #include "storage/io/file.h"
+#include "util/big_array.h"
 #include "util/out_of_memory.h"
 
 namespace simplexdb {
@@ -235,34 +236,57 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   // as the store keeps it (a scaled volume's values rounded to float32), so
   // the errors are those of the stored values.
   const VoxelType stored = StoredVoxelType(input, false);
-  // Not zeroed: the reader fills every value (zeroing 8 bytes a point took
-  // a twentieth of a build).
-  const auto field = std::make_unique_for_overwrite<double[]>(n);
-  double fmin = std::numeric_limits<double>::infinity(), fmax = -fmin;
-  {
-    SDB_ASSIGN_OR_RETURN(auto reader, VolumeReader::Open(input));
-    const uint64_t chunk = uint64_t{1} << 20;
-    auto last = Clock::now();
-    for (uint64_t first = 0; first < n; first += chunk) {
-      const size_t count = static_cast<size_t>(std::min(chunk, n - first));
-      double* values = field.get() + first;
-      SDB_RETURN_IF_ERROR(reader->Read(first, count, values));
-      SDB_RETURN_IF_ERROR(CheckStorableValues(input, first, values, count));
-      for (size_t i = 0; i < count; ++i) {
-        if (std::isnan(values[i])) return std::optional<HzBuildReport>();
-        if (stored == VoxelType::kF32) values[i] = static_cast<float>(values[i]);
-        fmin = std::min(fmin, values[i]);
-        fmax = std::max(fmax, values[i]);
-      }
-      if (options.progress && Clock::now() - last > std::chrono::milliseconds(250)) {
-        last = Clock::now();
-        options.progress({"field", first + count, n,
-                          std::chrono::duration<double>(last - start).count()});
-      }
+  // Its pages are zeroed by the workers that first write them (zeroing it
+  // up front, on one thread, took a twentieth of a build).
+  BigArray<double> field(n);
+  // Read in chunks by every worker, each with its own reader (a gzip file
+  // is read by one: each reader would inflate everything before its
+  // chunks). What a chunk finds is kept by chunk, and the first chunk's in
+  // file order is reported, as a one-thread read would.
+  constexpr uint64_t kChunk = uint64_t{1} << 20;
+  const uint64_t chunks = (n + kChunk - 1) / kChunk;
+  struct ChunkResult {
+    Status status;
+    bool missing = false;  // a NaN: the engine's path
+    double min = std::numeric_limits<double>::infinity(), max = -min;
+  };
+  std::vector<ChunkResult> found(chunks);
+  const int readers = input.encoding == VolumeInfo::Encoding::kGzip ? 1 : threads;
+  std::vector<std::unique_ptr<VolumeReader>> reader(static_cast<size_t>(readers));
+  const auto read_chunk = [&](int worker, uint64_t c) -> Status {
+    auto& r = reader[static_cast<size_t>(worker)];
+    if (r == nullptr) {
+      SDB_ASSIGN_OR_RETURN(r, VolumeReader::Open(input));
     }
+    const uint64_t first = c * kChunk;
+    const size_t count = static_cast<size_t>(std::min(kChunk, n - first));
+    double* values = field.data() + first;
+    SDB_RETURN_IF_ERROR(r->Read(first, count, values));
+    ChunkResult& result = found[c];
+    result.status = CheckStorableValues(input, first, values, count);
+    if (!result.status.ok()) return Status::OK();
+    for (size_t i = 0; i < count; ++i) {
+      if (std::isnan(values[i])) {
+        result.missing = true;
+        return Status::OK();
+      }
+      if (stored == VoxelType::kF32) values[i] = static_cast<float>(values[i]);
+      result.min = std::min(result.min, values[i]);
+      result.max = std::max(result.max, values[i]);
+    }
+    return Status::OK();
+  };
+  SDB_RETURN_IF_ERROR(RunParallel(chunks, readers, "field", start, options.progress, read_chunk));
+  reader.clear();
+  double fmin = std::numeric_limits<double>::infinity(), fmax = -fmin;
+  for (const ChunkResult& c : found) {
+    if (!c.status.ok()) return c.status;
+    if (c.missing) return std::optional<HzBuildReport>();
+    fmin = std::min(fmin, c.min);
+    fmax = std::max(fmax, c.max);
   }
 
-  DiamondErrors<D> diamonds(field.get(), dims, k, !IsFloatType(stored), fmax - fmin, threads);
+  DiamondErrors<D> diamonds(field.data(), dims, k, !IsFloatType(stored), fmax - fmin, threads);
   diamonds.Allocate();
   SDB_RETURN_IF_ERROR(RunParallel(diamonds.item_count(), threads, "errors", start,
                                   options.progress, [&](int worker, uint64_t item) {
@@ -339,7 +363,7 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
       }));
   HzBuildReport report;
   SDB_ASSIGN_OR_RETURN(report.header,
-                       WriteHzStore(out, params, write, fill, field.get(), finest_max.data()));
+                       WriteHzStore(out, params, write, fill, field.data(), finest_max.data()));
   report.grid_points = n;
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return std::optional<HzBuildReport>(report);

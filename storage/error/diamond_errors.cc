@@ -84,7 +84,7 @@ uint64_t DiamondErrors<D>::TableBytes(const std::array<int64_t, D>& dims, int k)
 
 template <int D>
 void DiamondErrors<D>::Allocate() {
-  table_.assign(size_, 0.0f);
+  table_ = BigArray<float>(size_);  // zeros, touched first by the workers
 }
 
 template <int D>

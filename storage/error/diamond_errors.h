@@ -54,6 +54,7 @@
 
 #include "hierarchy/hz_order.h"
 #include "storage/error/finest_diamonds.h"
+#include "util/big_array.h"
 
 namespace simplexdb {
 
@@ -131,7 +132,7 @@ class DiamondErrors {
   std::array<int64_t, D> extent_{};
   std::array<uint64_t, D> stride_{};
   uint64_t size_ = 0;
-  std::vector<float> table_;
+  BigArray<float> table_;
   std::vector<Item> items_;
   std::vector<std::vector<std::pair<uint64_t, float>>> far_by_worker_;
   std::unordered_map<uint64_t, float> far_;

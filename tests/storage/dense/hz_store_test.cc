@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <random>
 #include <set>
@@ -287,6 +288,27 @@ TEST(HzStore, DirectBuildMatchesTheEngine) {
   ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {5, 4, 5, 3}, VoxelType::kU8, 37), "hp5");
   ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kI16, 33), "hp9");
   ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {7, 10, 5, 3}, VoxelType::kF32, 34), "hp_short");
+}
+
+// The direct build reads the field in chunks of 2^20 voxels on every
+// worker; a value no store can hold is still reported as a one-thread read
+// would: the first in file order (chunk 0 here, though chunk 2 holds one too
+// and is shorter).
+TEST(HzStore, TheFirstBadValueInFileOrderIsReported) {
+  TempDir dir;
+  TestVolume v = TestVolume::Random(3, {129, 129, 129, 1}, VoxelType::kF64, 38);
+  v.values[1000000] = 1e39;                                      // (121, 11, 60)
+  v.values[2100000] = std::numeric_limits<double>::infinity();  // (9, 25, 126)
+  ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
+  HzBuildOptions options;
+  options.threads = 2;
+  const auto built = BuildHzStore(*OpenVolume(dir / "v.nrrd"), dir / "w.sdb", options);
+  ASSERT_FALSE(built.ok());
+  EXPECT_TRUE(built.status().IsInvalidArgument()) << built.status().ToString();
+  EXPECT_NE(built.status().message().find("value 1e+39 at voxel (121, 11, 60) is beyond float32's range"),
+            std::string_view::npos)
+      << built.status().ToString();
+  EXPECT_EQ(testing::SortedNames(dir.path()), (std::vector<std::string>{"v.nrrd"}));
 }
 
 TEST(HzStore, MissingValuesTakeTheEnginesPath) {
