@@ -40,8 +40,8 @@ class BigArray {
   // n elements, each zero.
   explicit BigArray(size_t n) : size_(n) {
     if (n > std::numeric_limits<size_t>::max() / sizeof(T) / 2) throw std::bad_alloc();
-    const size_t bytes = n * sizeof(T);
 #if defined(__linux__) && !defined(__SANITIZE_ADDRESS__)
+    const size_t bytes = n * sizeof(T);
     constexpr size_t kHuge = size_t{2} << 20;
     if (bytes >= kHuge) {
       // Mapped with a huge page of slack, then trimmed to a 2 MiB-aligned
