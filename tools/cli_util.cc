@@ -201,6 +201,12 @@ void ProgressLine::Finish() {
   drawn_ = false;
 }
 
+std::unique_ptr<HzStore> OpenHzStore(const std::string& path) {
+  Result<std::unique_ptr<HzStore>> s = HzStore::Open(path);
+  if (!s.ok()) Fail(s.status());
+  return *std::move(s);
+}
+
 std::unique_ptr<DenseStore> OpenDenseStore(const std::string& path) {
   Result<std::unique_ptr<DenseStore>> s = DenseStore::Open(path);
   if (!s.ok()) Fail(s.status());

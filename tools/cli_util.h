@@ -17,6 +17,7 @@
 
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
+#include "storage/dense/hz_store.h"
 #include "storage/error/progress.h"
 #include "storage/volume/volume.h"
 #include "tools/commands.h"
@@ -126,6 +127,8 @@ void AddForceOption(CLI::App* cmd, bool* force);
 Status FinishStandardOutput(int earlier_errno);
 
 // Opens a dense store, or Fail()s with the reason.
+std::unique_ptr<HzStore> OpenHzStore(const std::string& path);
+// The same for the per-node engine's scratch store (format 1).
 std::unique_ptr<DenseStore> OpenDenseStore(const std::string& path);
 
 // A builder's progress callback that draws "OUTPUT: phase done/total (P%),

@@ -97,9 +97,8 @@ void PrintSparseReport(const SparseBuildReport& r, const std::string& output, bo
 void ConvertDenseToSparse(const std::string& input, const std::string& output,
                           const std::string& tolerance, uint64_t memory_bytes, bool as_json,
                           bool quiet) {
-  Result<std::unique_ptr<HzStore>> opened = HzStore::Open(input);
-  if (!opened.ok()) Fail(opened.status());
-  const HzStore& dense = **opened;
+  const auto opened = OpenHzStore(input);
+  const HzStore& dense = *opened;
   const HzHeader& h = dense.header();
   std::array<int64_t, 4> lo = {0, 0, 0, 0}, hi = {0, 0, 0, 0};
   uint64_t n = 1;

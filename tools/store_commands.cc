@@ -55,14 +55,15 @@ struct ImportArgs {
 };
 
 // The dense store (format 2, storage/dense/hz_builder.h).
-void ImportDense(const VolumeInfo& input, const ImportArgs& a, const DenseBuildOptions& f1) {
+// `common`: the options import sets for either store.
+void ImportDense(const VolumeInfo& input, const ImportArgs& a, const DenseBuildOptions& common) {
   HzBuildOptions options;
-  options.quantization = f1.quantization;
-  options.compression = f1.compression;
-  options.zstd_level = f1.zstd_level;
-  options.memory_bytes = f1.memory_bytes;
-  options.threads = f1.threads;
-  options.mask = f1.mask;
+  options.quantization = common.quantization;
+  options.compression = common.compression;
+  options.zstd_level = common.zstd_level;
+  options.memory_bytes = common.memory_bytes;
+  options.threads = common.threads;
+  options.mask = common.mask;
   ProgressLine line(!a.quiet);
   options.progress = ProgressTo(line, a.output);
   const Result<HzBuildReport> built = BuildHzStore(input, a.output, options);
@@ -157,9 +158,8 @@ void RunImport(ImportArgs a) {
 // --- info ------------------------------------------------------------------
 
 void RunHzInfo(const std::string& path, bool as_json) {
-  Result<std::unique_ptr<HzStore>> opened = HzStore::Open(path);
-  if (!opened.ok()) Fail(opened.status());
-  const HzStore& store = **opened;
+  const auto opened = OpenHzStore(path);
+  const HzStore& store = *opened;
   const HzHeader& h = store.header();
   uint64_t points = 1;
   for (int a = 0; a < h.dimension; ++a) points *= h.dims[a];
@@ -270,11 +270,10 @@ void RunVerify(const std::string& path, bool quiet) {
     RunSparseVerify(path, quiet);
     return;
   }
-  Result<std::unique_ptr<HzStore>> hz = HzStore::Open(path);  // header, bitmap, index
-  if (!hz.ok()) Fail(hz.status());
-  VerifyStore(**hz, path,
-              fmt::format("{} blocks and {} bricks{}", (*hz)->stored_blocks(), (*hz)->bricks(),
-                          (*hz)->header().finest_stored() ? "" : ", the finest errors recomputed"),
+  const auto hz = OpenHzStore(path);  // header, bitmap, index
+  VerifyStore(*hz, path,
+              fmt::format("{} blocks and {} bricks{}", hz->stored_blocks(), hz->bricks(),
+                          hz->header().finest_stored() ? "" : ", the finest errors recomputed"),
               quiet);
 }
 
@@ -314,16 +313,12 @@ void ExportField(const HzStore& store, const ExportArgs& a) {
   std::vector<double> values(count);
   // A power-of-two step from a multiple of it: one lattice's bricks (a
   // coarse read decodes only them); otherwise point by point.
-  bool read = false;
-  {
-    const int s = std::countr_zero(static_cast<uint64_t>(a.step));
-    bool aligned = (a.step & (a.step - 1)) == 0 && s <= h.domain_bits;
-    for (int c = 0; c < D; ++c) aligned = aligned && lo[c] % a.step == 0;
-    if (aligned) {
-      const Status st = ReadLattice(store, s, lo, hi, values.data());
-      if (!st.ok()) Fail(st);
-      read = true;
-    }
+  const int lattice = std::countr_zero(static_cast<uint64_t>(a.step));
+  bool read = (a.step & (a.step - 1)) == 0 && lattice <= h.domain_bits;
+  for (int c = 0; c < D; ++c) read = read && lo[c] % a.step == 0;
+  if (read) {
+    const Status st = ReadLattice(store, lattice, lo, hi, values.data());
+    if (!st.ok()) Fail(st);
   }
   HzStore::Reader<D> reader(store);
   std::array<int64_t, D> p{};
@@ -450,12 +445,11 @@ void RegisterStoreCommands(CLI::App& app) {
       if (ProbeStoreKind(a->store) == StoreKind::kSparse) {
         throw CommandError(a->store + " is a sparse store: convert it --to dense to export", 2);
       }
-      Result<std::unique_ptr<HzStore>> hz = HzStore::Open(a->store);
-      if (!hz.ok()) Fail(hz.status());
-      if ((*hz)->dimension() == 3) {
-        ExportField<3>(**hz, *a);
+      const auto hz = OpenHzStore(a->store);
+      if (hz->dimension() == 3) {
+        ExportField<3>(*hz, *a);
       } else {
-        ExportField<4>(**hz, *a);
+        ExportField<4>(*hz, *a);
       }
     });
   }

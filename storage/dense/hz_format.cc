@@ -98,12 +98,13 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
       std::memcmp(b + kOffMagic, kDenseMagic.data(), kDenseMagic.size()) != 0) {
     return Status::InvalidArgument(where + ": not a SimplexDB dense store (bad magic)");
   }
-  HzHeader h;
-  // The version first, so an older store is named as such however short.
-  if (bytes.size() < kOffVersion + 4) {
+  const auto too_short = [&] {
     return corrupt("the file is " + std::to_string(bytes.size()) +
                    " bytes, shorter than a header (" + std::to_string(kHzHeaderSize) + ")");
-  }
+  };
+  HzHeader h;
+  // The version first, so an older store is named as such however short.
+  if (bytes.size() < kOffVersion + 4) return too_short();
   h.version = LoadLittle<uint32_t>(b + kOffVersion);
   if (h.version == 1) {
     return Status::NotSupported(where +
@@ -120,10 +121,7 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
     return Status::NotSupported(where + ": format version " + std::to_string(h.version) +
                                 "; this build reads version " + std::to_string(kHzFormatVersion));
   }
-  if (bytes.size() < kHzHeaderSize) {
-    return corrupt("the file is " + std::to_string(bytes.size()) +
-                   " bytes, shorter than a header (" + std::to_string(kHzHeaderSize) + ")");
-  }
+  if (bytes.size() < kHzHeaderSize) return too_short();
   if (LoadLittle<uint64_t>(b + kOffChecksum) !=
       Checksum(std::span<const uint8_t>(b, kOffChecksum))) {
     return corrupt("checksum mismatch");

@@ -346,19 +346,16 @@ class Interpolant {
         w[0] = std::max(w[0], std::abs(n));
       }
       return std::max(std::max(w[0], w[1]), std::max(w[2], w[3]));
-    }
-    for (int64_t i = 0; i < count; ++i) {
-      W value;
-      if constexpr (std::is_same_v<W, double>) {
-        value = row[i] - f0_;
-      } else {
-        value = static_cast<W>(static_cast<int64_t>(row[i]) - static_cast<int64_t>(f0_));
+    } else {
+      // Exact integers: the interpolant's part accumulated along the row.
+      for (int64_t i = 0; i < count; ++i) {
+        const W value = static_cast<W>(static_cast<int64_t>(row[i]) - static_cast<int64_t>(f0_));
+        const W n = value * det + n_x;
+        worst = std::max(worst, n < 0 ? -n : n);
+        n_x -= gx;
       }
-      const W n = value * det + n_x;
-      worst = std::max(worst, n < 0 ? -n : n);
-      n_x -= gx;
+      return worst;
     }
-    return worst;
   }
 
   // The error from the largest numerator.
