@@ -26,6 +26,7 @@
 
 #include "storage/dense/brick_codec.h"
 #include "storage/dense/field_bricks.h"
+#include "storage/dense/hz_format.h"
 #include "storage/error/diamond_errors.h"
 #include "storage/error/finest_box_errors.h"
 #include "storage/volume/generate.h"
@@ -123,37 +124,53 @@ void FinestBoxBench(benchmark::State& state) {
       static_cast<double>(state.iterations() * out.size()), benchmark::Counter::kIsRate);
 }
 
-// Perlin noise as float32, not rounded: the stencils' and scans' double path.
+// Perlin noise as float32, not rounded (the stencils' and scans' double
+// path), held as floats as the builder holds it. Scale 0: each grid
+// brick's largest finest error, as the builder computes them; scales 1 and
+// up: the table's work items of that scale.
 template <int D>
 void DiamondErrorsBench(benchmark::State& state) {
   const int s = static_cast<int>(state.range(0));
   const int64_t n = D == 3 ? 129 : 33;
   const int k = D == 3 ? 7 : 5;
-  static const std::vector<double> field = [&] {
+  static const std::vector<float> field = [&] {
     GenerateOptions o;
     o.dimension = D;
     for (int a = 0; a < D; ++a) o.dims[a] = static_cast<uint32_t>(n);
     std::vector<double> f(static_cast<size_t>(std::pow(n, D)));
     FieldGenerator(o).Fill(0, f.size(), f.data());
-    for (double& v : f) v = static_cast<float>(v);
-    return f;
+    return std::vector<float>(f.begin(), f.end());
   }();
   std::array<int64_t, D> dims{};
   dims.fill(n);
   const auto [lo, hi] = std::minmax_element(field.begin(), field.end());
-  DiamondErrors<D> errors(field.data(), dims, k, false, *hi - *lo, 1);
+  DiamondErrors<D, float> errors(field.data(), dims, k, false, *hi - *lo, 1);
   errors.Allocate();
   // Items run coarse first, one slab of one scale each: those of scale s.
   std::vector<uint64_t> items;
   uint64_t item = 0;
-  for (int scale = k - 1; scale >= 0; --scale) {
+  for (int scale = k - 1; scale >= 1; --scale) {
     const int64_t h = int64_t{1} << scale;
     for (int64_t j = 0; j * h <= (int64_t{1} << k) && j * h - 2 * h <= n - 1; ++j, ++item) {
       if (scale == s) items.push_back(item);
     }
   }
+  const BrickGrid grid(D, {static_cast<uint32_t>(n), static_cast<uint32_t>(n),
+                           static_cast<uint32_t>(n), D == 4 ? static_cast<uint32_t>(n) : 1u},
+                       k, HzDefaultBrickBits(D));
   for (auto _ : state) {
-    for (const uint64_t i : items) errors.ComputeItem(0, i);
+    if (s > 0) {
+      for (const uint64_t i : items) errors.ComputeItem(0, i);
+      continue;
+    }
+    double m = 0;
+    for (uint64_t b = grid.FirstBrick(0); b < grid.bricks(); ++b) {
+      const BrickGrid::Box box = grid.FinestBox(b);
+      std::array<int64_t, D> first{}, extent{};
+      for (int a = 0; a < D; ++a) first[a] = box.first[a], extent[a] = box.extent[a];
+      m = std::max(m, errors.FinestBoxMax(first, extent));
+    }
+    benchmark::DoNotOptimize(m);
   }
   state.counters["points_per_s"] = benchmark::Counter(
       static_cast<double>(state.iterations()) * static_cast<double>(field.size()),

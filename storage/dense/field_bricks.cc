@@ -97,7 +97,8 @@ uint64_t BrickGrid::FinestOwner(const std::array<int64_t, 4>& g) const {
   return BrickOf(0, q, &unused);
 }
 
-Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const double* field,
+template <class V>
+Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const V* field,
                                  VoxelType type, ZstdCompressor* zstd,
                                  std::optional<BrickCoding> only) {
   const BrickPlace place = grid.Place(b);
@@ -118,7 +119,7 @@ Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const double
                         (place.first[2] + i2 * step) * stride[2] +
                         (place.first[3] + i3 * step) * stride[3] + place.first[0];
         for (uint32_t i0 = 0; i0 < e[0]; ++i0, index += step) {
-          const double v = field[index];
+          const double v = static_cast<double>(field[index]);
           values.push_back(v);
           if (std::isnan(v)) continue;
           out.min = any ? std::min(out.min, v) : v;
@@ -152,6 +153,11 @@ Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const double
   }
   return out;
 }
+
+template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const double*, VoxelType,
+                                          ZstdCompressor*, std::optional<BrickCoding>);
+template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const float*, VoxelType,
+                                          ZstdCompressor*, std::optional<BrickCoding>);
 
 Status DecodeBrick(std::span<const uint8_t> stored, BrickCoding coding, VoxelType type,
                    int dimension, const std::array<uint32_t, 4>& extent, ZstdDecompressor& zstd,

@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <thread>
+#include <type_traits>
 #include <unordered_map>
 #include <vector>
 
@@ -201,12 +202,13 @@ Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
   return report;
 }
 
-// The direct build: the whole field in memory, diamond errors octave by
-// octave on every core (storage/error/diamond_errors.h), then the writer.
-// Returns nullopt, having written nothing, when the volume has missing
-// values (NaN): the caller then takes the engine's path. ResourceExhausted
-// when the field and the table exceed the memory bound.
-template <int D>
+// The direct build: the whole field in memory (as V: float unless the
+// stored type is f64), diamond errors octave by octave on every core
+// (storage/error/diamond_errors.h), then the writer. Returns nullopt,
+// having written nothing, when the volume has missing values (NaN): the
+// caller then takes the engine's path. ResourceExhausted when the field
+// and the table exceed the memory bound.
+template <int D, class V>
 Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const std::string& out,
                                                  const HzBuildOptions& options,
                                                  Clock::time_point start) {
@@ -221,15 +223,19 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   const int threads = options.threads > 0
                           ? options.threads
                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  const uint64_t field_bytes = n * sizeof(double);
-  const uint64_t table_bytes = DiamondErrors<D>::TableBytes(dims, k);
+  constexpr uint64_t kChunk = uint64_t{1} << 20;  // voxels a worker reads at a time
+  const uint64_t field_bytes = n * sizeof(V);
+  const uint64_t table_bytes = DiamondErrors<D, V>::TableBytes(dims, k);
   const uint64_t writer_bytes = uint64_t(threads) * (uint64_t{1} << options.block_bits) * 40;
-  if (field_bytes + table_bytes + writer_bytes > options.memory_bytes) {
+  const uint64_t reader_bytes =
+      std::is_same_v<V, double> ? 0 : uint64_t(threads) * std::min(n, kChunk) * sizeof(double);
+  if (field_bytes + table_bytes + writer_bytes + reader_bytes > options.memory_bytes) {
     // The engine's path needs the field and the table too.
     return Status::ResourceExhausted(
         out + ": the field needs " + MiB(field_bytes) + ", the diamond table " + MiB(table_bytes) +
-        " and the writer " + MiB(writer_bytes) + ", more than the memory bound of " +
-        MiB(options.memory_bytes) + " (--memory-mb); format 2 is built in memory for now");
+        ", the reader and the writer " + MiB(reader_bytes + writer_bytes) +
+        ", more than the memory bound of " + MiB(options.memory_bytes) +
+        " (--memory-mb); format 2 is built in memory for now");
   }
 
   // The field, checked as every store's (finite, float32 range) and held
@@ -238,12 +244,11 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   const VoxelType stored = StoredVoxelType(input, false);
   // Its pages are zeroed by the workers that first write them (zeroing it
   // up front, on one thread, took a twentieth of a build).
-  BigArray<double> field(n);
+  BigArray<V> field(n);
   // Read in chunks by every worker, each with its own reader (a gzip file
   // is read by one: each reader would inflate everything before its
   // chunks). What a chunk finds is kept by chunk, and the first chunk's in
   // file order is reported, as a one-thread read would.
-  constexpr uint64_t kChunk = uint64_t{1} << 20;
   const uint64_t chunks = (n + kChunk - 1) / kChunk;
   struct ChunkResult {
     Status status;
@@ -253,6 +258,8 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   std::vector<ChunkResult> found(chunks);
   const int readers = input.encoding == VolumeInfo::Encoding::kGzip ? 1 : threads;
   std::vector<std::unique_ptr<VolumeReader>> reader(static_cast<size_t>(readers));
+  // Readers give doubles: a float field is read through a chunk of them.
+  std::vector<std::vector<double>> scratch(static_cast<size_t>(readers));
   const auto read_chunk = [&](int worker, uint64_t c) -> Status {
     auto& r = reader[static_cast<size_t>(worker)];
     if (r == nullptr) {
@@ -260,17 +267,26 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
     }
     const uint64_t first = c * kChunk;
     const size_t count = static_cast<size_t>(std::min(kChunk, n - first));
-    double* values = field.data() + first;
+    double* values;
+    if constexpr (std::is_same_v<V, double>) {
+      values = field.data() + first;
+    } else {
+      auto& buffer = scratch[static_cast<size_t>(worker)];
+      buffer.resize(count);
+      values = buffer.data();
+    }
     SDB_RETURN_IF_ERROR(r->Read(first, count, values));
     ChunkResult& result = found[c];
     result.status = CheckStorableValues(input, first, values, count);
     if (!result.status.ok()) return Status::OK();
+    V* to = field.data() + first;
     for (size_t i = 0; i < count; ++i) {
       if (std::isnan(values[i])) {
         result.missing = true;
         return Status::OK();
       }
       if (stored == VoxelType::kF32) values[i] = static_cast<float>(values[i]);
+      to[i] = static_cast<V>(values[i]);  // exact: V holds every stored value
       result.min = std::min(result.min, values[i]);
       result.max = std::max(result.max, values[i]);
     }
@@ -278,6 +294,7 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   };
   SDB_RETURN_IF_ERROR(RunParallel(chunks, readers, "field", start, options.progress, read_chunk));
   reader.clear();
+  scratch.clear();
   double fmin = std::numeric_limits<double>::infinity(), fmax = -fmin;
   for (const ChunkResult& c : found) {
     if (!c.status.ok()) return c.status;
@@ -286,11 +303,28 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
     fmax = std::max(fmax, c.max);
   }
 
-  DiamondErrors<D> diamonds(field.data(), dims, k, !IsFloatType(stored), fmax - fmin, threads);
+  DiamondErrors<D, V> diamonds(field.data(), dims, k, !IsFloatType(stored), fmax - fmin, threads);
   diamonds.Allocate();
-  SDB_RETURN_IF_ERROR(RunParallel(diamonds.item_count(), threads, "errors", start,
+  // Work items: the coarser octaves' slabs (the table), then each grid
+  // brick's largest finest error (the store keeps that, not the errors:
+  // its reader computes them as these do).
+  const BrickGrid grid(D, input.dims, k, HzDefaultBrickBits(D));
+  std::vector<double> finest_max(grid.Count(0), 0.0);
+  const uint64_t slabs = diamonds.item_count();
+  SDB_RETURN_IF_ERROR(RunParallel(slabs + grid.Count(0), threads, "errors", start,
                                   options.progress, [&](int worker, uint64_t item) {
-                                    diamonds.ComputeItem(worker, item);
+                                    if (item < slabs) {
+                                      diamonds.ComputeItem(worker, item);
+                                      return Status::OK();
+                                    }
+                                    const BrickGrid::Box box =
+                                        grid.FinestBox(grid.FirstBrick(0) + item - slabs);
+                                    std::array<int64_t, D> first{}, extent{};
+                                    for (int a = 0; a < D; ++a) {
+                                      first[a] = box.first[a];
+                                      extent[a] = box.extent[a];
+                                    }
+                                    finest_max[item - slabs] = diamonds.FinestBoxMax(first, extent);
                                     return Status::OK();
                                   }));
   diamonds.Finish();
@@ -333,34 +367,6 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
     }
     return Status::OK();
   };
-  // Each grid brick's largest finest error, from the table: the store
-  // keeps that, not the errors (its reader computes them as the table did).
-  const BrickGrid grid(D, input.dims, k, params.brick_bits);
-  std::vector<double> finest_max(grid.Count(0), 0.0);
-  const int64_t side = int64_t{1} << k;
-  SDB_RETURN_IF_ERROR(RunParallel(
-      grid.Count(0), threads, "finest", start, options.progress, [&](int, uint64_t i) {
-        const BrickGrid::Box box = grid.FinestBox(grid.FirstBrick(0) + i);
-        std::array<int64_t, D> g{}, local{};
-        double m = 0;
-        while (true) {
-          bool finest = false, inside = true;
-          for (int a = 0; a < D; ++a) {
-            g[a] = box.first[a] + local[a];
-            finest = finest || (g[a] & 1) != 0;
-            inside = inside && g[a] <= side;
-          }
-          if (finest && inside) m = std::max(m, diamonds.At(g, 0));  // never past the table
-          int a = 0;
-          for (; a < D; ++a) {
-            if (++local[a] < box.extent[a]) break;
-            local[a] = 0;
-          }
-          if (a == D) break;
-        }
-        finest_max[i] = m;
-        return Status::OK();
-      }));
   HzBuildReport report;
   SDB_ASSIGN_OR_RETURN(report.header,
                        WriteHzStore(out, params, write, fill, field.data(), finest_max.data()));
@@ -423,11 +429,15 @@ Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& o
   if (!options.mask && (input.dimension == 3 || input.dimension == 4)) {
     try {
       std::optional<HzBuildReport> direct;
-      if (input.dimension == 3) {
-        SDB_ASSIGN_OR_RETURN(direct, BuildDirect<3>(input, out_path, options, start));
-      } else {
-        SDB_ASSIGN_OR_RETURN(direct, BuildDirect<4>(input, out_path, options, start));
-      }
+      // Every stored type but f64 is held exactly by a float.
+      const bool wide = StoredVoxelType(input, false) == VoxelType::kF64;
+      Result<std::optional<HzBuildReport>> built =
+          input.dimension == 3
+              ? (wide ? BuildDirect<3, double>(input, out_path, options, start)
+                      : BuildDirect<3, float>(input, out_path, options, start))
+              : (wide ? BuildDirect<4, double>(input, out_path, options, start)
+                      : BuildDirect<4, float>(input, out_path, options, start));
+      SDB_ASSIGN_OR_RETURN(direct, std::move(built));
       if (direct) return *direct;
     } catch (const std::bad_alloc&) {
       return NotEnoughMemory("building " + out_path + " from " + input.description,

@@ -12,11 +12,14 @@
 // ConvertToHz makes a store from such a format-1 store (float32 errors keep
 // them exact up to rounding up).
 //
-// Memory: both paths hold the field as doubles and a float per vertex of
-// the real grid grown by two points per axis (the engine's path also a map
-// for the few coarser diamonds beyond it), and the writer's blocks per
-// thread; checked against memory_bytes before anything is allocated.
-// Streaming within the bound is issue 16's next step.
+// Memory: the direct path holds the field as floats (doubles for f64
+// volumes), a float per even vertex (every coordinate even: an eighth of
+// the grid in the HT, a sixteenth in the HP; the finest octave's errors
+// are reduced to each grid brick's largest as they are computed), a chunk
+// of the input per reader and the writer's blocks per thread. The engine's
+// path holds the field as doubles and a float per vertex. Both are checked
+// against memory_bytes before anything is allocated. Streaming within the
+// bound is issue 16's next step.
 //
 // Thread safety: may run in several threads at once for different outputs.
 // Lifetimes: ConvertToHz reads `f1` during the call only.
@@ -51,7 +54,7 @@ struct HzBuildOptions {
   size_t memory_bytes = size_t{1} << 30;
   int threads = 0;  // 0: one per core
   std::optional<VolumeInfo> mask;  // as DenseBuildOptions::mask
-  std::function<void(const BuildProgress&)> progress;  // "field", "errors", "finest", "diamonds", "blocks", "bricks"
+  std::function<void(const BuildProgress&)> progress;  // "field", "errors", "diamonds", "blocks", "bricks"
 };
 
 struct HzBuildReport {

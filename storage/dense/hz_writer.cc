@@ -63,8 +63,8 @@ Status Append(AtomicFileWriter& writer, std::span<const uint8_t> stored, HzIndex
 }
 
 // OK when every value of the field fits the stored type.
-template <int D>
-Status CheckField(const std::string& path, const HzHeader& h, const double* field) {
+template <int D, class V>
+Status CheckField(const std::string& path, const HzHeader& h, const V* field) {
   uint64_t n = 1;
   for (int a = 0; a < D; ++a) n *= h.dims[a];
   for (uint64_t i = 0; i < n; ++i) {
@@ -82,9 +82,9 @@ Status CheckField(const std::string& path, const HzHeader& h, const double* fiel
   return Status::OK();
 }
 
-template <int D>
+template <int D, class V>
 Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions& options,
-                       const HzFill& fill, const double* field, const double* finest_max) {
+                       const HzFill& fill, const V* field, const double* finest_max) {
   const auto start = std::chrono::steady_clock::now();
   SDB_RETURN_IF_ERROR(CheckField<D>(path, h, field));
   const HzOrder<D> order(h.domain_bits);
@@ -235,9 +235,10 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
 
 }  // namespace
 
+template <class V>
 Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
-                              const HzWriteOptions& options, const HzFill& fill,
-                              const double* field, const double* finest_max) {
+                              const HzWriteOptions& options, const HzFill& fill, const V* field,
+                              const double* finest_max) {
   const int max_bits = params.dimension == 3 ? 18 : 13;
   if ((params.dimension != 3 && params.dimension != 4) || params.domain_bits < 1 ||
       params.domain_bits > max_bits || params.block_bits < 6 || params.block_bits > 20 ||
@@ -250,8 +251,13 @@ Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
     return Status::InvalidArgument(path + ": the finest errors' maxima go with a store that "
                                           "does not keep them");
   }
-  if (params.dimension == 3) return Write<3>(path, params, options, fill, field, finest_max);
-  return Write<4>(path, params, options, fill, field, finest_max);
+  if (params.dimension == 3) return Write<3, V>(path, params, options, fill, field, finest_max);
+  return Write<4, V>(path, params, options, fill, field, finest_max);
 }
+
+template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&, const HzWriteOptions&,
+                                       const HzFill&, const double*, const double*);
+template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&, const HzWriteOptions&,
+                                       const HzFill&, const float*, const double*);
 
 }  // namespace simplexdb

@@ -60,8 +60,15 @@ using HzFill = std::function<Status(int worker, uint64_t first, size_t count, do
 // kHzFinestStored (then null), per grid brick (lattice 0, in brick order)
 // the largest finest-octave error of the vertices it owns
 // (BrickGrid::FinestBox). Returns the header written.
+template <class V>  // double, or float when every value is a float
 Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
-                              const HzWriteOptions& options, const HzFill& fill,
-                              const double* field, const double* finest_max);
+                              const HzWriteOptions& options, const HzFill& fill, const V* field,
+                              const double* finest_max);
+extern template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&,
+                                              const HzWriteOptions&, const HzFill&, const double*,
+                                              const double*);
+extern template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&,
+                                              const HzWriteOptions&, const HzFill&, const float*,
+                                              const double*);
 
 }  // namespace simplexdb

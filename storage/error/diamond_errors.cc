@@ -31,16 +31,16 @@ float RoundUp(double e) {
 
 }  // namespace
 
-template <int D>
+template <int D, class V>
 template <size_t... S>
-auto DiamondErrors<D>::MakeStencils(const std::array<int64_t, D>& strides,
+auto DiamondErrors<D, V>::MakeStencils(const std::array<int64_t, D>& strides,
                                     std::index_sequence<S...>)
     -> std::array<DiamondStencils<D>, kStencilScales> {
   return {DiamondStencils<D>(FinestDiamonds<D>::Get(), strides, static_cast<int>(S))...};
 }
 
-template <int D>
-DiamondErrors<D>::DiamondErrors(const double* field, const std::array<int64_t, D>& dims, int k,
+template <int D, class V>
+DiamondErrors<D, V>::DiamondErrors(const V* field, const std::array<int64_t, D>& dims, int k,
                                 bool exact, double range, int threads, bool stencils)
     : field_(field),
       dims_(dims),
@@ -60,12 +60,13 @@ DiamondErrors<D>::DiamondErrors(const double* field, const std::array<int64_t, D
     assert(dims[a] >= 1 && dims[a] <= (int64_t{1} << k) + 1);
     extent_[a] = std::min<int64_t>(int64_t{1} << k, dims[a] + 1) + 1;
     stride_[a] = size_;
-    size_ *= static_cast<uint64_t>(extent_[a]);
+    size_ *= static_cast<uint64_t>((extent_[a] + 1) / 2);
   }
-  // Work items: per octave (scale s, coarse first: they are the heavy
-  // ones), one slab of vertices per value of the last coordinate, for the
-  // vertices whose diamond, [g - 2^(s+1), g + 2^(s+1)], can meet the grid.
-  for (int s = k - 1; s >= 0; --s) {
+  // Work items: per octave but the finest (scale s, coarse first: they are
+  // the heavy ones), one slab of vertices per value of the last coordinate,
+  // for the vertices whose diamond, [g - 2^(s+1), g + 2^(s+1)], can meet
+  // the grid.
+  for (int s = k - 1; s >= 1; --s) {
     const int64_t h = int64_t{1} << s;
     for (int64_t j = 0; j * h <= (int64_t{1} << k) && j * h - 2 * h <= dims[D - 1] - 1; ++j) {
       items_.push_back({s, j});
@@ -73,22 +74,22 @@ DiamondErrors<D>::DiamondErrors(const double* field, const std::array<int64_t, D
   }
 }
 
-template <int D>
-uint64_t DiamondErrors<D>::TableBytes(const std::array<int64_t, D>& dims, int k) {
+template <int D, class V>
+uint64_t DiamondErrors<D, V>::TableBytes(const std::array<int64_t, D>& dims, int k) {
   uint64_t n = 1;
   for (int a = 0; a < D; ++a) {
-    n *= static_cast<uint64_t>(std::min<int64_t>(int64_t{1} << k, dims[a] + 1) + 1);
+    n *= static_cast<uint64_t>((std::min<int64_t>(int64_t{1} << k, dims[a] + 1) + 2) / 2);
   }
   return n * sizeof(float);
 }
 
-template <int D>
-void DiamondErrors<D>::Allocate() {
+template <int D, class V>
+void DiamondErrors<D, V>::Allocate() {
   table_ = BigArray<float>(size_);  // zeros, touched first by the workers
 }
 
-template <int D>
-bool DiamondErrors<D>::Interior(const std::array<int64_t, D>& g, int s) const {
+template <int D, class V>
+bool DiamondErrors<D, V>::Interior(const std::array<int64_t, D>& g, int s) const {
   // Every simplex of the diamond inside the domain lies in the real grid:
   // the diamond, [g - 2h, g + 2h], ends before the real grid's last point or
   // the real grid reaches the domain's face (dims = 2^k + 1) there; at 0
@@ -100,23 +101,23 @@ bool DiamondErrors<D>::Interior(const std::array<int64_t, D>& g, int s) const {
   return true;
 }
 
-template <int D>
-double DiamondErrors<D>::FieldAt(const std::array<int64_t, D>& p) const {
+template <int D, class V>
+double DiamondErrors<D, V>::FieldAt(const std::array<int64_t, D>& p) const {
   int64_t i = 0;
   for (int a = 0; a < D; ++a) i += p[a] * field_stride_[a];
   return field_[i];
 }
 
-template <int D>
+template <int D, class V>
 template <class T>
-double DiamondErrors<D>::CoarseScan(const std::array<int64_t, D>& g, int s) const {
+double DiamondErrors<D, V>::CoarseScan(const std::array<int64_t, D>& g, int s) const {
   uint32_t odd = 0, parity = 0;
   for (int a = 0; a < D; ++a) {
     odd |= static_cast<uint32_t>((g[a] >> s) & 1) << a;
     parity |= static_cast<uint32_t>((g[a] >> (s + 1)) & 1) << a;
   }
   const int64_t h = int64_t{1} << s, side = int64_t{1} << k_;
-  const GridView<D> view{field_, IPoint<D>{}, field_stride_};
+  const GridView<D, V> view{field_, IPoint<D>{}, field_stride_};
   double worst = 0;
   for (const auto& t : FinestDiamonds<D>::Get().Of(odd, parity).simplices) {
     std::array<IPoint<D>, D + 1> v{};
@@ -143,18 +144,18 @@ double DiamondErrors<D>::CoarseScan(const std::array<int64_t, D>& g, int s) cons
       for (int a = 0; a < D; ++a) index += std::min(v[i][a], dims_[a] - 1) * field_stride_[a];
       f[i] = static_cast<T>(field_[index]);
     }
-    worst = std::max(worst, MaxError<D, T>(scan, f, range_, lo, hi, view).error);
+    worst = std::max(worst, MaxError<D, T, V>(scan, f, range_, lo, hi, view).error);
   }
   return worst;
 }
 
-template <int D>
-double DiamondErrors<D>::Coarse(const std::array<int64_t, D>& g, int s) const {
+template <int D, class V>
+double DiamondErrors<D, V>::Coarse(const std::array<int64_t, D>& g, int s) const {
   return exact_ ? CoarseScan<int64_t>(g, s) : CoarseScan<double>(g, s);
 }
 
-template <int D>
-void DiamondErrors<D>::ComputeItem(int worker, uint64_t item) {
+template <int D, class V>
+void DiamondErrors<D, V>::ComputeItem(int worker, uint64_t item) {
   const Item it = items_[item];
   const int64_t h = int64_t{1} << it.s, side = int64_t{1} << k_, reach = 2 * h;
   // Vertices of the slab: multiples of h on every axis, up to the domain
@@ -168,17 +169,7 @@ void DiamondErrors<D>::ComputeItem(int worker, uint64_t item) {
     for (int a = 0; a < D; ++a) odd = odd || ((g[a] >> it.s) & 1) != 0;
     if (odd) {
       double e;
-      if (it.s == 0 && use_stencils_) {
-        // The reader of format 2's next layout computes these the same way.
-        bool real = true;
-        int64_t index = 0;
-        for (int a = 0; a < D; ++a) {
-          real = real && g[a] < dims_[a];
-          index += g[a] * field_stride_[a];
-        }
-        e = FinestDiamondError<D>(stencils_[0], real ? field_ + index : nullptr, g, k_, dims_,
-                                  [&](const std::array<int64_t, D>& p) { return FieldAt(p); });
-      } else if (use_stencils_ && it.s < kRowStencilScales && Interior(g, it.s)) {
+      if (use_stencils_ && it.s < kRowStencilScales && Interior(g, it.s)) {
         uint32_t pattern = 0, parity = 0;
         int64_t index = 0;
         for (int a = 0; a < D; ++a) {
@@ -188,7 +179,7 @@ void DiamondErrors<D>::ComputeItem(int worker, uint64_t item) {
         }
         bool clip = false;
         for (int a = 0; a < D; ++a) clip = clip || g[a] < reach || g[a] + reach > side;
-        const double* center = field_ + index;
+        const V* center = field_ + index;
         if (it.s < kStencilScales) {
           const auto& st = stencils_[static_cast<size_t>(it.s)];
           e = clip ? st.ClippedError(center, pattern, parity, g, side)
@@ -222,8 +213,8 @@ void DiamondErrors<D>::ComputeItem(int worker, uint64_t item) {
   }
 }
 
-template <int D>
-void DiamondErrors<D>::Finish() {
+template <int D, class V>
+void DiamondErrors<D, V>::Finish() {
   for (auto& list : far_by_worker_) {
     for (const auto& [position, e] : list) far_[position] = e;
     list.clear();
@@ -231,30 +222,78 @@ void DiamondErrors<D>::Finish() {
   }
 }
 
-template <int D>
-float* DiamondErrors<D>::Slot(const std::array<int64_t, D>& g) {
+template <int D, class V>
+float* DiamondErrors<D, V>::Slot(const std::array<int64_t, D>& g) {
   uint64_t i = 0;
   for (int a = 0; a < D; ++a) {
     if (g[a] >= extent_[a]) return nullptr;
-    i += static_cast<uint64_t>(g[a]) * stride_[a];
+    i += static_cast<uint64_t>(g[a] >> 1) * stride_[a];
   }
   return &table_[i];
 }
 
-template <int D>
-double DiamondErrors<D>::At(const std::array<int64_t, D>& g, uint64_t position) const {
+template <int D, class V>
+double DiamondErrors<D, V>::At(const std::array<int64_t, D>& g, uint64_t position) const {
+  bool finest = false;
+  for (int a = 0; a < D; ++a) finest = finest || (g[a] & 1) != 0;
+  if (finest) return Finest(g);
   uint64_t i = 0;
   for (int a = 0; a < D; ++a) {
     if (g[a] >= extent_[a]) {
       const auto it = far_.find(position);
       return it == far_.end() ? 0.0 : it->second;
     }
-    i += static_cast<uint64_t>(g[a]) * stride_[a];
+    i += static_cast<uint64_t>(g[a] >> 1) * stride_[a];
   }
   return table_[i];
 }
 
-template class DiamondErrors<3>;
-template class DiamondErrors<4>;
+template <int D, class V>
+double DiamondErrors<D, V>::Finest(const std::array<int64_t, D>& g) const {
+  if (!use_stencils_) return Coarse(g, 0);
+  // The reader computes these the same way (storage/error/finest_box_errors.h).
+  bool real = true;
+  int64_t index = 0;
+  for (int a = 0; a < D; ++a) {
+    real = real && g[a] < dims_[a];
+    index += g[a] * field_stride_[a];
+  }
+  return FinestDiamondError<D>(stencils_[0], real ? field_ + index : nullptr, g, k_, dims_,
+                               [&](const std::array<int64_t, D>& p) { return FieldAt(p); });
+}
+
+template <int D, class V>
+double DiamondErrors<D, V>::FinestBoxMax(const std::array<int64_t, D>& first,
+                                         const std::array<int64_t, D>& extent) const {
+  const int64_t side = int64_t{1} << k_;
+  std::array<int64_t, D> last{};
+  for (int a = 0; a < D; ++a) last[a] = std::min(first[a] + extent[a] - 1, side);
+  double m = 0;
+  std::array<int64_t, D> g = first;
+  for (int a = 0; a < D; ++a) {
+    if (first[a] > last[a]) return 0;
+  }
+  while (true) {
+    bool finest = false;
+    for (int a = 1; a < D; ++a) finest = finest || (g[a] & 1) != 0;
+    // Along x: every point when another coordinate is odd, else the odd x.
+    for (int64_t x = finest ? first[0] : (first[0] | 1); x <= last[0]; x += finest ? 1 : 2) {
+      g[0] = x;
+      m = std::max(m, Finest(g));
+    }
+    int a = 1;
+    for (; a < D; ++a) {
+      if (++g[a] <= last[a]) break;
+      g[a] = first[a];
+    }
+    if (a == D) break;
+  }
+  return m;
+}
+
+template class DiamondErrors<3, double>;
+template class DiamondErrors<4, double>;
+template class DiamondErrors<3, float>;
+template class DiamondErrors<4, float>;
 
 }  // namespace simplexdb

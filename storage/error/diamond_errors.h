@@ -31,17 +31,30 @@
 // point has error 0. Fields with missing values (NaN) are not handled here:
 // their builders take the engine's path.
 //
+// The finest octave (scale 0) is not tabled: a format-2 store keeps only
+// each grid brick's largest finest error (FinestBoxMax), and its reader
+// computes the others with the same function (storage/error/
+// finest_box_errors.h). The table holds the vertices whose coordinates are
+// all even: an eighth of the HT's grid, a sixteenth of the HP's.
+//
 // Use:
-//   DiamondErrors<3> d(field, dims, k, exact, range, threads);
+//   DiamondErrors<3, float> d(field, dims, k, exact, range, threads);
 //   d.Allocate();                              // DiamondErrors::TableBytes
 //   for (item in 0 .. d.item_count()) d.ComputeItem(worker, item);  // any threads
 //   d.Finish();
-//   double e = d.At(g, position);
+//   double e = d.At(g, position);              // coarser octaves: a lookup
+//   double m = d.FinestBoxMax(first, extent);  // finest octave: computed
+//
+// V, the field's element type: double, or float for fields whose every
+// value float holds exactly (every stored type but f64): half the memory,
+// and the same errors (the kernels compute in double).
 //
 // Thread safety: ComputeItem may run concurrently for distinct items, each
 // with its own worker index (0 .. threads - 1); everything else is
-// single-threaded (At is const and may be shared once Finish returned).
-// Lifetimes: the field is read during ComputeItem and must outlive it.
+// single-threaded (At and FinestBoxMax are const and may be shared once
+// Finish returned).
+// Lifetimes: the field is read during ComputeItem, At (finest vertices) and
+// FinestBoxMax, and must outlive them.
 // Errors: none; preconditions (no NaN, dims within the domain) are
 // assertions. Allocate throws std::bad_alloc.
 #pragma once
@@ -58,7 +71,7 @@
 
 namespace simplexdb {
 
-template <int D>
+template <int D, class V = double>
 class DiamondErrors {
  public:
   // `field`: the real grid's values, x fastest, dims[a] points per axis, in
@@ -66,12 +79,12 @@ class DiamondErrors {
   // integer), errors computed exactly. `range`: field max - min.
   // `stencils` false scans every diamond's simplices (the reference the
   // stencils are tested against).
-  DiamondErrors(const double* field, const std::array<int64_t, D>& dims, int k, bool exact,
+  DiamondErrors(const V* field, const std::array<int64_t, D>& dims, int k, bool exact,
                 double range, int threads, bool stencils = true);
 
-  // The table's bytes: a float per point of the real grid grown by two
-  // points per axis (the finest diamonds of vertices there reach real
-  // points), within the domain.
+  // The table's bytes: a float per even point (every coordinate even) of
+  // the real grid grown by two points per axis (the diamonds of vertices
+  // there reach real points), within the domain.
   static uint64_t TableBytes(const std::array<int64_t, D>& dims, int k);
   void Allocate();
 
@@ -83,7 +96,12 @@ class DiamondErrors {
 
   // The diamond error of vertex g (HZ position `position`, for the vertices
   // past the table); 0 for vertices with no real point in their diamond.
+  // A finest vertex's is computed (O(stencil)), the others' looked up.
   double At(const std::array<int64_t, D>& g, uint64_t position) const;
+  // The largest diamond error of the finest vertices in the box [first,
+  // first + extent) (coordinates up to 2^k; the others are skipped).
+  double FinestBoxMax(const std::array<int64_t, D>& first,
+                      const std::array<int64_t, D>& extent) const;
   // Asks the processor for the table entry At(g) will read. A caller
   // reading in another order than the table's (x fastest) issues these a
   // batch ahead: one miss at a time would wait on memory for each.
@@ -91,7 +109,7 @@ class DiamondErrors {
     uint64_t i = 0;
     for (int a = 0; a < D; ++a) {
       if (g[a] >= extent_[a]) return;
-      i += static_cast<uint64_t>(g[a]) * stride_[a];
+      i += static_cast<uint64_t>(g[a] >> 1) * stride_[a];
     }
     __builtin_prefetch(table_.data() + i);
   }
@@ -102,6 +120,7 @@ class DiamondErrors {
     int64_t j;    // the last coordinate is j * 2^s
   };
   double FieldAt(const std::array<int64_t, D>& p) const;  // a real grid point's value
+  double Finest(const std::array<int64_t, D>& g) const;   // a finest vertex's error
   // Whether the simplices in the domain of g's diamond (scale s) all lie in
   // the real grid: the stencils then serve it, clipped at the domain's faces.
   bool Interior(const std::array<int64_t, D>& g, int s) const;
@@ -110,7 +129,7 @@ class DiamondErrors {
   double CoarseScan(const std::array<int64_t, D>& g, int s) const;
   float* Slot(const std::array<int64_t, D>& g);
 
-  const double* field_;
+  const V* field_;
   std::array<int64_t, D> dims_;
   std::array<int64_t, D> field_stride_{};
   int k_;
@@ -129,6 +148,8 @@ class DiamondErrors {
   // kRowStencilScales - 1); coarser diamonds are few, scanned directly.
   static constexpr int kRowStencilScales = D == 3 ? 5 : 3;
   std::vector<DiamondRowStencils<D>> row_stencils_;
+  // The table: extent_[a] grid points per axis, even ones tabled
+  // (stride_ per half coordinate).
   std::array<int64_t, D> extent_{};
   std::array<uint64_t, D> stride_{};
   uint64_t size_ = 0;
@@ -138,7 +159,9 @@ class DiamondErrors {
   std::unordered_map<uint64_t, float> far_;
 };
 
-extern template class DiamondErrors<3>;
-extern template class DiamondErrors<4>;
+extern template class DiamondErrors<3, double>;
+extern template class DiamondErrors<4, double>;
+extern template class DiamondErrors<3, float>;
+extern template class DiamondErrors<4, float>;
 
 }  // namespace simplexdb

@@ -26,13 +26,14 @@ namespace simplexdb {
 
 // The error of the diamond of finest-octave vertex g (some coordinate odd,
 // each in [0, 2^k]) of a grid whose real part is [0, dims). `stencils`
-// (scale 0) are laid out for the array `center` points into, at g's value
-// (or where it would be, for g past the real grid); `field(p)` returns the
+// (scale 0) are laid out for the array `center` points into (of doubles, or
+// of floats holding the values exactly: the same errors), at g's value (or
+// where it would be, for g past the real grid); `field(p)` returns the
 // value at real grid point p for the diamonds that cross the real grid's
 // last faces, which take the generic template walk.
 // REQUIRES: the array holds every real point of [g - 2, g + 2].
-template <int D, class Field>
-double FinestDiamondError(const DiamondStencils<D>& stencils, const double* center,
+template <int D, class V, class Field>
+double FinestDiamondError(const DiamondStencils<D>& stencils, const V* center,
                           const std::array<int64_t, D>& g, int k,
                           const std::array<int64_t, D>& dims, Field&& field) {
   const int64_t side = int64_t{1} << k;

@@ -169,7 +169,8 @@ class DiamondStencils {
   // lattice.
   // REQUIRES: the diamond, [v - 2h, v + 2h] (h = 2^scale_bits), inside the
   // domain and the real grid and inside the array; no NaN there.
-  double InteriorError(const double* center, uint32_t odd, uint32_t parity) const {
+  template <class V>
+  double InteriorError(const V* center, uint32_t odd, uint32_t parity) const {
     return Run<false>(center, odd, parity, {}, 0);
   }
 
@@ -178,7 +179,8 @@ class DiamondStencils {
   // (the clusters end there).
   // REQUIRES: its simplices inside the domain lie in the real grid and the
   // array; no NaN there.
-  double ClippedError(const double* center, uint32_t odd, uint32_t parity,
+  template <class V>
+  double ClippedError(const V* center, uint32_t odd, uint32_t parity,
                       const std::array<int64_t, D>& g, int64_t side) const {
     return Run<true>(center, odd, parity, g, side);
   }
@@ -206,8 +208,8 @@ class DiamondStencils {
     return true;
   }
 
-  template <bool kClip>
-  double Run(const double* center, uint32_t odd, uint32_t parity, const std::array<int64_t, D>& g,
+  template <bool kClip, class V>
+  double Run(const V* center, uint32_t odd, uint32_t parity, const std::array<int64_t, D>& g,
              int64_t side) const {
     const Flat& f = flat_[odd][parity];
     double worst = 0, other = 0;
@@ -224,7 +226,7 @@ class DiamondStencils {
         const double* w = &f.weight[p * (D + 1)];
         double interp = 0;
         for (int i = 0; i <= D; ++i) interp += w[i] * v[i];
-        return std::abs(center[f.point[p]] - interp);
+        return std::abs(static_cast<double>(center[f.point[p]]) - interp);
       };
       size_t p = s == 0 ? 0 : f.simplex_end[s - 1];
       const size_t end = f.simplex_end[s];
@@ -311,18 +313,20 @@ class DiamondRowStencils {
   // The error of the diamond of the vertex whose value is at `center`, with
   // odd-axis pattern `odd` and cube parity `parity` on its octave's lattice.
   // REQUIRES: as DiamondStencils::InteriorError.
-  double InteriorError(const double* center, uint32_t odd, uint32_t parity) const {
+  template <class V>
+  double InteriorError(const V* center, uint32_t odd, uint32_t parity) const {
     return Run<false>(center, odd, parity, {}, 0);
   }
   // REQUIRES: as DiamondStencils::ClippedError.
-  double ClippedError(const double* center, uint32_t odd, uint32_t parity,
+  template <class V>
+  double ClippedError(const V* center, uint32_t odd, uint32_t parity,
                       const std::array<int64_t, D>& g, int64_t side) const {
     return Run<true>(center, odd, parity, g, side);
   }
 
  private:
-  template <bool kClip>
-  double Run(const double* center, uint32_t odd, uint32_t parity, const std::array<int64_t, D>& g,
+  template <bool kClip, class V>
+  double Run(const V* center, uint32_t odd, uint32_t parity, const std::array<int64_t, D>& g,
              int64_t side) const {
     const Flat& f = flat_[odd][parity];
     double w[4] = {0, 0, 0, 0};
@@ -345,7 +349,7 @@ class DiamondRowStencils {
         const Row& row = f.rows[r];
         double at = f0;
         for (int c = 0; c < D; ++c) at += grad[c] * row.from_first[c];
-        const double* v = center + row.index;
+        const V* v = center + row.index;
         // Four running maxima, as in DiamondStencils::Run.
         // x counted in double as well (the same small integers, exactly):
         // no conversion per point.
@@ -353,12 +357,12 @@ class DiamondRowStencils {
         double x = 0;
         for (; i + 4 <= row.count; i += 4, x += 4) {
           for (int j = 0; j < 4; ++j) {
-            const double e = std::abs(v[i + j] - (at + grad[0] * (x + j)));
+            const double e = std::abs(static_cast<double>(v[i + j]) - (at + grad[0] * (x + j)));
             w[j] = e > w[j] ? e : w[j];
           }
         }
         for (; i < row.count; ++i) {
-          const double e = std::abs(v[i] - (at + grad[0] * i));
+          const double e = std::abs(static_cast<double>(v[i]) - (at + grad[0] * i));
           w[0] = e > w[0] ? e : w[0];
         }
       }

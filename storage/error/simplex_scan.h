@@ -144,14 +144,16 @@ bool NextRow(std::array<int64_t, D>& p, const std::array<int64_t, D>& lo,
 }
 
 // Field values on a box of grid points, x fastest: rows are contiguous.
-template <int D>
+// V is double, or float for fields whose values float holds exactly (the
+// scans compute in double either way).
+template <int D, class V = double>
 struct GridView {
-  const double* data = nullptr;
+  const V* data = nullptr;
   IPoint<D> lo{};
   std::array<int64_t, D> stride{};  // stride[0] == 1
 
   // The value at p; x runs contiguously from there.
-  const double* Row(const IPoint<D>& p) const {
+  const V* Row(const IPoint<D>& p) const {
     int64_t i = 0;
     for (int c = 0; c < D; ++c) i += (p[c] - lo[c]) * stride[c];
     return data + i;
@@ -319,8 +321,8 @@ class Interpolant {
   // Largest |det * (f(p) - interp(p))| over x in [x0, x1] of the row
   // starting at p, whose values are row[0], row[1], ...; W is int64_t (when
   // fits64()) or Int128 for exact fields, double for float fields.
-  template <class W>
-  W RowMax(const IPoint<D>& p, int64_t x1, const double* row, W worst) const {
+  template <class W, class V>
+  W RowMax(const IPoint<D>& p, int64_t x1, const V* row, W worst) const {
     W along = 0;
     for (int c = 1; c < D; ++c) along += static_cast<W>(g_[c]) * static_cast<W>(p[c] - v0_[c]);
     const W det = static_cast<W>(det_);
@@ -337,12 +339,13 @@ class Interpolant {
       int64_t i = 0;
       for (; i + 4 <= count; i += 4) {
         for (int j = 0; j < 4; ++j) {
-          const double n = (row[i + j] - f0) * det + (base - gx * static_cast<double>(i + j));
+          const double n = (static_cast<double>(row[i + j]) - f0) * det +
+                           (base - gx * static_cast<double>(i + j));
           w[j] = std::max(w[j], std::abs(n));
         }
       }
       for (; i < count; ++i) {
-        const double n = (row[i] - f0) * det + (base - gx * static_cast<double>(i));
+        const double n = (static_cast<double>(row[i]) - f0) * det + (base - gx * static_cast<double>(i));
         w[0] = std::max(w[0], std::abs(n));
       }
       return std::max(std::max(w[0], w[1]), std::max(w[2], w[3]));
@@ -377,9 +380,9 @@ class Interpolant {
 // `view` must cover), and every interpolant j, tracks the largest
 // |field(p) - interp_j(p)|; raises errors[j] to it. Returns whether any
 // point was visited.
-template <int D, class T>
+template <int D, class T, class V = double>
 bool MaxErrors(const ScannableSimplex<D>& rows, const Interpolant<D, T>* interps, int count,
-               const IPoint<D>& lo, const IPoint<D>& hi, const GridView<D>& view,
+               const IPoint<D>& lo, const IPoint<D>& hi, const GridView<D, V>& view,
                double* errors) {
   constexpr int kMaxInterps = 64;
   assert(count <= kMaxInterps);
@@ -389,12 +392,12 @@ bool MaxErrors(const ScannableSimplex<D>& rows, const Interpolant<D, T>* interps
     bool any = false;
     rows.ForEachRow(lo, hi, [&](const IPoint<D>& p, int64_t x_end) {
       any = true;
-      const double* row = view.Row(p);
+      const V* row = view.Row(p);
       // The next row (y + 1) starts about here: ask for it now, so its
       // first lines arrive while this one is scanned (rows are short and
       // a stride apart, which the hardware's prefetcher does not follow).
-      const double* next = row + view.stride[1];
-      for (int64_t i = 0; i <= x_end - p[0]; i += 8) __builtin_prefetch(next + i);
+      const V* next = row + view.stride[1];
+      for (int64_t i = 0; i <= x_end - p[0]; i += 64 / sizeof(V)) __builtin_prefetch(next + i);
       for (int j = 0; j < count; ++j) worst[j] = interps[j].RowMax(p, x_end, row, worst[j]);
     });
     for (int j = 0; j < count; ++j) errors[j] = std::max(errors[j], interps[j].ErrorOf(worst[j]));
@@ -415,17 +418,17 @@ struct ScanResult {
   bool any_point = false;
 };
 
-template <int D, class T>
+template <int D, class T, class V = double>
 ScanResult MaxError(const ScannableSimplex<D>& s, const std::array<T, D + 1>& f,
                     double max_value_step, const IPoint<D>& lo, const IPoint<D>& hi,
-                    const GridView<D>& view) {
+                    const GridView<D, V>& view) {
   double extent = 0;
   for (int c = 0; c < D; ++c) {
     extent = std::max(extent, static_cast<double>(s.box_hi()[c] - s.box_lo()[c]));
   }
   const Interpolant<D, T> interp(s, f, max_value_step, extent);
   ScanResult r;
-  r.any_point = MaxErrors<D, T>(s, &interp, 1, lo, hi, view, &r.error);
+  r.any_point = MaxErrors<D, T, V>(s, &interp, 1, lo, hi, view, &r.error);
   return r;
 }
 

@@ -1,12 +1,15 @@
 // Diamond errors computed octave by octave against brute force: for every
 // vertex of small grids (cubic, non-cubic with padding, HT and HP, integer
 // and float), the largest brute-force seed error over the nodes whose split
-// creates it; whichever order and threads the work items run in.
+// creates it; whichever order and threads the work items run in, with the
+// field as doubles or as floats; and the finest octave's largest error
+// over boxes of vertices.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <map>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 #include "hierarchy/geometry.h"
@@ -44,15 +47,21 @@ std::map<std::array<int64_t, D>, long double> BruteForceDiamonds(const TestVolum
   return out;
 }
 
-template <int D>
+template <int D, class V>
 void ExpectBruteForce(const TestVolume& volume, bool exact, int threads, bool reverse) {
-  SCOPED_TRACE("threads " + std::to_string(threads) + (reverse ? ", reversed" : ""));
+  SCOPED_TRACE("threads " + std::to_string(threads) + (reverse ? ", reversed" : "") +
+               (std::is_same_v<V, float> ? ", float field" : ", double field"));
   const int k = DomainBits<D>(volume);
   std::array<int64_t, D> dims{};
   double lo = volume.values[0], hi = volume.values[0];
   for (double v : volume.values) lo = std::min(lo, v), hi = std::max(hi, v);
   for (int a = 0; a < D; ++a) dims[a] = volume.dims[a];
-  DiamondErrors<D> diamonds(volume.values.data(), dims, k, exact, hi - lo, threads);
+  std::vector<V> field(volume.values.size());
+  for (size_t i = 0; i < field.size(); ++i) {
+    field[i] = static_cast<V>(volume.values[i]);
+    ASSERT_EQ(static_cast<double>(field[i]), volume.values[i]);  // the field as given
+  }
+  DiamondErrors<D, V> diamonds(field.data(), dims, k, exact, hi - lo, threads);
   diamonds.Allocate();
   std::vector<std::thread> workers;
   const uint64_t n = diamonds.item_count();
@@ -68,7 +77,8 @@ void ExpectBruteForce(const TestVolume& volume, bool exact, int threads, bool re
 
   const HzOrder<D> order(k);
   int nonzero = 0;
-  for (const auto& [g, exact_error] : BruteForceDiamonds<D>(volume, k)) {
+  const auto brute = BruteForceDiamonds<D>(volume, k);
+  for (const auto& [g, exact_error] : brute) {
     const double e = diamonds.At(g, order.PositionAtLevel(g, order.Level(g)));
     const double want = static_cast<double>(exact_error);
     // The table keeps floats rounded up.
@@ -77,12 +87,51 @@ void ExpectBruteForce(const TestVolume& volume, bool exact, int threads, bool re
     nonzero += e > 0;
   }
   EXPECT_GT(nonzero, 0);
+
+  // FinestBoxMax over boxes of 3 points per axis (odd and even starts)
+  // tiling the domain and reaching past it: the brute-force maximum over
+  // the finest vertices (some coordinate odd) inside.
+  const int64_t side = int64_t{1} << k;
+  std::array<int64_t, D> first{}, extent{};
+  extent.fill(3);
+  int nonzero_boxes = 0;
+  while (true) {
+    long double want = 0;
+    for (int i = 0; i < (1 << (2 * D)); ++i) {  // 3^D <= 4^D offsets, two bits per axis
+      std::array<int64_t, D> g{};
+      bool finest = false, valid = true;
+      for (int a = 0; a < D; ++a) {
+        const int64_t offset = (i >> (2 * a)) & 3;
+        valid = valid && offset < extent[a];
+        g[a] = first[a] + offset;
+        finest = finest || (g[a] & 1) != 0;
+      }
+      const auto it = brute.find(g);
+      if (valid && finest && it != brute.end()) want = std::max(want, it->second);
+    }
+    const double got = diamonds.FinestBoxMax(first, extent);
+    ASSERT_NEAR(static_cast<double>(want), got, 1e-9 * std::max(1.0, static_cast<double>(want)))
+        << "box at " << ::testing::PrintToString(first);
+    nonzero_boxes += want > 0;
+    int a = 0;
+    for (; a < D; ++a) {
+      first[a] += 3;
+      if (first[a] <= side) break;
+      first[a] = 0;
+    }
+    if (a == D) break;
+  }
+  EXPECT_GT(nonzero_boxes, 0);
 }
 
 template <int D>
 void ExpectBruteForce(const TestVolume& volume, bool exact) {
-  ExpectBruteForce<D>(volume, exact, 1, false);
-  ExpectBruteForce<D>(volume, exact, 2, true);
+  ExpectBruteForce<D, double>(volume, exact, 1, false);
+  if (volume.type == VoxelType::kF64) {
+    ExpectBruteForce<D, double>(volume, exact, 2, true);
+  } else {
+    ExpectBruteForce<D, float>(volume, exact, 2, true);
+  }
 }
 
 TEST(DiamondErrors, HtCubic) {
