@@ -17,10 +17,13 @@ suite of this build (build/release, built first if missing):
      saturated; the seed found +5 % simplices in 3D and under 1 % in 4D.
   3. Throughput per store (Fig. 46): bench/query_bench, every store and
      algorithm in one run, as ratios to in-memory.
-  4. Scale: one query (1 % of the range) over HT stores of 65^3, 257^3 and
-     1025^3 Perlin noise with a 256 MiB cache; throughput and peak memory.
-     --quick leaves out 1025^3 (its build takes about 20 minutes on 2 cores).
-  5. Pictures: gnuplot plots of mesh size against threshold and of throughput
+  4. Sizes: each data set's store in bytes per grid point (field bricks and
+     error blocks apart), beside format 1's.
+  5. Scale: building HT stores of 65^3, 257^3 and 1025^3 Perlin noise, then
+     one query (1 % of the range) over each with a 256 MiB cache; build rate,
+     throughput and memory, beside format 1's figures. --quick leaves out
+     1025^3 (4.6 GiB of memory to build, a few minutes).
+  6. Pictures: gnuplot plots of mesh size against threshold and of throughput
      per store, and slices through extracted meshes (read with VTK, drawn as
      SVG) like the seed's Figs. 47 and 57-59.
 
@@ -62,6 +65,20 @@ SEED_4D = {
                 "iso": {0: (1139996, 87300), 1: (975740, 78538), 5: (712942, 55944),
                         10: (492180, 36422)}},
 }
+
+# Format 1's figures (one error per simplex in subtree bands, the stores
+# before 2026-11-26), for comparison: bytes per grid point measured by
+# bench/format2_sizes.py on 2026-11-25 (bench/README.md), the scale run and
+# the in-core rates from this script's run of 2026-11-21 (SimplexDB 1d0bd55).
+FORMAT1_BYTES_PER_POINT = {"bucky32": 0.439, "neghip": 2.490, "headsq": 7.040, "tooth": 4.955,
+                           "lidc2": 1.774, "fmri_4d": 35.807, "dwi_4d": 276.068}
+FORMAT1_SCALE = {65: {"file_mib": 1.7, "splits_per_second": 9.52e6, "blocks_read": 28062},
+                 257: {"file_mib": 50.3, "splits_per_second": 3.88e6, "blocks_read": 750441},
+                 1025: {"file_mib": 1631.5, "splits_per_second": 0.14e6, "blocks_read": 3291221}}
+FORMAT1_IN_CORE = {"ht129": 16.85e6, "hp33": 11.95e6}
+FORMAT1_IN_MEMORY_SPLITS = {  # splits/s by algorithm, the same benchmark on format 1
+    "ht129": {"depth-first": 16.85e6, "priority": 2.73e6, "incremental": 4.20e6, "saturated": 9.10e6},
+    "hp33": {"depth-first": 11.95e6, "priority": 1.64e6, "incremental": 2.15e6, "saturated": 11.21e6}}
 
 
 def log(msg):
@@ -353,8 +370,11 @@ def fig46_tables(rates):
                         continue
                     v = b[counter]
                     row.append(f"{v / 1e6:.2f} M ({v / base[counter]:.2f})")
+                old = FORMAT1_IN_MEMORY_SPLITS[hierarchy].get(algorithm) if counter == "splits/s" else None
+                row.append(f"{old / 1e6:.2f} M" if old else "")
                 rows.append(row)
-        out.append(f"#### {title}\n\n" + table(["algorithm", "rate"] + STORES, rows))
+        out.append(f"#### {title}\n\n" +
+                   table(["algorithm", "rate"] + STORES + ["in-memory, format 1"], rows))
     return "\n\n".join(out)
 
 
@@ -363,34 +383,62 @@ def scale_runs(work, quick):
     rows = []
     for side in sides:
         store = os.path.join(work, f"perlin{side}.sdb")
-        if not os.path.exists(store):
-            nrrd = os.path.join(work, f"perlin{side}.nrrd")
-            log(f"scale: generating and importing {side}^3 (1025^3: about 20 minutes)")
+        nrrd = os.path.join(work, f"perlin{side}.nrrd")
+        if not os.path.exists(nrrd):
+            log(f"scale: generating {side}^3")
             sdb("generate", "--field", "perlin", "--dims", f"{side},{side},{side}", "--type", "uint8",
                 "-q", "-o", nrrd)
-            sdb("import", nrrd, "-o", store, "-q", "--memory-mb", "4096")
+        # Built every run: the build rate is one of the figures. The field
+        # as floats and the diamond table: 4.6 GiB at 1025^3.
+        log(f"scale: importing {side}^3")
+        build = json.loads(sdb("import", nrrd, "-o", store, "--force", "--json", "--memory-mb", "6144"))
         info = json.loads(sdb("info", store, "--json"))
         log(f"scale: querying {side}^3")
         r = json.loads(sdb("extract", store, "--error", "1%", "--cache-mb", "256"))
-        rows.append({"side": side, "info": info, "query": r})
+        rows.append({"side": side, "info": info, "build": build, "query": r})
     return rows
 
 
 def scale_table(rows):
     body = []
     for row in rows:
-        info, q = row["info"], row["query"]
+        info, q, b = row["info"], row["query"], row["build"]
         anon = q["anonymous_memory_bytes"]
-        body.append([f"{row['side']}^3", f"{info['file_bytes'] / 2**20:,.1f} MiB",
+        old = FORMAT1_SCALE.get(row["side"])
+        body.append([f"{row['side']}^3", f"{b['seconds']:.1f}",
+                     f"{b['grid_points_per_second'] / 1e6:.1f} M",
+                     f"{b['peak_memory_bytes'] / 2**20:,.0f} MiB",
+                     f"{info['file_bytes'] / 2**20:,.1f} MiB" +
+                     (f" ({old['file_mib']:,.1f})" if old else ""),
                      f"{info['logical_bytes'] / 2**20:,.0f} MiB", fmt_int(q["simplices"]),
-                     f"{q['seconds']:.2f}", f"{q['splits_per_second'] / 1e6:.2f} M",
-                     fmt_int(q["blocks_read"]), f"{q['cache_bytes'] / 2**20:,.0f} MiB",
+                     f"{q['seconds']:.2f}",
+                     f"{q['splits_per_second'] / 1e6:.2f} M" +
+                     (f" ({old['splits_per_second'] / 1e6:.2f} M)" if old else ""),
+                     fmt_int(q["blocks_read"]) + (f" ({fmt_int(old['blocks_read'])})" if old else ""),
+                     f"{q['cache_bytes'] / 2**20:,.0f} MiB",
                      f"{anon / 2**20:,.0f} MiB",
                      f"{(anon - q['cache_bytes']) / max(q['simplices'], 1):.0f} B",
                      f"{q['peak_memory_bytes'] / 2**20:,.0f} MiB"])
-    return table(["store", "on disk", "logical (decoded)", "tetrahedra in the mesh", "seconds",
-                  "splits/s", "blocks read", "cache held", "anonymous memory",
-                  "(anonymous - cache) / tetrahedron", "peak resident (with file pages)"], body)
+    return table(["store", "build s", "build points/s", "build peak memory",
+                  "on disk (format 1)", "logical (decoded)", "tetrahedra in the mesh",
+                  "query s", "splits/s (format 1)", "blocks read (format 1)", "cache held",
+                  "anonymous memory", "(anonymous - cache) / tetrahedron",
+                  "peak resident (with file pages)"], body)
+
+
+def sizes_table(sets):
+    rows = []
+    for d in sets:
+        info = d.info
+        points = info["grid_points"]
+        old = FORMAT1_BYTES_PER_POINT.get(d.name)
+        ours = info["file_bytes"] / points
+        rows.append([d.name, "HT" if d.dimension == 3 else "HP", fmt_int(points),
+                     f"{info['file_bytes'] / 2**20:,.2f} MiB", f"{ours:.3f}",
+                     f"{info['field_bytes'] / points:.3f}", f"{info['error_bytes'] / points:.3f}",
+                     f"{old:.3f}" if old else "-", f"{ours / old:.2f}" if old else "-"])
+    return table(["data set", "hierarchy", "grid points", "store", "bytes / point",
+                  "field bricks", "error blocks", "format 1", "format 2 / format 1"], rows)
 
 
 def gnuplot(script):
@@ -538,8 +586,10 @@ def summary(sets, results, rates, scale):
     df = {h: rates.get((h, "in-memory", "depth-first")) for h in ("ht129", "hp33")}
     if df["ht129"]:
         lines.append(f"- In core, depth-first refinement splits {df['ht129']['splits/s'] / 1e6:.1f} M "
-                     f"tetrahedra and {df['hp33']['splits/s'] / 1e6:.1f} M pentatopes a second; the "
-                     f"seed measured about 0.28 M tetrahedra a second out of core.")
+                     f"tetrahedra and {df['hp33']['splits/s'] / 1e6:.1f} M pentatopes a second "
+                     f"(format 1: {FORMAT1_IN_CORE['ht129'] / 1e6:.1f} M and "
+                     f"{FORMAT1_IN_CORE['hp33'] / 1e6:.1f} M); the seed measured about 0.28 M "
+                     f"tetrahedra a second out of core.")
         cold = [rates.get((h, "zstd-cold", "depth-first")) for h in ("ht129", "hp33")]
         if all(cold):
             lines.append(f"- A compressed store read through a cache that starts empty keeps "
@@ -553,8 +603,19 @@ def summary(sets, results, rates, scale):
         if excess:
             lines.append(f"- Saturation costs {sum(excess) / len(excess):+.1f} % simplices on average in "
                          f"{dim}D (at most {max(excess):+.1f} %); the seed found {seed}.")
+    shrunk = [FORMAT1_BYTES_PER_POINT[d.name] / (d.info["file_bytes"] / d.info["grid_points"])
+              for d in sets if d.name in FORMAT1_BYTES_PER_POINT]
+    if shrunk:
+        lines.append(f"- Stores are {min(shrunk):.1f}x to {max(shrunk):.0f}x smaller than format 1's on "
+                     f"the real volumes.")
     if scale:
         big = scale[-1]
+        old = FORMAT1_SCALE.get(big["side"])
+        lines.append(f"- {big['side']}^3 builds at {big['build']['grid_points_per_second'] / 1e6:.1f} M "
+                     f"grid points a second and is queried at "
+                     f"{big['query']['splits_per_second'] / 1e6:.2f} M splits a second with a 256 MiB "
+                     f"cache" + (f" (format 1: {old['splits_per_second'] / 1e6:.2f} M)" if old else "") +
+                     ".")
         lines.append(f"- The largest store, {big['side']}^3 ({big['info']['logical_bytes'] / 2**30:.1f} GiB "
                      f"decoded), was queried with {big['query']['cache_bytes'] / 2**20:.0f} MiB of cache "
                      f"held and {big['query']['anonymous_memory_bytes'] / 2**20:.0f} MiB of anonymous "
@@ -571,8 +632,7 @@ def write_results(sets, results, rates, context, scale, plots, pictures, a, seco
 Written by `{command}` on {datetime.date.today().isoformat()} in {seconds / 60:.0f} minutes; every
 figure below comes from that run. Machine: {machine()}.
 
-Rerun: `bench/experiments.py` (all of it; about 30 minutes on this machine, most of it
-building the 1025^3 store) or `bench/experiments.py --quick` (no 1025^3 store, shorter
+Rerun: `bench/experiments.py` (all of it) or `bench/experiments.py --quick` (no 1025^3 store, shorter
 benchmark runs). Volumes and stores go to `--work` (default /tmp/simplexdb-experiments) and
 are reused. Each query is a `simplexdb extract` call whose `--format json` statistics give
 the counts; the throughput table is `build/release/bench/query_bench`.
@@ -598,6 +658,10 @@ Tetrahedra in the extracted mesh (depth-first; the minimal conforming mesh, so t
 algorithms give the same counts) and their share of the full-resolution mesh. The box and
 the isovalue hold only the simplices they meet to the threshold; everything else may stay
 as coarse as conformity allows. Where the seed reported a figure it stands beside ours.
+The errors are format 2's: each simplex takes its diamond's error (the largest over the
+simplices that share its split edge), so some meshes hold a few more simplices than with
+format 1's per-simplex errors (the tables of 2026-11-21 in this file's history), never
+fewer at a uniform threshold.
 
 A threshold of 0 splits only simplices whose error exceeds 0: where the field is linear
 (the empty space around the Buckyball, uniform regions of real scans) the mesh stays
@@ -626,6 +690,18 @@ about +5 % in 3D and under +1 % in 4D.
 
 {saturation_table(sets, results)}
 
+## Store sizes
+
+Each data set's dense store (format 2: one error per diamond in hierarchical Z-order, u16
+errors, zstd; the finest octave's errors are not stored but computed from the field) in
+bytes per grid point, its field bricks and error blocks apart (`simplexdb info --json`),
+beside format 1's (one error per simplex in subtree bands: measured by
+`bench/format2_sizes.py` on 2026-11-25, real volumes only). The seed's layout with 16-bit
+errors took 14 bytes per grid point in 3D. The field compressed alone by HDF5, Zarr and
+`zstd -19` is in `bench/README.md`.
+
+{sizes_table(sets)}
+
 ## Throughput per store (Fig. 46)
 
 Splits (and cluster computations, merges) per second at 1 % of the range, each store as a
@@ -634,8 +710,10 @@ in-core), mapped raw blocks, zstd with a warm 1 GiB cache, zstd cold (opened ane
 each query: a 256 MiB cache that starts empty; the OS page cache may still hold the file),
 zstd with no cache at all (the floor: depth-first only), and the lossless LMDB store.
 Incremental goes from the 5 % mesh to the 1 % mesh and back. Perlin noise, as in
-`bench/query_bench.cc`. The seed's Fig. 46 measured about 280,000 splits per second out of
-core (Pentium III, 650 MHz).
+`bench/query_bench.cc`. The last column is format 1's in-memory rate in this script's run
+of 2026-11-21 (another machine of this kind). Format 2's in-core rates are lower: about half
+in 3D (issue 16's in-core target, not met yet; in a profile a fifth of the time goes to
+computing the finest octave's errors from the field as a query reaches them). The seed's Fig. 46 measured about 280,000 splits per second out of core (Pentium III, 650 MHz).
 
 Benchmark context: {context.get('num_cpus')} CPUs at {context.get('mhz_per_cpu')} MHz,
 `{os.path.relpath(QUERY_BENCH, ROOT)} --benchmark_min_time={0.3 if a.quick else 1.0}` (filter in
@@ -647,8 +725,10 @@ Benchmark context: {context.get('num_cpus')} CPUs at {context.get('mhz_per_cpu')
 
 ## Scale: a fixed cache budget as the store grows
 
-The same query, uniform at 1 % of the range, depth-first, over HT stores of Perlin noise
-built with `simplexdb import --memory-mb 4096`, read with `--cache-mb 256`. Anonymous memory
+The same query, uniform at 1 % of the range, depth-first, over HT stores of 8-bit Perlin
+noise built with `simplexdb import --memory-mb 6144` (build seconds, rate and peak memory
+from its `--json`), read with `--cache-mb 256`. Format 1's figures, in parentheses, are
+those of this script's run of 2026-11-21 (its 1025^3 build took about 20 minutes). Anonymous memory
 (`anonymous_memory_bytes`, RssAnon at the end of the query, the mesh still held) is what the
 process allocated: the cache, which stays within its budget, plus the mesh and the query's
 sets, which grow with the mesh, not with the store. Peak resident memory also counts the
