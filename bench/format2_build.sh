@@ -40,7 +40,7 @@ run() {
 tooth=("$DATA/tooth/tooth_103x94x161_uint8.raw" --dims 103,94,161 --type uint8)
 fmri=("$DATA/fmri_example4d/example4d.nii")
 run "HT perlin 257^3" "$WORK/perlin_257,257,257.nrrd"
-run "HT perlin 513^3" "$WORK/perlin_513,513,513.nrrd" --memory-mb 4096
+run "HT perlin 513^3" "$WORK/perlin_513,513,513.nrrd"
 run "HP perlin 33^4" "$WORK/perlin_33,33,33,33.nrrd"
 run "HT tooth" "${tooth[@]}"
 run "HP fmri" "${fmri[@]}"
