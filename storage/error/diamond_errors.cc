@@ -250,6 +250,9 @@ double DiamondErrors<D, V>::At(const std::array<int64_t, D>& g, uint64_t positio
 
 template <int D, class V>
 double DiamondErrors<D, V>::Finest(const std::array<int64_t, D>& g) const {
+  for (int a = 0; a < D; ++a) {
+    if (g[a] - 2 > dims_[a] - 1) return 0;  // the diamond, [g - 2, g + 2], has no real point
+  }
   if (!use_stencils_) return Coarse(g, 0);
   // The reader computes these the same way (storage/error/finest_box_errors.h).
   bool real = true;
