@@ -154,10 +154,11 @@ Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const V* fie
   return out;
 }
 
-template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const double*, VoxelType,
-                                          ZstdCompressor*, std::optional<BrickCoding>);
-template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const float*, VoxelType,
-                                          ZstdCompressor*, std::optional<BrickCoding>);
+#define SDB_ENCODE_BRICK_(V)                                                                 \
+  template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const V*, VoxelType, \
+                                            ZstdCompressor*, std::optional<BrickCoding>);
+SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_ENCODE_BRICK_)
+#undef SDB_ENCODE_BRICK_
 
 Status DecodeBrick(std::span<const uint8_t> stored, BrickCoding coding, VoxelType type,
                    int dimension, const std::array<uint32_t, 4>& extent, ZstdDecompressor& zstd,

@@ -100,7 +100,7 @@ struct EncodedBrick {
 };
 
 // Encodes brick b of `grid` from the real grid's values (`field`, x
-// fastest, dims as given to the grid; V double or float) as voxels of
+// fastest, dims as given to the grid; V any voxel C++ type) as voxels of
 // `type`, trying each coding and keeping the smallest (`only`: that coding
 // alone, for measurements and tests). `zstd` null: raw. O(brick voxels).
 // REQUIRES: every value IsRepresentable(type); zstd given unless only is kRaw.
@@ -108,12 +108,12 @@ template <class V>
 Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const V* field,
                                  VoxelType type, ZstdCompressor* zstd,
                                  std::optional<BrickCoding> only = std::nullopt);
-extern template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const double*,
-                                                 VoxelType, ZstdCompressor*,
-                                                 std::optional<BrickCoding>);
-extern template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const float*,
-                                                 VoxelType, ZstdCompressor*,
-                                                 std::optional<BrickCoding>);
+#define SDB_ENCODE_BRICK_(V)                                                                \
+  extern template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const V*,     \
+                                                   VoxelType, ZstdCompressor*,               \
+                                                   std::optional<BrickCoding>);
+SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_ENCODE_BRICK_)
+#undef SDB_ENCODE_BRICK_
 
 // Decodes a stored brick of `voxels` voxels into `out` (voxels *
 // VoxelSize(type) bytes, little-endian voxels, x fastest within the

@@ -202,8 +202,8 @@ Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
   return report;
 }
 
-// The direct build: the whole field in memory (as V: float unless the
-// stored type is f64), diamond errors octave by octave on every core
+// The direct build: the whole field in memory (as V, the stored voxel
+// type's C++ type), diamond errors octave by octave on every core
 // (storage/error/diamond_errors.h), then the writer. Returns nullopt,
 // having written nothing, when the volume has missing values (NaN): the
 // caller then takes the engine's path. ResourceExhausted when the field
@@ -258,7 +258,8 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   std::vector<ChunkResult> found(chunks);
   const int readers = input.encoding == VolumeInfo::Encoding::kGzip ? 1 : threads;
   std::vector<std::unique_ptr<VolumeReader>> reader(static_cast<size_t>(readers));
-  // Readers give doubles: a float field is read through a chunk of them.
+  // Readers give doubles: a field of other voxels is read through a chunk
+  // of them.
   std::vector<std::vector<double>> scratch(static_cast<size_t>(readers));
   const auto read_chunk = [&](int worker, uint64_t c) -> Status {
     auto& r = reader[static_cast<size_t>(worker)];
@@ -286,7 +287,7 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
         return Status::OK();
       }
       if (stored == VoxelType::kF32) values[i] = static_cast<float>(values[i]);
-      to[i] = static_cast<V>(values[i]);  // exact: V holds every stored value
+      to[i] = static_cast<V>(values[i]);  // exact: V is the stored type
       result.min = std::min(result.min, values[i]);
       result.max = std::max(result.max, values[i]);
     }
@@ -429,14 +430,13 @@ Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& o
   if (!options.mask && (input.dimension == 3 || input.dimension == 4)) {
     try {
       std::optional<HzBuildReport> direct;
-      // Every stored type but f64 is held exactly by a float.
-      const bool wide = StoredVoxelType(input, false) == VoxelType::kF64;
+      // The field held as its stored voxels (a byte a point for uint8).
       Result<std::optional<HzBuildReport>> built =
-          input.dimension == 3
-              ? (wide ? BuildDirect<3, double>(input, out_path, options, start)
-                      : BuildDirect<3, float>(input, out_path, options, start))
-              : (wide ? BuildDirect<4, double>(input, out_path, options, start)
-                      : BuildDirect<4, float>(input, out_path, options, start));
+          WithVoxelCppType(StoredVoxelType(input, false), [&](auto voxel) {
+            using V = decltype(voxel);
+            return input.dimension == 3 ? BuildDirect<3, V>(input, out_path, options, start)
+                                        : BuildDirect<4, V>(input, out_path, options, start);
+          });
       SDB_ASSIGN_OR_RETURN(direct, std::move(built));
       if (direct) return *direct;
     } catch (const std::bad_alloc&) {

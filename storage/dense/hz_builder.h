@@ -12,8 +12,9 @@
 // ConvertToHz makes a store from such a format-1 store (float32 errors keep
 // them exact up to rounding up).
 //
-// Memory: the direct path holds the field as floats (doubles for f64
-// volumes), a float per even vertex (every coordinate even: an eighth of
+// Memory: the direct path holds the field as its stored voxels (a byte a
+// point for uint8, four for float32 and scaled volumes), a float per even
+// vertex (every coordinate even: an eighth of
 // the grid in the HT, a sixteenth in the HP; the finest octave's errors
 // are reduced to each grid brick's largest as they are computed), a chunk
 // of the input per reader and the writer's blocks per thread. The engine's

@@ -255,9 +255,11 @@ Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
   return Write<4, V>(path, params, options, fill, field, finest_max);
 }
 
-template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&, const HzWriteOptions&,
-                                       const HzFill&, const double*, const double*);
-template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&, const HzWriteOptions&,
-                                       const HzFill&, const float*, const double*);
+#define SDB_WRITE_HZ_STORE_(V)                                                           \
+  template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&,            \
+                                         const HzWriteOptions&, const HzFill&, const V*, \
+                                         const double*);
+SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_WRITE_HZ_STORE_)
+#undef SDB_WRITE_HZ_STORE_
 
 }  // namespace simplexdb

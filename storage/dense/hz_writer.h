@@ -31,6 +31,7 @@
 #include "storage/dense/format.h"
 #include "storage/dense/hz_format.h"
 #include "storage/error/progress.h"
+#include "storage/volume/voxel_type.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -60,15 +61,15 @@ using HzFill = std::function<Status(int worker, uint64_t first, size_t count, do
 // kHzFinestStored (then null), per grid brick (lattice 0, in brick order)
 // the largest finest-octave error of the vertices it owns
 // (BrickGrid::FinestBox). Returns the header written.
-template <class V>  // double, or float when every value is a float
+template <class V>  // a voxel C++ type (uint8_t ... double) holding every value
 Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
                               const HzWriteOptions& options, const HzFill& fill, const V* field,
                               const double* finest_max);
-extern template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&,
-                                              const HzWriteOptions&, const HzFill&, const double*,
-                                              const double*);
-extern template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&,
-                                              const HzWriteOptions&, const HzFill&, const float*,
-                                              const double*);
+#define SDB_WRITE_HZ_STORE_(V)                                                         \
+  extern template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&,  \
+                                                const HzWriteOptions&, const HzFill&, \
+                                                const V*, const double*);
+SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_WRITE_HZ_STORE_)
+#undef SDB_WRITE_HZ_STORE_
 
 }  // namespace simplexdb

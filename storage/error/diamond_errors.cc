@@ -294,9 +294,10 @@ double DiamondErrors<D, V>::FinestBoxMax(const std::array<int64_t, D>& first,
   return m;
 }
 
-template class DiamondErrors<3, double>;
-template class DiamondErrors<4, double>;
-template class DiamondErrors<3, float>;
-template class DiamondErrors<4, float>;
+#define SDB_DIAMOND_ERRORS_(V)       \
+  template class DiamondErrors<3, V>; \
+  template class DiamondErrors<4, V>;
+SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_DIAMOND_ERRORS_)
+#undef SDB_DIAMOND_ERRORS_
 
 }  // namespace simplexdb

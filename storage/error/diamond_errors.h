@@ -38,16 +38,17 @@
 // all even: an eighth of the HT's grid, a sixteenth of the HP's.
 //
 // Use:
-//   DiamondErrors<3, float> d(field, dims, k, exact, range, threads);
+//   DiamondErrors<3, uint16_t> d(field, dims, k, exact, range, threads);
 //   d.Allocate();                              // DiamondErrors::TableBytes
 //   for (item in 0 .. d.item_count()) d.ComputeItem(worker, item);  // any threads
 //   d.Finish();
 //   double e = d.At(g, position);              // coarser octaves: a lookup
 //   double m = d.FinestBoxMax(first, extent);  // finest octave: computed
 //
-// V, the field's element type: double, or float for fields whose every
-// value float holds exactly (every stored type but f64): half the memory,
-// and the same errors (the kernels compute in double).
+// V, the field's element type: the C++ type of its stored voxel type
+// (uint8_t ... double: WithVoxelCppType), so the field takes the memory its
+// voxels do; the errors are the same whatever V holds the values (the
+// kernels compute in double, or exactly in integers).
 //
 // Thread safety: ComputeItem may run concurrently for distinct items, each
 // with its own worker index (0 .. threads - 1); everything else is
@@ -67,6 +68,7 @@
 
 #include "hierarchy/hz_order.h"
 #include "storage/error/finest_diamonds.h"
+#include "storage/volume/voxel_type.h"
 #include "util/big_array.h"
 
 namespace simplexdb {
@@ -159,9 +161,10 @@ class DiamondErrors {
   std::unordered_map<uint64_t, float> far_;
 };
 
-extern template class DiamondErrors<3, double>;
-extern template class DiamondErrors<4, double>;
-extern template class DiamondErrors<3, float>;
-extern template class DiamondErrors<4, float>;
+#define SDB_DIAMOND_ERRORS_(V)                \
+  extern template class DiamondErrors<3, V>; \
+  extern template class DiamondErrors<4, V>;
+SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_DIAMOND_ERRORS_)
+#undef SDB_DIAMOND_ERRORS_
 
 }  // namespace simplexdb

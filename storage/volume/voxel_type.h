@@ -95,4 +95,23 @@ bool IsRepresentable(VoxelType type, double value) noexcept;
 void EncodeVoxels(VoxelType type, ByteOrder order, const double* values,
                   size_t count, std::byte* bytes) noexcept;
 
+// The C++ types of the six voxel types, for code templated on the type a
+// field is held in (X(T) once per type: explicit instantiations).
+#define SDB_FOR_EACH_VOXEL_CPP_TYPE(X) X(uint8_t) X(int8_t) X(uint16_t) X(int16_t) X(float) X(double)
+
+// Returns f(T{}) for T the C++ type of `type`'s voxels (uint8_t ... double).
+// REQUIRES: IsValidVoxelType(type).
+template <class F>
+decltype(auto) WithVoxelCppType(VoxelType type, F&& f) {
+  switch (type) {
+    case VoxelType::kU8: return f(uint8_t{});
+    case VoxelType::kI8: return f(int8_t{});
+    case VoxelType::kU16: return f(uint16_t{});
+    case VoxelType::kI16: return f(int16_t{});
+    case VoxelType::kF32: return f(float{});
+    case VoxelType::kF64: break;
+  }
+  return f(double{});
+}
+
 }  // namespace simplexdb

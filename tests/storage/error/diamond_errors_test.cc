@@ -2,7 +2,7 @@
 // vertex of small grids (cubic, non-cubic with padding, HT and HP, integer
 // and float), the largest brute-force seed error over the nodes whose split
 // creates it; whichever order and threads the work items run in, with the
-// field as doubles or as floats; and the finest octave's largest error
+// field as doubles or as its own voxel type; and the finest octave's largest error
 // over boxes of vertices.
 #include <gtest/gtest.h>
 
@@ -50,7 +50,8 @@ std::map<std::array<int64_t, D>, long double> BruteForceDiamonds(const TestVolum
 template <int D, class V>
 void ExpectBruteForce(const TestVolume& volume, bool exact, int threads, bool reverse) {
   SCOPED_TRACE("threads " + std::to_string(threads) + (reverse ? ", reversed" : "") +
-               (std::is_same_v<V, float> ? ", float field" : ", double field"));
+               ", field of " + std::to_string(sizeof(V)) + "-byte " +
+               (std::is_floating_point_v<V> ? "floats" : "integers"));
   const int k = DomainBits<D>(volume);
   std::array<int64_t, D> dims{};
   double lo = volume.values[0], hi = volume.values[0];
@@ -124,14 +125,14 @@ void ExpectBruteForce(const TestVolume& volume, bool exact, int threads, bool re
   EXPECT_GT(nonzero_boxes, 0);
 }
 
+// Once with the field as doubles, once as its own voxels (as the builder
+// holds it).
 template <int D>
 void ExpectBruteForce(const TestVolume& volume, bool exact) {
   ExpectBruteForce<D, double>(volume, exact, 1, false);
-  if (volume.type == VoxelType::kF64) {
-    ExpectBruteForce<D, double>(volume, exact, 2, true);
-  } else {
-    ExpectBruteForce<D, float>(volume, exact, 2, true);
-  }
+  WithVoxelCppType(volume.type, [&](auto voxel) {
+    ExpectBruteForce<D, decltype(voxel)>(volume, exact, 2, true);
+  });
 }
 
 TEST(DiamondErrors, HtCubic) {
