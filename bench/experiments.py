@@ -22,7 +22,7 @@ suite of this build (build/release, built first if missing):
   5. Scale: building HT stores of 65^3, 257^3 and 1025^3 Perlin noise, then
      one query (1 % of the range) over each with a 256 MiB cache; build rate,
      throughput and memory, beside format 1's figures. --quick leaves out
-     1025^3 (4.6 GiB of memory to build, a few minutes).
+     1025^3 (1.6 GiB of memory to build, a few minutes).
   6. Pictures: gnuplot plots of mesh size against threshold and of throughput
      per store, and slices through extracted meshes (read with VTK, drawn as
      SVG) like the seed's Figs. 47 and 57-59.
@@ -389,7 +389,7 @@ def scale_runs(work, quick):
             sdb("generate", "--field", "perlin", "--dims", f"{side},{side},{side}", "--type", "uint8",
                 "-q", "-o", nrrd)
         # Built every run: the build rate is one of the figures. The field
-        # as floats and the diamond table: 4.6 GiB at 1025^3.
+        # (a byte a point) and the diamond table: 1.6 GiB at 1025^3.
         log(f"scale: importing {side}^3")
         build = json.loads(sdb("import", nrrd, "-o", store, "--force", "--json", "--memory-mb", "6144"))
         info = json.loads(sdb("info", store, "--json"))
