@@ -34,14 +34,14 @@ float RoundUp(double e) {
 template <int D, class V>
 template <size_t... S>
 auto DiamondErrors<D, V>::MakeStencils(const std::array<int64_t, D>& strides,
-                                    std::index_sequence<S...>)
+                                       std::index_sequence<S...>)
     -> std::array<DiamondStencils<D>, kStencilScales> {
   return {DiamondStencils<D>(FinestDiamonds<D>::Get(), strides, static_cast<int>(S))...};
 }
 
 template <int D, class V>
 DiamondErrors<D, V>::DiamondErrors(const V* field, const std::array<int64_t, D>& dims, int k,
-                                bool exact, double range, int threads, bool stencils)
+                                   bool exact, double range, int threads, bool stencils)
     : field_(field),
       dims_(dims),
       field_stride_(StridesOf<D>(dims)),

@@ -52,8 +52,9 @@
 //
 // Thread safety: ComputeItem may run concurrently for distinct items, each
 // with its own worker index (0 .. threads - 1); everything else is
-// single-threaded (At and FinestBoxMax are const and may be shared once
-// Finish returned).
+// single-threaded but FinestBoxMax, which reads only the field and may run
+// concurrently with anything (At is const and may be shared once Finish
+// returned).
 // Lifetimes: the field is read during ComputeItem, At (finest vertices) and
 // FinestBoxMax, and must outlive them.
 // Errors: none; preconditions (no NaN, dims within the domain) are
