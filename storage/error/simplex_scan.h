@@ -144,8 +144,9 @@ bool NextRow(std::array<int64_t, D>& p, const std::array<int64_t, D>& lo,
 }
 
 // Field values on a box of grid points, x fastest: rows are contiguous.
-// V is double, or float for fields whose values float holds exactly (the
-// scans compute in double either way).
+// V is the type the field is held in: double, or the C++ type of its
+// stored voxels (storage/volume/voxel_type.h); the scans compute in double
+// or exact integers whatever it is.
 template <int D, class V = double>
 struct GridView {
   const V* data = nullptr;
