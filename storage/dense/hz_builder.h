@@ -14,10 +14,10 @@
 //
 // Memory: the direct path holds the field as its stored voxels (a byte a
 // point for uint8, four for float32 and scaled volumes), a float per even
-// vertex (every coordinate even: an eighth of
-// the grid in the HT, a sixteenth in the HP; the finest octave's errors
-// are reduced to each grid brick's largest as they are computed), a chunk
-// of the input per reader and the writer's blocks per thread. The engine's
+// vertex (every coordinate even: an eighth of the grid in the HT, a
+// sixteenth in the HP; the finest octave's errors are reduced to each grid
+// brick's largest as they are computed), a chunk of the input per reader
+// and the writer's blocks per thread. The engine's
 // path holds the field as doubles and a float per vertex. Both are checked
 // against memory_bytes before anything is allocated. Streaming within the
 // bound is issue 16's next step.
