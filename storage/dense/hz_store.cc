@@ -6,11 +6,14 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <chrono>
 #include <limits>
+#include <thread>
 
 #include "storage/dense/brick_codec.h"
 #include "storage/dense/format.h"
 #include "storage/dense/hz_lattice.h"
+#include "storage/dense/parallel_run.h"
 #include "storage/io/checksum.h"
 #include "storage/io/codec.h"
 #include "util/little_endian.h"
@@ -79,8 +82,8 @@ Result<std::unique_ptr<HzStore>> HzStore::Open(const std::string& path, const Op
     }
   }
   if (options.in_memory) {
-    SDB_RETURN_IF_ERROR(s->LoadAll());
-    // Finest boxes, computed on first use, are kept.
+    SDB_RETURN_IF_ERROR(s->LoadAll(options.threads));
+    // Whatever else is computed (Verify's boxes) is kept.
     s->cache_ = std::make_shared<BlockCache>(std::numeric_limits<size_t>::max() / 4, 1);
   } else if (options.cache) {
     s->cache_ = options.cache;
@@ -306,34 +309,54 @@ Result<HzStore::BlockHandle> HzStore::Block(uint64_t i) const {
   return HandleOf(cache_->Insert(key, std::move(fresh)));
 }
 
-Status HzStore::LoadAll() {
-  const uint64_t total = header_.stored_blocks * block_bytes() + header_.bricks * brick_bytes();
+Status HzStore::LoadAll(int threads) {
+  const uint64_t finest = header_.finest_stored() ? 0 : grid_->Count(0);
+  const uint64_t total = header_.stored_blocks * block_bytes() + header_.bricks * brick_bytes() +
+                         error_size_ * finest * grid_->brick_voxels();
   const std::string all = "all " + std::to_string(header_.stored_blocks) + " blocks and " +
                           std::to_string(header_.bricks) + " bricks of " + path_ +
-                          " decoded in memory";
+                          " decoded in memory, with the finest errors";
   try {
     resident_.resize(header_.stored_blocks);
     resident_bricks_.resize(header_.bricks);
+    resident_finest_.resize(finest);
   } catch (const std::bad_alloc&) {
     return NotEnoughMemory(all, total);
   }
-  try {  // the decoders' own allocations (a zstd context) included
-    for (uint64_t i = 0; i < header_.stored_blocks + header_.bricks; ++i) {
-      Result<std::shared_ptr<const BlockCache::Block>> decoded =
-          i < header_.stored_blocks ? DecodeBlock(i) : DecodeBrickAt(i - header_.stored_blocks);
+  // A decoder's or the cache's allocation failing names the whole (the
+  // message's own allocation failing is RunParallel's to report).
+  const auto keep = [&](const auto& decode, std::shared_ptr<const BlockCache::Block>& to) -> Status {
+    try {
+      Result<std::shared_ptr<const BlockCache::Block>> decoded = decode();
       if (!decoded.ok()) {
         if (decoded.status().code() == Status::Code::kResourceExhausted) {
           return NotEnoughMemory(all, total);
         }
         return decoded.status();
       }
-      (i < header_.stored_blocks ? resident_[i] : resident_bricks_[i - header_.stored_blocks]) =
-          *std::move(decoded);
+      to = *std::move(decoded);
+      return Status::OK();
+    } catch (const std::bad_alloc&) {
+      return NotEnoughMemory(all, total);
     }
-  } catch (const std::bad_alloc&) {
-    return NotEnoughMemory(all, total);
-  }
-  return Status::OK();
+  };
+  if (threads <= 0) threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const auto start = std::chrono::steady_clock::now();
+  // The field first: the finest errors are computed from it.
+  SDB_RETURN_IF_ERROR(RunParallel(
+      header_.stored_blocks + header_.bricks, threads, "decode", start, {},
+      [&](int, uint64_t i) -> Status {
+        if (i < header_.stored_blocks) return keep([&] { return DecodeBlock(i); }, resident_[i]);
+        const uint64_t b = i - header_.stored_blocks;
+        return keep([&] { return DecodeBrickAt(b); }, resident_bricks_[b]);
+      }));
+  // The finest errors of every grid brick whose recorded maximum is not 0
+  // (a reader asks for no other: FinestCode answers 0 from the index).
+  return RunParallel(finest, threads, "finest", start, {}, [&](int, uint64_t i) -> Status {
+    const uint64_t b = grid_->FirstBrick(0) + i;
+    if (brick_entry(b).error_max == 0) return Status::OK();
+    return keep([&] { return ComputeFinest(b); }, resident_finest_[i]);
+  });
 }
 
 Result<std::shared_ptr<const BlockCache::Block>> HzStore::DecodeBrickAt(uint64_t b) const {
@@ -371,6 +394,10 @@ Result<HzStore::BlockHandle> HzStore::Brick(uint64_t b) const {
 }
 
 Result<HzStore::BlockHandle> HzStore::FinestCodes(uint64_t b) const {
+  if (!resident_finest_.empty()) {
+    const auto& codes = resident_finest_[b - grid_->FirstBrick(0)];
+    if (codes != nullptr) return BlockHandle{codes->data(), nullptr};
+  }
   const BlockCache::Key key{cache_store_id_, header_.stored_blocks + header_.bricks + b};
   if (auto hit = cache_->Lookup(key)) return HandleOf(std::move(hit));
   SDB_ASSIGN_OR_RETURN(auto fresh, ComputeFinest(b));
@@ -410,7 +437,7 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64
   try {
     window.assign(finest.window_points(), 0.0);
     real.resize(real_points);
-    codes = std::make_shared<BlockCache::Block>(4 * points);
+    codes = std::make_shared<BlockCache::Block>(error_size_ * points);
   } catch (const std::bad_alloc&) {
     return NotEnoughMemory(path_ + ": the finest errors of " + DescribeBrick(b), 8 * finest.window_points());
   }
@@ -434,22 +461,19 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64
   }
   std::vector<double> errors(points);
   finest.Compute(first, extent, header_.domain_bits, dims, window.data(), errors.data());
-  // As the writer coded the builder's errors (rounded up to float first).
+  // As the writer coded the builder's errors (rounded up to float first),
+  // in the width of a block's (StoredErrorAt reads them).
   for (uint64_t i = 0; i < points; ++i) {
-    StoreLittle<uint32_t>(codes->data() + 4 * i,
-                          quantizer_.Encode(static_cast<double>(RoundUpToFloat(errors[i]))));
+    const uint32_t code = quantizer_.Encode(static_cast<double>(RoundUpToFloat(errors[i])));
+    uint8_t* to = codes->data() + error_size_ * i;
+    switch (header_.quantization) {
+      case Quantization::kU16: StoreLittle<uint16_t>(to, static_cast<uint16_t>(code)); break;
+      case Quantization::kU8: *to = static_cast<uint8_t>(code); break;
+      case Quantization::kF32: StoreLittle<uint32_t>(to, code); break;
+    }
   }
   boxes_.fetch_add(1, std::memory_order_relaxed);
   return std::shared_ptr<const BlockCache::Block>(std::move(codes));
-}
-
-uint32_t HzStore::StoredErrorAt(const uint8_t* block, uint32_t slot) const {
-  switch (header_.quantization) {
-    case Quantization::kU16: return LoadLittle<uint16_t>(block + 2 * size_t{slot});
-    case Quantization::kU8: return block[slot];
-    case Quantization::kF32: return LoadLittle<uint32_t>(block + 4 * size_t{slot});
-  }
-  return 0;
 }
 
 double HzStore::VoxelAt(const uint8_t* brick, size_t slot) const {
@@ -509,8 +533,8 @@ Status HzStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) 
     // The finest errors the reader computes, against the builder's maximum.
     SDB_ASSIGN_OR_RETURN(const auto codes, ComputeFinest(b));
     uint32_t largest = 0;
-    for (size_t i = 0; i + 4 <= codes->size(); i += 4) {
-      largest = std::max(largest, LoadLittle<uint32_t>(codes->data() + i));
+    for (size_t i = 0; i < codes->size() / error_size_; ++i) {
+      largest = std::max(largest, StoredErrorAt(codes->data(), static_cast<uint32_t>(i)));
     }
     if (largest != e.error_max) {
       return bad("its finest errors, computed from the field, reach " +
@@ -526,6 +550,7 @@ template <int D>
 HzStore::Reader<D>::Reader(const HzStore& store)
     : store_(store),
       order_(store.header().domain_bits),
+      finest_level_(store.header().finest_stored() ? order_.levels() : order_.levels() - D),
       held_bricks_(static_cast<size_t>(store.header().domain_bits) + 1) {}
 
 template <int D>
@@ -550,6 +575,12 @@ template <int D>
 Result<uint32_t> HzStore::Reader<D>::FinestCode(uint64_t p, const double* threshold, bool* skipped) {
   std::array<int64_t, D> g = last_vertex_;
   if (p != last_position_ && !order_.Decode(p, g)) return 0u;  // no vertex there
+  return FinestCodeAt(g, threshold, skipped);
+}
+
+template <int D>
+Result<uint32_t> HzStore::Reader<D>::FinestCodeAt(const std::array<int64_t, D>& g,
+                                                  const double* threshold, bool* skipped) {
   // The slot of g in a held box, or -1 when g is outside it.
   const auto slot_in = [&g](const BrickGrid::Box& box) -> int64_t {
     int64_t slot = 0, scale = 1;
@@ -565,7 +596,7 @@ Result<uint32_t> HzStore::Reader<D>::FinestCode(uint64_t p, const double* thresh
   if (last_box_ >= 0) {
     const HeldBrick& last = held_boxes_[static_cast<size_t>(last_box_)];
     if (const int64_t slot = slot_in(last.box); slot >= 0) {
-      return LoadLittle<uint32_t>(last.handle.data + 4 * static_cast<size_t>(slot));
+      return store_.StoredErrorAt(last.handle.data, static_cast<uint32_t>(slot));
     }
   }
   std::array<int64_t, 4> g4{};
@@ -590,7 +621,7 @@ Result<uint32_t> HzStore::Reader<D>::FinestCode(uint64_t p, const double* thresh
   const int64_t slot = slot_in(held.box);
   if (slot < 0) return 0u;  // past the box: no real point in its diamond
   last_box_ = index;
-  return LoadLittle<uint32_t>(held.handle.data + 4 * static_cast<size_t>(slot));
+  return store_.StoredErrorAt(held.handle.data, static_cast<uint32_t>(slot));
 }
 
 template <int D>

@@ -27,8 +27,8 @@
 // bitmap and the indexes are read from the mapping. Beyond that the store
 // keeps 8 bytes per 64 virtual blocks (the bitmap's rank directory), two
 // bytes per stored block and one per brick. With Options::in_memory every
-// block and brick is decoded at open (the in-core case); finest boxes are then
-// computed on first use and kept.
+// block and brick is decoded at open and every grid brick's finest errors
+// computed (the in-core case), on every core.
 //
 // Lifetimes: the store outlives its Readers and BlockHandles; header(),
 // path(), quantizer() and grid() live as long as the store.
@@ -59,6 +59,7 @@
 #include "storage/error/finest_box_errors.h"
 #include "storage/error/quantize.h"
 #include "storage/io/file.h"
+#include "util/little_endian.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -67,7 +68,11 @@ class HzStore {
  public:
   struct Options {
     size_t cache_bytes = size_t{256} << 20;  // decoded blocks, bricks and boxes kept
-    bool in_memory = false;                  // decode everything at open
+    // Decode every block and brick at open and compute every grid brick's
+    // finest errors (an error code a finest vertex), on `threads` threads (0: one
+    // per core).
+    bool in_memory = false;
+    int threads = 0;
     std::shared_ptr<BlockCache> cache;       // share one cache between stores
   };
 
@@ -112,12 +117,21 @@ class HzStore {
   // Brick `b`, decoded: its voxels, little-endian, x fastest over its extent.
   Result<BlockHandle> Brick(uint64_t b) const;
   // The finest-octave error codes of the vertices grid brick `b` owns
-  // (BrickGrid::FinestBox), computed from the field. REQUIRES: !finest_stored(), b a
+  // (BrickGrid::FinestBox), computed from the field, x fastest over the box,
+  // each as a block's (StoredErrorAt). REQUIRES: !finest_stored(), b a
   // brick of lattice 0.
   Result<BlockHandle> FinestCodes(uint64_t b) const;
 
 
-  uint32_t StoredErrorAt(const uint8_t* block, uint32_t slot) const;
+  // The error code at `slot` of a decoded block (or of FinestCodes).
+  uint32_t StoredErrorAt(const uint8_t* block, uint32_t slot) const {
+    switch (header_.quantization) {
+      case Quantization::kU16: return LoadLittle<uint16_t>(block + 2 * size_t{slot});
+      case Quantization::kU8: return block[slot];
+      case Quantization::kF32: return LoadLittle<uint32_t>(block + 4 * size_t{slot});
+    }
+    return 0;
+  }
   double VoxelAt(const uint8_t* brick, size_t slot) const;
 
   // Reads every stored block and brick: checksums, decoding, errors finite
@@ -163,6 +177,13 @@ class HzStore {
     // that maximum (nothing decoded or computed).
     Result<double> ErrorBoundForThreshold(SimplexCode<D> code, double threshold) {
       if (code.level() >= order_.levels()) return 0.0;
+      if (code.level() >= finest_level_) {  // the finest octave, not stored: by vertex
+        bool skipped = false;
+        SDB_ASSIGN_OR_RETURN(
+            const uint32_t c,
+            FinestCodeAt(LatticeToGrid<D>(cursor_.Of(code), order_.domain_bits()), &threshold, &skipped));
+        return store_.quantizer().Decode(c);
+      }
       return ErrorBoundForThresholdAt(code, Position(code), threshold);
     }
     // The same with the node's HZ position given (Position(code)), for a
@@ -212,10 +233,17 @@ class HzStore {
     // brick's box; with `threshold`, the brick's recorded maximum when it
     // is at most that (*skipped set).
     Result<uint32_t> FinestCode(uint64_t p, const double* threshold, bool* skipped);
+    // The same for the finest vertex g.
+    Result<uint32_t> FinestCodeAt(const std::array<int64_t, D>& g, const double* threshold,
+                                  bool* skipped);
 
     const HzStore& store_;
     HzOrder<D> order_;
     SplitVertexCursor<D> cursor_;
+    // The first level of the finest octave when the store does not keep its
+    // errors (their positions are those from error_positions() on), else
+    // past the last level.
+    int finest_level_;
     std::array<Held, (kCoordBits<D> + 1) << D> held_;
     // The last brick read per lattice (Field) and a few finest boxes, by
     // brick number.
@@ -236,7 +264,7 @@ class HzStore {
  private:
   HzStore() = default;
   Status ValidateBitmapAndIndexes();
-  Status LoadAll();
+  Status LoadAll(int threads);
   Result<std::shared_ptr<const BlockCache::Block>> DecodeBlock(uint64_t stored) const;
   Result<std::shared_ptr<const BlockCache::Block>> DecodeBrickAt(uint64_t b) const;
   Result<std::shared_ptr<const BlockCache::Block>> ComputeFinest(uint64_t b) const;
@@ -260,6 +288,10 @@ class HzStore {
   uint64_t cache_store_id_ = 0;
   // in_memory: every block and brick decoded.
   std::vector<std::shared_ptr<const BlockCache::Block>> resident_, resident_bricks_;
+  // in_memory and finest errors not stored: each grid brick's finest error
+  // codes (FinestCodes), by brick - grid().FirstBrick(0); null where the
+  // brick's recorded maximum is 0.
+  std::vector<std::shared_ptr<const BlockCache::Block>> resident_finest_;
   // Finest errors from the field (the stencils for a box's window), the
   // store's dimension's one; null when the store keeps them.
   std::unique_ptr<FinestBoxErrors<3>> finest3_;

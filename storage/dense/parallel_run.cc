@@ -25,6 +25,11 @@ Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_p
   std::condition_variable finished;
   int running = threads;
   Status first_failure;
+  // Out of memory, recorded without allocating (a message is made once the
+  // workers are joined): the item that threw, the thread that did not start.
+  constexpr uint64_t kNone = ~uint64_t{0};
+  std::atomic<uint64_t> item_out_of_memory{kNone};
+  int thread_not_started = 0;
   std::vector<std::thread> pool;
   pool.reserve(static_cast<size_t>(threads));
   const auto worker = [&](int w) {
@@ -35,10 +40,12 @@ Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_p
       try {
         s = work(w, item);
       } catch (const std::bad_alloc&) {
-        // Out of a worker thread an exception would end the process.
-        s = NotEnoughMemory("the " + std::string(phase) + " work, item " +
-                                std::to_string(item) + " of " + std::to_string(count),
-                            "a worker's buffers");
+        // Out of a worker thread an exception would end the process, and
+        // making a message here could throw again.
+        uint64_t none = kNone;
+        item_out_of_memory.compare_exchange_strong(none, item);
+        failed.store(true);
+        break;
       }
       if (!s.ok()) {
         std::lock_guard<std::mutex> lock(mu);
@@ -58,12 +65,7 @@ Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_p
       // stack or state (ulimit -v). Fail the run; the
       // workers started so far stop at once and are joined below.
       std::lock_guard<std::mutex> lock(mu);
-      if (!failed.exchange(true)) {
-        first_failure = NotEnoughMemory("the " + std::string(phase) + " work's thread " +
-                                            std::to_string(w + 1) + " of " +
-                                            std::to_string(threads),
-                                        "its stack");
-      }
+      if (!failed.exchange(true)) thread_not_started = w + 1;
       running -= threads - w;
       if (running == 0) finished.notify_all();
       break;
@@ -80,6 +82,17 @@ Status RunParallel(uint64_t count, int threads, const char* phase, Clock::time_p
     }
   }
   for (auto& t : pool) t.join();
+  if (first_failure.ok() && thread_not_started > 0) {
+    return NotEnoughMemory("the " + std::string(phase) + " work's thread " +
+                               std::to_string(thread_not_started) + " of " + std::to_string(threads),
+                           "its stack");
+  }
+  if (first_failure.ok() && item_out_of_memory.load() != kNone) {
+    return NotEnoughMemory("the " + std::string(phase) + " work, item " +
+                               std::to_string(item_out_of_memory.load()) + " of " +
+                               std::to_string(count),
+                           "a worker's buffers");
+  }
   if (progress && !failed.load()) {
     progress(BuildProgress{phase, count, count,
                                 std::chrono::duration<double>(Clock::now() - start).count()});

@@ -277,6 +277,41 @@ void ExpectDirectBuildMatchesTheEngine(const TestVolume& v, const std::string& n
     ASSERT_NEAR(*got.ErrorBound(c), *want.ErrorBound(c), 1e-6 * range) << c.ToString();
   });
   ExpectFields<D>(**direct, v);
+
+  // Quantized to 16 bits, read through a cache and in memory (every finest
+  // error computed at open), by node and by the threshold query's lookup
+  // (the finest octave by vertex): the same bounds, at most a quantum above
+  // the float32 ones.
+  options.quantization = Quantization::kU16;
+  ASSERT_TRUE(BuildHzStore(*OpenVolume(dir / (name + ".nrrd")), dir / "u16.sdb", options).ok());
+  auto cached = HzStore::Open(dir / "u16.sdb");
+  ASSERT_TRUE(cached.ok()) << cached.status().message();
+  HzStore::Options in_memory;
+  in_memory.in_memory = true;
+  auto resident = HzStore::Open(dir / "u16.sdb", in_memory);
+  ASSERT_TRUE(resident.ok()) << resident.status().message();
+  ASSERT_TRUE((*resident)->Verify().ok());
+  const double quantum = (*cached)->header().quantum;
+  HzStore::Reader<D> u16(**cached), u16_resident(**resident);
+  ForEachInternalCode<D>(b.hz->header().leaf_level(), [&](SimplexCode<D> c) {
+    const double e = *u16.ErrorBound(c), f32 = *want.ErrorBound(c);
+    ASSERT_GE(e, f32 - 1e-6 * range) << c.ToString();
+    ASSERT_LE(e, f32 + quantum + 1e-6 * range) << c.ToString();
+    ASSERT_EQ(*u16_resident.ErrorBound(c), e) << c.ToString();
+    // A threshold answer is the bound, or a brick's or block's maximum
+    // (at least the bound) when that is at most the threshold.
+    for (const double t : {0.0, e / 2, e}) {
+      for (HzStore::Reader<D>* r : {&u16, &u16_resident}) {
+        const double a = *r->ErrorBoundForThreshold(c, t);
+        ASSERT_GE(a, e) << c.ToString() << " threshold " << t;
+        if (e > t) {
+          ASSERT_EQ(a, e) << c.ToString() << " threshold " << t;
+        } else {
+          ASSERT_LE(a, t) << c.ToString() << " threshold " << t;
+        }
+      }
+    }
+  });
 }
 
 TEST(HzStore, DirectBuildMatchesTheEngine) {
