@@ -309,7 +309,9 @@ void RegisterExtractCommand(CLI::App& app) {
                   "tetrahedra of the time slice)");
   cmd->add_option("--slices", args->slices, "pvd: the times of the slices, T1,T2,... in grid units");
   cmd->add_option("-o,--output", args->output, "Output file ('-' for stdout, the default for codes and json)");
-  cmd->add_flag("--in-memory", args->in_memory, "Decode the whole dense store into memory first (in-core)");
+  cmd->add_flag("--in-memory", args->in_memory,
+                "Decode the whole dense store and compute its finest errors at open (in-core: "
+                "slower to open, for comparing with out-of-core)");
   cmd->add_option("--cache-mb", args->cache_mb, "Block cache budget of a dense store, MiB (out-of-core)")
       ->capture_default_str();
   cmd->add_flag("--check", args->check, "Check the result's conformity from geometry (exit 3 if not)");

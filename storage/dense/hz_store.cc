@@ -418,6 +418,7 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64
     }
   }();
   const BrickGrid::Box box = grid_->FinestBox(b);
+  const FinestTiles tiles(D, box);
   const int64_t w = finest.window_side();
   std::array<int64_t, D> first{}, extent{}, dims{};
   std::array<int64_t, 4> lo{}, hi{};
@@ -437,7 +438,7 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64
   try {
     window.assign(finest.window_points(), 0.0);
     real.resize(real_points);
-    codes = std::make_shared<BlockCache::Block>(error_size_ * points);
+    codes = std::make_shared<BlockCache::Block>(error_size_ * tiles.slots);  // zeros
   } catch (const std::bad_alloc&) {
     return NotEnoughMemory(path_ + ": the finest errors of " + DescribeBrick(b), 8 * finest.window_points());
   }
@@ -462,10 +463,15 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64
   std::vector<double> errors(points);
   finest.Compute(first, extent, header_.domain_bits, dims, window.data(), errors.data());
   // As the writer coded the builder's errors (rounded up to float first),
-  // in the width of a block's (StoredErrorAt reads them).
+  // in the width of a block's (StoredErrorAt reads them), at their tiles.
+  std::array<int64_t, D> g = first;
   for (uint64_t i = 0; i < points; ++i) {
     const uint32_t code = quantizer_.Encode(static_cast<double>(RoundUpToFloat(errors[i])));
-    uint8_t* to = codes->data() + error_size_ * i;
+    uint8_t* to = codes->data() + error_size_ * static_cast<uint64_t>(tiles.Slot(g));
+    for (int a = 0; a < D; ++a) {
+      if (++g[a] < first[a] + extent[a]) break;
+      g[a] = first[a];
+    }
     switch (header_.quantization) {
       case Quantization::kU16: StoreLittle<uint16_t>(to, static_cast<uint16_t>(code)); break;
       case Quantization::kU8: *to = static_cast<uint8_t>(code); break;
@@ -581,21 +587,10 @@ Result<uint32_t> HzStore::Reader<D>::FinestCode(uint64_t p, const double* thresh
 template <int D>
 Result<uint32_t> HzStore::Reader<D>::FinestCodeAt(const std::array<int64_t, D>& g,
                                                   const double* threshold, bool* skipped) {
-  // The slot of g in a held box, or -1 when g is outside it.
-  const auto slot_in = [&g](const BrickGrid::Box& box) -> int64_t {
-    int64_t slot = 0, scale = 1;
-    for (int a = 0; a < D; ++a) {
-      const int64_t local = g[a] - box.first[a];
-      if (local < 0 || local >= box.extent[a]) return -1;
-      slot += local * scale;
-      scale *= box.extent[a];
-    }
-    return slot;
-  };
   // A walk asks for the vertices of one box many times in a row.
   if (last_box_ >= 0) {
     const HeldBrick& last = held_boxes_[static_cast<size_t>(last_box_)];
-    if (const int64_t slot = slot_in(last.box); slot >= 0) {
+    if (const int64_t slot = last.tiles.Slot(g); slot >= 0) {
       return store_.StoredErrorAt(last.handle.data, static_cast<uint32_t>(slot));
     }
   }
@@ -616,9 +611,9 @@ Result<uint32_t> HzStore::Reader<D>::FinestCodeAt(const std::array<int64_t, D>& 
     if (index == last_box_) last_box_ = -1;
     SDB_ASSIGN_OR_RETURN(held.handle, store_.FinestCodes(b));
     held.brick = b;
-    held.box = store_.grid().FinestBox(b);
+    held.tiles = FinestTiles(D, store_.grid().FinestBox(b));
   }
-  const int64_t slot = slot_in(held.box);
+  const int64_t slot = held.tiles.Slot(g);
   if (slot < 0) return 0u;  // past the box: no real point in its diamond
   last_box_ = index;
   return store_.StoredErrorAt(held.handle.data, static_cast<uint32_t>(slot));

@@ -117,10 +117,44 @@ class HzStore {
   // Brick `b`, decoded: its voxels, little-endian, x fastest over its extent.
   Result<BlockHandle> Brick(uint64_t b) const;
   // The finest-octave error codes of the vertices grid brick `b` owns
-  // (BrickGrid::FinestBox), computed from the field, x fastest over the box,
-  // each as a block's (StoredErrorAt). REQUIRES: !finest_stored(), b a
+  // (BrickGrid::FinestBox), computed from the field, each as a block's
+  // (StoredErrorAt), at FinestTiles' slots. REQUIRES: !finest_stored(), b a
   // brick of lattice 0.
   Result<BlockHandle> FinestCodes(uint64_t b) const;
+
+  // Where a finest box's codes are: in tiles of 4^D points (4 per axis, x
+  // fastest within), the tiles x fastest over the box. A walk's lookups
+  // are near each other in every axis; a tile of 2-byte codes is two cache
+  // lines in the HT (an x-fastest box row is one).
+  struct FinestTiles {
+    static constexpr int kBits = 2;  // log2 of a tile's side
+    std::array<int64_t, 4> first{}, extent{}, tile_stride{};
+    int dimension = 0;
+    uint64_t slots = 0;  // tiles times 4^D: the codes, padding included
+
+    FinestTiles() = default;
+    FinestTiles(int d, const BrickGrid::Box& box) : dimension(d) {
+      uint64_t tiles = 1;
+      for (int a = 0; a < d; ++a) {
+        first[a] = box.first[a];
+        extent[a] = box.extent[a];
+        tile_stride[a] = static_cast<int64_t>(tiles) << (kBits * d);
+        tiles *= static_cast<uint64_t>((extent[a] + 3) >> kBits);
+      }
+      slots = tiles << (kBits * d);
+    }
+    // g's slot, or -1 when g is outside the box. REQUIRES: N == dimension.
+    template <size_t N>
+    int64_t Slot(const std::array<int64_t, N>& g) const {
+      int64_t slot = 0;
+      for (size_t a = 0; a < N; ++a) {
+        const int64_t local = g[a] - first[a];
+        if (static_cast<uint64_t>(local) >= static_cast<uint64_t>(extent[a])) return -1;
+        slot += (local >> kBits) * tile_stride[a] + ((local & 3) << (kBits * static_cast<int>(a)));
+      }
+      return slot;
+    }
+  };
 
 
   // The error code at `slot` of a decoded block (or of FinestCodes).
@@ -250,7 +284,7 @@ class HzStore {
     struct HeldBrick {
       uint64_t brick = ~uint64_t{0};
       BlockHandle handle;
-      BrickGrid::Box box;  // held_boxes_: the brick's finest box
+      FinestTiles tiles;  // held_boxes_: the brick's finest box
     };
     std::vector<HeldBrick> held_bricks_;
     std::array<HeldBrick, 8> held_boxes_;
