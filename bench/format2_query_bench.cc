@@ -3,7 +3,8 @@
 // volume (HT, side SIMPLEXDB_BENCH_SIDE, default 129; HP 33^4):
 //
 //   Format2/<h>/f1-in-memory        format 1 decoded at open (today's in-core)
-//   Format2/<h>/in-memory           format 2 decoded at open (in-core)
+//   Format2/<h>/in-memory           format 2 decoded at open, its finest errors
+//                                   computed then (in-core)
 //   Format2/<h>/warm                format 2, zstd, cache holding the whole store
 //   Format2/<h>/cache-2%            format 2, zstd, a cache of 2% of the decoded
 //                                   store (error blocks and field bricks), opened
