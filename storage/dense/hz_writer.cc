@@ -49,12 +49,6 @@ bool MayHoldData(const HzHeader& h, uint64_t vblock) {
   return true;
 }
 
-struct Worker {
-  std::vector<double> errors;
-  std::vector<uint8_t> raw;
-  std::unique_ptr<ZstdCompressor> zstd;
-};
-
 // The stored block or brick: appended, checksummed, its entry filled.
 Status Append(AtomicFileWriter& writer, std::span<const uint8_t> stored, HzIndexEntry& e) {
   SDB_ASSIGN_OR_RETURN(e.offset, writer.Append(stored));
@@ -88,88 +82,122 @@ Status CheckField(const std::string& path, const HzHeader& h, const V* field) {
   return Status::OK();
 }
 
-template <int D, class V>
-Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions& options,
-                       const HzFill& fill, const V* field, const double* finest_max) {
-  const auto start = std::chrono::steady_clock::now();
-  SDB_RETURN_IF_ERROR(CheckField<D>(path, h, field));
-  const HzOrder<D> order(h.domain_bits);
+// Whether the parameters describe a store this writer can make.
+Status CheckParams(const std::string& path, const HzHeader& params, const HzWriteOptions& options) {
+  const int max_bits = params.dimension == 3 ? 18 : 13;
+  if ((params.dimension != 3 && params.dimension != 4) || params.domain_bits < 1 ||
+      params.domain_bits > max_bits || params.block_bits < 6 || params.block_bits > 20 ||
+      params.brick_bits < 1 || params.brick_bits > (params.dimension == 3 ? 6 : 4) ||
+      (params.flags & ~kHzFinestStored) != 0 || options.threads < 1 ||
+      !(params.field_min <= params.field_max)) {
+    return Status::InvalidArgument(path + ": store parameters out of range");
+  }
+  return Status::OK();
+}
+
+}  // namespace
+
+struct HzStoreWriter::Worker {
+  std::vector<double> errors;
+  std::vector<uint8_t> raw;
+  std::unique_ptr<ZstdCompressor> zstd;
+};
+
+HzStoreWriter::HzStoreWriter() = default;
+HzStoreWriter::~HzStoreWriter() = default;
+
+Result<std::unique_ptr<HzStoreWriter>> HzStoreWriter::Create(const std::string& path,
+                                                             const HzHeader& params,
+                                                             const HzWriteOptions& options) {
+  SDB_RETURN_IF_ERROR(CheckParams(path, params, options));
+  std::unique_ptr<HzStoreWriter> w(new HzStoreWriter());
+  w->path_ = path;
+  w->options_ = options;
+  w->start_ = std::chrono::steady_clock::now();
+  HzHeader& h = w->h_;
+  h = params;
   h.version = kHzFormatVersion;
   const uint64_t stored_positions = h.error_positions();
   const int stored_bits = std::countr_zero(stored_positions);
   h.virtual_blocks = stored_bits <= h.block_bits ? 1 : uint64_t{1} << (stored_bits - h.block_bits);
   const double range = h.field_max - h.field_min;
   h.quantum = ErrorQuantizer::QuantumFor(h.quantization, range);
-  const ErrorQuantizer quantizer(h.quantization, h.quantum, range);
-  const size_t n = h.block_records();
-  const size_t error_size = QuantizedSize(h.quantization);
-  const BrickGrid grid(D, h.dims, h.domain_bits, h.brick_bits);
-  h.bricks = grid.bricks();
-
-  std::vector<uint64_t> candidates;
-  std::vector<HzIndexEntry> entries, brick_entries;
-  std::vector<uint8_t> kept;
+  w->quantizer_ = ErrorQuantizer(h.quantization, h.quantum, range);
+  w->grid_ = std::make_unique<BrickGrid>(h.dimension, h.dims, h.domain_bits, h.brick_bits);
+  h.bricks = w->grid_->bricks();
+  w->positions_ = h.dimension == 3 ? HzOrder<3>(h.domain_bits).size() : HzOrder<4>(h.domain_bits).size();
   try {
     for (uint64_t b = 0; b < h.virtual_blocks; ++b) {
-      if (MayHoldData<D>(h, b)) candidates.push_back(b);
+      if (h.dimension == 3 ? MayHoldData<3>(h, b) : MayHoldData<4>(h, b)) w->candidates_.push_back(b);
     }
-    entries.resize(candidates.size());
-    kept.assign(candidates.size(), 0);
-    brick_entries.resize(h.bricks);
+    w->entries_.resize(w->candidates_.size());
+    w->kept_.assign(w->candidates_.size(), 0);
+    w->brick_entries_.resize(h.bricks);
+    w->brick_written_.assign(h.bricks, 0);
   } catch (const std::bad_alloc&) {
     return NotEnoughMemory(path + ": the block list", h.virtual_blocks * 8 + h.bricks * 48);
   }
-  SDB_ASSIGN_OR_RETURN(auto writer, AtomicFileWriter::Create(path));
-  writer->Reserve(kHzHeaderSize);
+  SDB_ASSIGN_OR_RETURN(w->writer_, AtomicFileWriter::Create(path));
+  w->writer_->Reserve(kHzHeaderSize);
+  w->workers_.resize(static_cast<size_t>(options.threads));
+  return w;
+}
 
-  std::vector<Worker> workers(static_cast<size_t>(options.threads));
-  const auto prepare = [&](Worker& wk) {
-    if (!wk.errors.empty()) return;
-    wk.errors.resize(n);
-    wk.raw.resize(n * error_size);
-    if (options.compression == Compression::kZstd) {
-      wk.zstd = std::make_unique<ZstdCompressor>(options.zstd_level);
+HzStoreWriter::Worker& HzStoreWriter::Prepare(int w) {
+  Worker& wk = workers_[static_cast<size_t>(w)];
+  if (wk.errors.empty()) {
+    wk.errors.resize(h_.block_records());
+    wk.raw.resize(h_.block_records() * QuantizedSize(h_.quantization));
+    if (options_.compression == Compression::kZstd) {
+      wk.zstd = std::make_unique<ZstdCompressor>(options_.zstd_level);
     }
-  };
-  std::mutex max_mu;
-  double error_max = 0;
+  }
+  return wk;
+}
+
+Status HzStoreWriter::WriteBlocks(uint64_t first_candidate, uint64_t count, const HzFill& fill) {
+  if (first_candidate > candidates_.size() || count > candidates_.size() - first_candidate) {
+    return Status::InvalidArgument(path_ + ": candidate blocks " + std::to_string(first_candidate) +
+                                   " + " + std::to_string(count) + " past the " +
+                                   std::to_string(candidates_.size()) + " there are");
+  }
+  const size_t n = h_.block_records();
+  const uint64_t stored_positions = h_.error_positions();
   const auto block = [&](int w, uint64_t item) -> Status {
-    Worker& wk = workers[static_cast<size_t>(w)];
-    prepare(wk);
-    const uint64_t first = candidates[item] << h.block_bits;
-    const size_t count =
-        static_cast<size_t>(std::min<uint64_t>(n, order.size() > first ? order.size() - first : 0));
+    item += first_candidate;
+    Worker& wk = Prepare(w);
+    const uint64_t first = candidates_[item] << h_.block_bits;
+    const size_t filled =
+        static_cast<size_t>(std::min<uint64_t>(n, positions_ > first ? positions_ - first : 0));
     std::fill(wk.errors.begin(), wk.errors.end(), 0.0);
     std::fill(wk.raw.begin(), wk.raw.end(), uint8_t{0});
-    if (count > 0) SDB_RETURN_IF_ERROR(fill(w, first, count, wk.errors.data()));
+    if (filled > 0) SDB_RETURN_IF_ERROR(fill(w, first, filled, wk.errors.data()));
     bool any_error = false;
     double emax = 0;
     uint32_t code_max = 0;
     for (size_t i = 0; i < n; ++i) {
       const double e = wk.errors[i];
       if (!(e >= 0) || !std::isfinite(e)) {
-        return Status::InvalidArgument(path + ": the error at position " + std::to_string(first + i) +
+        return Status::InvalidArgument(path_ + ": the error at position " + std::to_string(first + i) +
                                        " is " + std::to_string(e));
       }
-      const uint32_t code = options.errors_are_bounds ? quantizer.EncodeBound(e) : quantizer.Encode(e);
+      const uint32_t code =
+          options_.errors_are_bounds ? quantizer_.EncodeBound(e) : quantizer_.Encode(e);
       // Block 0 may reach into the finest octave (a small domain): those
       // entries stay 0; the grid bricks record their maxima.
       if (first + i >= stored_positions) continue;
       emax = std::max(emax, e);
       any_error = any_error || code != 0;
       code_max = std::max(code_max, code);  // f32 bits of non-negative floats order as the floats
-      switch (h.quantization) {
+      switch (h_.quantization) {
         case Quantization::kU16: StoreLittle<uint16_t>(wk.raw.data() + 2 * i, static_cast<uint16_t>(code)); break;
         case Quantization::kU8: wk.raw[i] = static_cast<uint8_t>(code); break;
         case Quantization::kF32: StoreLittle<uint32_t>(wk.raw.data() + 4 * i, code); break;
       }
     }
-    {
-      std::lock_guard<std::mutex> lock(max_mu);
-      error_max = std::max(error_max, emax);
-    }
-    if (!any_error && candidates[item] != 0) return Status::OK();  // not stored
-    HzIndexEntry& e = entries[item];
+    RaiseErrorMax(emax);
+    if (!any_error && candidates_[item] != 0) return Status::OK();  // not stored
+    HzIndexEntry& e = entries_[item];
     std::vector<uint8_t> compressed;
     std::span<const uint8_t> bytes(wk.raw);
     e.encoding = static_cast<uint8_t>(BlockEncoding::kRaw);
@@ -180,85 +208,111 @@ Result<HzHeader> Write(const std::string& path, HzHeader h, const HzWriteOptions
         e.encoding = static_cast<uint8_t>(BlockEncoding::kZstd);
       }
     }
-    SDB_RETURN_IF_ERROR(Append(*writer, bytes, e));
+    SDB_RETURN_IF_ERROR(Append(*writer_, bytes, e));
     e.error_max = code_max;
-    kept[item] = 1;
+    kept_[item] = 1;
     return Status::OK();
   };
-  SDB_RETURN_IF_ERROR(RunParallel(candidates.size(), options.threads, "blocks", start,
-                                  options.progress, block));
+  return RunParallel(count, options_.threads, "blocks", start_, options_.progress, block);
+}
 
-  const auto brick = [&](int w, uint64_t b) -> Status {
-    Worker& wk = workers[static_cast<size_t>(w)];
-    prepare(wk);
+template <class V>
+Status HzStoreWriter::WriteBricks(uint64_t first, uint64_t count, const V* field,
+                                  const double* finest_max) {
+  if (first > h_.bricks || count > h_.bricks - first) {
+    return Status::InvalidArgument(path_ + ": bricks " + std::to_string(first) + " + " +
+                                   std::to_string(count) + " past the " + std::to_string(h_.bricks) +
+                                   " there are");
+  }
+  if ((finest_max == nullptr) != h_.finest_stored()) {
+    return Status::InvalidArgument(path_ + ": the finest errors' maxima go with a store that "
+                                           "does not keep them");
+  }
+  const auto brick = [&](int w, uint64_t i) -> Status {
+    const uint64_t b = first + i;
+    Worker& wk = Prepare(w);
     SDB_ASSIGN_OR_RETURN(EncodedBrick coded,
-                         EncodeBrick(grid, b, field, h.voxel_type, wk.zstd.get()));
-    HzIndexEntry& e = brick_entries[b];
+                         EncodeBrick(*grid_, b, field, h_.voxel_type, wk.zstd.get()));
+    HzIndexEntry& e = brick_entries_[b];
     e.encoding = static_cast<uint8_t>(coded.coding);
-    SDB_RETURN_IF_ERROR(Append(*writer, coded.bytes, e));
+    SDB_RETURN_IF_ERROR(Append(*writer_, coded.bytes, e));
     e.field_min = RoundDownToFloat(coded.min);
     e.field_max = RoundUpToFloat(coded.max);
-    if (b >= grid.FirstBrick(0) && finest_max != nullptr) {
-      const double m = finest_max[b - grid.FirstBrick(0)];
-      e.error_max = options.errors_are_bounds ? quantizer.EncodeBound(m) : quantizer.Encode(m);
-      std::lock_guard<std::mutex> lock(max_mu);
-      error_max = std::max(error_max, m);
+    if (b >= grid_->FirstBrick(0) && finest_max != nullptr) {
+      const double m = finest_max[b - grid_->FirstBrick(0)];
+      e.error_max = options_.errors_are_bounds ? quantizer_.EncodeBound(m) : quantizer_.Encode(m);
+      RaiseErrorMax(m);
     }
+    brick_written_[b] = 1;
     return Status::OK();
   };
-  SDB_RETURN_IF_ERROR(RunParallel(h.bricks, options.threads, "bricks", start, options.progress, brick));
+  return RunParallel(count, options_.threads, "bricks", start_, options_.progress, brick);
+}
 
+void HzStoreWriter::RaiseErrorMax(double e) {
+  std::lock_guard<std::mutex> lock(max_mu_);
+  error_max_ = std::max(error_max_, e);
+}
+
+Result<HzHeader> HzStoreWriter::Finish() {
+  for (uint64_t b = 0; b < h_.bricks; ++b) {
+    if (!brick_written_[b]) {
+      return Status::InvalidArgument(path_ + ": brick " + std::to_string(b) + " was not written");
+    }
+  }
+  HzHeader& h = h_;
   // Bitmap and indexes, in block and brick order.
   std::vector<uint8_t> bitmap(8 * h.bitmap_words(), 0), index, brick_index;
   uint64_t stored = 0;
-  for (size_t i = 0; i < candidates.size(); ++i) stored += kept[i];
+  for (size_t i = 0; i < candidates_.size(); ++i) stored += kept_[i];
   index.resize(stored * kHzIndexEntrySize);
   uint64_t j = 0;
-  for (size_t i = 0; i < candidates.size(); ++i) {
-    if (!kept[i]) continue;
-    const uint64_t b = candidates[i];
+  for (size_t i = 0; i < candidates_.size(); ++i) {
+    if (!kept_[i]) continue;
+    const uint64_t b = candidates_[i];
     bitmap[b / 8] |= static_cast<uint8_t>(1u << (b % 8));  // little-endian words: bit b of the map
-    SerializeHzIndexEntry(entries[i], index.data() + j++ * kHzIndexEntrySize);
+    SerializeHzIndexEntry(entries_[i], index.data() + j++ * kHzIndexEntrySize);
   }
   brick_index.resize(h.bricks * kHzIndexEntrySize);
   for (uint64_t b = 0; b < h.bricks; ++b) {
-    SerializeHzIndexEntry(brick_entries[b], brick_index.data() + b * kHzIndexEntrySize);
+    SerializeHzIndexEntry(brick_entries_[b], brick_index.data() + b * kHzIndexEntrySize);
   }
   h.stored_blocks = stored;
-  h.error_max = error_max;
-  SDB_ASSIGN_OR_RETURN(h.bitmap_offset, writer->Append(bitmap));
-  SDB_ASSIGN_OR_RETURN(h.index_offset, writer->Append(index));
-  SDB_ASSIGN_OR_RETURN(h.brick_index_offset, writer->Append(brick_index));
-  h.file_size = writer->size();
+  h.error_max = error_max_;
+  SDB_ASSIGN_OR_RETURN(h.bitmap_offset, writer_->Append(bitmap));
+  SDB_ASSIGN_OR_RETURN(h.index_offset, writer_->Append(index));
+  SDB_ASSIGN_OR_RETURN(h.brick_index_offset, writer_->Append(brick_index));
+  h.file_size = writer_->size();
   h.bitmap_checksum = Checksum(bitmap);
   h.index_checksum = Checksum(index);
   h.brick_index_checksum = Checksum(brick_index);
   const auto header = SerializeHzHeader(h);
-  SDB_RETURN_IF_ERROR(writer->WriteAt(0, header));
-  SDB_RETURN_IF_ERROR(writer->Commit());
+  SDB_RETURN_IF_ERROR(writer_->WriteAt(0, header));
+  SDB_RETURN_IF_ERROR(writer_->Commit());
   return h;
 }
 
-}  // namespace
+#define SDB_WRITE_BRICKS_(V) \
+  template Status HzStoreWriter::WriteBricks(uint64_t, uint64_t, const V*, const double*);
+SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_WRITE_BRICKS_)
+#undef SDB_WRITE_BRICKS_
+
 
 template <class V>
 Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
                               const HzWriteOptions& options, const HzFill& fill, const V* field,
                               const double* finest_max) {
-  const int max_bits = params.dimension == 3 ? 18 : 13;
-  if ((params.dimension != 3 && params.dimension != 4) || params.domain_bits < 1 ||
-      params.domain_bits > max_bits || params.block_bits < 6 || params.block_bits > 20 ||
-      params.brick_bits < 1 || params.brick_bits > (params.dimension == 3 ? 6 : 4) ||
-      (params.flags & ~kHzFinestStored) != 0 || options.threads < 1 ||
-      !(params.field_min <= params.field_max)) {
-    return Status::InvalidArgument(path + ": store parameters out of range");
-  }
+  SDB_RETURN_IF_ERROR(CheckParams(path, params, options));
   if ((finest_max == nullptr) != ((params.flags & kHzFinestStored) != 0)) {
     return Status::InvalidArgument(path + ": the finest errors' maxima go with a store that "
                                           "does not keep them");
   }
-  if (params.dimension == 3) return Write<3, V>(path, params, options, fill, field, finest_max);
-  return Write<4, V>(path, params, options, fill, field, finest_max);
+  SDB_RETURN_IF_ERROR(params.dimension == 3 ? CheckField<3>(path, params, field)
+                                            : CheckField<4>(path, params, field));
+  SDB_ASSIGN_OR_RETURN(auto writer, HzStoreWriter::Create(path, params, options));
+  SDB_RETURN_IF_ERROR(writer->WriteBlocks(0, writer->candidate_blocks().size(), fill));
+  SDB_RETURN_IF_ERROR(writer->WriteBricks(0, writer->header().bricks, field, finest_max));
+  return writer->Finish();
 }
 
 #define SDB_WRITE_HZ_STORE_(V)                                                           \

@@ -24,13 +24,20 @@
 // or a field value the voxel type cannot hold (naming the grid point).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
+#include <memory>
+#include <mutex>
 #include <string>
+#include <vector>
 
+#include "storage/dense/field_bricks.h"
 #include "storage/dense/format.h"
 #include "storage/dense/hz_format.h"
 #include "storage/error/progress.h"
+#include "storage/error/quantize.h"
+#include "storage/io/file.h"
 #include "storage/volume/voxel_type.h"
 #include "util/status.h"
 
@@ -52,7 +59,66 @@ struct HzWriteOptions {
 // hole past the domain's faces, a diamond with no real point).
 using HzFill = std::function<Status(int worker, uint64_t first, size_t count, double* errors)>;
 
-// Writes `path`. From `params` the writer takes dimension, domain_bits,
+// Writes a store in parts: the candidate blocks (those that may hold data,
+// by geometry) in runs, the bricks in runs, each run on every worker, then
+// Finish() writes the bitmap, the indexes and the header and renames the
+// file into place. Runs may come in any order and grouping (a builder that
+// streams the volume gives a band at a time); a candidate block never
+// written is not stored, and every brick must be written once. Dropped
+// without Finish(), it leaves nothing under `path`. Not thread-safe itself:
+// one run at a time (each runs on options.threads workers).
+class HzStoreWriter {
+ public:
+  // Checks `params` (as WriteHzStore) and opens the temporary file.
+  static Result<std::unique_ptr<HzStoreWriter>> Create(const std::string& path,
+                                                       const HzHeader& params,
+                                                       const HzWriteOptions& options);
+  ~HzStoreWriter();
+
+  // The header as planned: version, virtual_blocks, quantum and bricks set.
+  const HzHeader& header() const { return h_; }
+  // The virtual blocks that may hold data, ascending.
+  const std::vector<uint64_t>& candidate_blocks() const { return candidates_; }
+  const BrickGrid& grid() const { return *grid_; }
+
+  // Fills, codes and appends candidate blocks [first, first + count) (of
+  // candidate_blocks()); those whose errors all code to 0 are dropped.
+  Status WriteBlocks(uint64_t first, uint64_t count, const HzFill& fill);
+  // Encodes and appends bricks [first, first + count) from `field` (the
+  // whole real grid, x fastest); `finest_max` as WriteHzStore's, indexed
+  // by lattice-0 brick from the grid's first.
+  template <class V>
+  Status WriteBricks(uint64_t first, uint64_t count, const V* field, const double* finest_max);
+  // Completes the file. Returns the header written.
+  Result<HzHeader> Finish();
+
+ private:
+  struct Worker;
+  HzStoreWriter();
+  Worker& Prepare(int worker);
+  void RaiseErrorMax(double e);
+
+  std::string path_;
+  HzWriteOptions options_;
+  std::chrono::steady_clock::time_point start_;
+  HzHeader h_;
+  ErrorQuantizer quantizer_{Quantization::kU16, 1, 0};
+  std::unique_ptr<BrickGrid> grid_;
+  uint64_t positions_ = 0;  // the HZ order's size
+  std::vector<uint64_t> candidates_;
+  std::vector<HzIndexEntry> entries_, brick_entries_;
+  std::vector<uint8_t> kept_, brick_written_;
+  std::unique_ptr<AtomicFileWriter> writer_;
+  std::vector<Worker> workers_;
+  std::mutex max_mu_;
+  double error_max_ = 0;
+};
+#define SDB_WRITE_BRICKS_(V) \
+  extern template Status HzStoreWriter::WriteBricks(uint64_t, uint64_t, const V*, const double*);
+SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_WRITE_BRICKS_)
+#undef SDB_WRITE_BRICKS_
+
+// Writes `path` at once (HzStoreWriter: every block, every brick). From `params` the writer takes dimension, domain_bits,
 // dims, voxel_type (the stored field's type), quantization, block_bits,
 // brick_bits, flags, field_min/max (the range over the real grid: it sets
 // the quantum), spacing, origin, scaling and source; it sets the rest.

@@ -23,6 +23,7 @@
 #include "storage/dense/hz_builder.h"
 #include "storage/dense/hz_lattice.h"
 #include "storage/dense/hz_store.h"
+#include "storage/dense/hz_writer.h"
 #include "storage/volume/volume.h"
 #include "tests/fuzz/hz_checksums.h"
 #include "tests/storage/store_test_util.h"
@@ -323,6 +324,67 @@ TEST(HzStore, DirectBuildMatchesTheEngine) {
   ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {5, 4, 5, 3}, VoxelType::kU8, 37), "hp5");
   ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kI16, 33), "hp9");
   ExpectDirectBuildMatchesTheEngine<4>(TestVolume::Random(4, {7, 10, 5, 3}, VoxelType::kF32, 34), "hp_short");
+}
+
+// A store written in runs (blocks and bricks in two or three runs each,
+// later ones first) answers as the store whose errors it copies; Finish
+// refuses a store with a brick missing, and a writer dropped unfinished
+// leaves nothing.
+TEST(HzStore, WriterTakesBlocksAndBricksInRunsInAnyOrder) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(3, {21, 17, 13, 1}, VoxelType::kU8, 41);
+  HzBuildOptions o;
+  o.quantization = Quantization::kF32;  // copied exactly (errors_are_bounds)
+  o.block_bits = 6;                      // many blocks
+  const Built b = Build(v, dir, "v", o);
+  const HzHeader& ref = b.hz->header();
+  const HzFill fill = [&](int, uint64_t first, size_t count, double* errors) -> Status {
+    const std::optional<uint64_t> stored = b.hz->StoredIndex(first >> ref.block_bits);
+    if (!stored) return Status::OK();  // zeros
+    SDB_ASSIGN_OR_RETURN(const HzStore::BlockHandle h, b.hz->Block(*stored));
+    for (size_t i = 0; i < count; ++i) {
+      errors[i] = b.hz->quantizer().Decode(b.hz->StoredErrorAt(h.data, static_cast<uint32_t>(i)));
+    }
+    return Status::OK();
+  };
+  HzWriteOptions w;
+  w.errors_are_bounds = true;
+  w.threads = 2;
+  {
+    auto unfinished = HzStoreWriter::Create(dir / "unfinished.sdb", ref, w);
+    ASSERT_TRUE(unfinished.ok()) << unfinished.status().message();
+    ASSERT_TRUE((*unfinished)->WriteBlocks(0, (*unfinished)->candidate_blocks().size(), fill).ok());
+    const Result<HzHeader> refused = (*unfinished)->Finish();
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.status().message().find("brick 0 was not written"), std::string_view::npos)
+        << refused.status().message();
+  }
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    EXPECT_EQ(entry.path().filename().string().find("unfinished"), std::string::npos) << entry.path();
+  }
+
+  auto writer = HzStoreWriter::Create(dir / "runs.sdb", ref, w);
+  ASSERT_TRUE(writer.ok()) << writer.status().message();
+  HzStoreWriter& out = **writer;
+  const uint64_t blocks = out.candidate_blocks().size(), bricks = out.header().bricks;
+  ASSERT_GT(blocks, 8u);
+  ASSERT_TRUE(out.WriteBlocks(blocks / 2, blocks - blocks / 2, fill).ok());
+  ASSERT_TRUE(out.WriteBlocks(0, blocks / 2, fill).ok());
+  EXPECT_FALSE(out.WriteBlocks(blocks, 1, fill).ok());  // past the candidates
+  ASSERT_TRUE(out.WriteBricks(2 * bricks / 3, bricks - 2 * bricks / 3, v.values.data(), nullptr).ok());
+  ASSERT_TRUE(out.WriteBricks(bricks / 3, 2 * bricks / 3 - bricks / 3, v.values.data(), nullptr).ok());
+  ASSERT_TRUE(out.WriteBricks(0, bricks / 3, v.values.data(), nullptr).ok());
+  ASSERT_TRUE(out.Finish().ok());
+
+  auto runs = HzStore::Open(dir / "runs.sdb");
+  ASSERT_TRUE(runs.ok()) << runs.status().message();
+  ASSERT_TRUE((*runs)->Verify().ok());
+  EXPECT_EQ((*runs)->stored_blocks(), b.hz->stored_blocks());
+  HzStore::Reader<3> got(**runs), want(*b.hz);
+  ForEachInternalCode<3>(ref.leaf_level(), [&](SimplexCode<3> c) {
+    ASSERT_EQ(*got.ErrorBound(c), *want.ErrorBound(c)) << c.ToString();
+  });
+  ExpectFields<3>(**runs, v);
 }
 
 // The direct build reads the field in chunks of 2^20 voxels on every
