@@ -25,30 +25,6 @@
 namespace simplexdb {
 namespace {
 
-// Whether virtual block `vblock` may hold a real vertex or a non-zero
-// error: a block spanning several segments (block 0, and a few more when
-// block_bits is not a multiple of D) always; another block is one box of
-// cubes of one level and pattern, and its vertices' diamonds reach at most
-// a cube's side from them.
-template <int D>
-bool MayHoldData(const HzHeader& h, uint64_t vblock) {
-  if (vblock == 0) return true;
-  const uint64_t first = vblock << h.block_bits;
-  const int octave = (63 - std::countl_zero(first)) / D - 1;
-  const uint64_t segment_size = uint64_t{1} << (D * (octave + 1));
-  if (segment_size < h.block_records()) return true;
-  const uint32_t odd = internal::kOddPatterns<D>.mask_of[(first >> (D * (octave + 1))) - 1];
-  const auto lo = internal::FromMorton<D>(first & (segment_size - 1));
-  const int s = h.domain_bits - 1 - octave;
-  const int64_t side = int64_t{1} << h.domain_bits;
-  for (int a = 0; a < D; ++a) {
-    const int64_t g = (lo[a] << (s + 1)) | (static_cast<int64_t>(odd >> a & 1) << s);
-    if (g > side) return false;  // holes only
-    if (g > int64_t{h.dims[a]} - 1 + (int64_t{2} << s)) return false;
-  }
-  return true;
-}
-
 // The stored block or brick: appended, checksummed, its entry filled.
 Status Append(AtomicFileWriter& writer, std::span<const uint8_t> stored, HzIndexEntry& e) {
   SDB_ASSIGN_OR_RETURN(e.offset, writer.Append(stored));
@@ -128,10 +104,11 @@ Result<std::unique_ptr<HzStoreWriter>> HzStoreWriter::Create(const std::string& 
   w->positions_ = h.dimension == 3 ? HzOrder<3>(h.domain_bits).size() : HzOrder<4>(h.domain_bits).size();
   try {
     for (uint64_t b = 0; b < h.virtual_blocks; ++b) {
-      if (h.dimension == 3 ? MayHoldData<3>(h, b) : MayHoldData<4>(h, b)) w->candidates_.push_back(b);
+      if (w->MayHoldData(b)) w->candidates_.push_back(b);
     }
     w->entries_.resize(w->candidates_.size());
     w->kept_.assign(w->candidates_.size(), 0);
+    w->block_written_.assign(w->candidates_.size(), 0);
     w->brick_entries_.resize(h.bricks);
     w->brick_written_.assign(h.bricks, 0);
   } catch (const std::bad_alloc&) {
@@ -155,16 +132,68 @@ HzStoreWriter::Worker& HzStoreWriter::Prepare(int w) {
   return wk;
 }
 
-Status HzStoreWriter::WriteBlocks(uint64_t first_candidate, uint64_t count, const HzFill& fill) {
-  if (first_candidate > candidates_.size() || count > candidates_.size() - first_candidate) {
-    return Status::InvalidArgument(path_ + ": candidate blocks " + std::to_string(first_candidate) +
-                                   " + " + std::to_string(count) + " past the " +
-                                   std::to_string(candidates_.size()) + " there are");
+HzStoreWriter::BlockSpan HzStoreWriter::SpanOf(uint64_t vblock) const {
+  BlockSpan span;
+  const int d = h_.dimension;
+  const int64_t side = int64_t{1} << h_.domain_bits;
+  for (int a = 0; a < d; ++a) span.hi[a] = side;
+  const uint64_t first = vblock << h_.block_bits;
+  if (vblock == 0) return span;
+  const int octave = (63 - std::countl_zero(first)) / d - 1;
+  const uint64_t segment_size = uint64_t{1} << (d * (octave + 1));
+  if (segment_size < h_.block_records()) return span;
+  const uint32_t odd = d == 3 ? internal::kOddPatterns<3>.mask_of[(first >> (3 * (octave + 1))) - 1]
+                              : internal::kOddPatterns<4>.mask_of[(first >> (4 * (octave + 1))) - 1];
+  std::array<int64_t, 4> cell{};
+  if (d == 3) {
+    const auto u = internal::FromMorton<3>(first & (segment_size - 1));
+    std::copy(u.begin(), u.end(), cell.begin());
+  } else {
+    const auto u = internal::FromMorton<4>(first & (segment_size - 1));
+    std::copy(u.begin(), u.end(), cell.begin());
+  }
+  span.scale = h_.domain_bits - 1 - octave;
+  const int s = span.scale;
+  // The block's Morton codes are one aligned run: per axis, the low bits of
+  // the block's share (the lower axes take the remainder of block_bits / D).
+  for (int a = 0; a < d; ++a) {
+    const int bits = h_.block_bits / d + (a < h_.block_bits % d ? 1 : 0);
+    const int64_t offset = static_cast<int64_t>(odd >> a & 1) << s;
+    span.lo[a] = (cell[a] << (s + 1)) | offset;
+    span.hi[a] = ((cell[a] + (int64_t{1} << bits) - 1) << (s + 1)) | offset;
+  }
+  return span;
+}
+
+// A block of one octave holds a real vertex or a non-zero error only when
+// its first vertex is inside the domain (the rest are holes) and a diamond
+// of its level, which reaches 2^(s+1) from its vertex, reaches the real
+// grid from there.
+bool HzStoreWriter::MayHoldData(uint64_t vblock) const {
+  const BlockSpan span = SpanOf(vblock);
+  if (span.scale < 0) return true;
+  const int64_t side = int64_t{1} << h_.domain_bits;
+  for (int a = 0; a < h_.dimension; ++a) {
+    if (span.lo[a] > side) return false;  // holes only
+    if (span.lo[a] > int64_t{h_.dims[a]} - 1 + (int64_t{2} << span.scale)) return false;
+  }
+  return true;
+}
+
+Status HzStoreWriter::WriteBlocks(std::span<const uint64_t> which, const HzFill& fill) {
+  for (const uint64_t i : which) {
+    if (i >= candidates_.size() || block_written_[i]) {
+      return Status::InvalidArgument(path_ + ": candidate block " + std::to_string(i) +
+                                     (i >= candidates_.size()
+                                          ? " is past the " + std::to_string(candidates_.size()) + " there are"
+                                          : " was written before"));
+    }
+    block_written_[i] = 1;
   }
   const size_t n = h_.block_records();
   const uint64_t stored_positions = h_.error_positions();
   const auto block = [&](int w, uint64_t item) -> Status {
-    item += first_candidate;
+    item = which[item];
     Worker& wk = Prepare(w);
     const uint64_t first = candidates_[item] << h_.block_bits;
     const size_t filled =
@@ -213,7 +242,7 @@ Status HzStoreWriter::WriteBlocks(uint64_t first_candidate, uint64_t count, cons
     kept_[item] = 1;
     return Status::OK();
   };
-  return RunParallel(count, options_.threads, "blocks", start_, options_.progress, block);
+  return RunParallel(which.size(), options_.threads, "blocks", start_, options_.progress, block);
 }
 
 template <class V>
@@ -310,7 +339,9 @@ Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
   SDB_RETURN_IF_ERROR(params.dimension == 3 ? CheckField<3>(path, params, field)
                                             : CheckField<4>(path, params, field));
   SDB_ASSIGN_OR_RETURN(auto writer, HzStoreWriter::Create(path, params, options));
-  SDB_RETURN_IF_ERROR(writer->WriteBlocks(0, writer->candidate_blocks().size(), fill));
+  std::vector<uint64_t> all(writer->candidate_blocks().size());
+  for (uint64_t i = 0; i < all.size(); ++i) all[i] = i;
+  SDB_RETURN_IF_ERROR(writer->WriteBlocks(all, fill));
   SDB_RETURN_IF_ERROR(writer->WriteBricks(0, writer->header().bricks, field, finest_max));
   return writer->Finish();
 }

@@ -29,6 +29,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -81,9 +82,21 @@ class HzStoreWriter {
   const std::vector<uint64_t>& candidate_blocks() const { return candidates_; }
   const BrickGrid& grid() const { return *grid_; }
 
-  // Fills, codes and appends candidate blocks [first, first + count) (of
-  // candidate_blocks()); those whose errors all code to 0 are dropped.
-  Status WriteBlocks(uint64_t first, uint64_t count, const HzFill& fill);
+  // Where a virtual block's vertices are: one octave's (its scale s: the
+  // vertices are odd multiples of 2^s on some axis) in the grid box [lo,
+  // hi] per axis, or, for a block spanning several octaves or patterns
+  // (block 0, and a few more when block_bits is not a multiple of D),
+  // scale -1 and the whole domain.
+  struct BlockSpan {
+    int scale = -1;
+    std::array<int64_t, 4> lo{}, hi{};
+  };
+  BlockSpan SpanOf(uint64_t vblock) const;
+
+  // Fills, codes and appends the candidate blocks whose indices (into
+  // candidate_blocks()) `which` lists; those whose errors all code to 0
+  // are dropped. Each candidate is written at most once over all runs.
+  Status WriteBlocks(std::span<const uint64_t> which, const HzFill& fill);
   // Encodes and appends bricks [first, first + count) from `field` (the
   // whole real grid, x fastest); `finest_max` as WriteHzStore's, indexed
   // by lattice-0 brick from the grid's first.
@@ -96,6 +109,7 @@ class HzStoreWriter {
   struct Worker;
   HzStoreWriter();
   Worker& Prepare(int worker);
+  bool MayHoldData(uint64_t vblock) const;
   void RaiseErrorMax(double e);
 
   std::string path_;
@@ -107,7 +121,7 @@ class HzStoreWriter {
   uint64_t positions_ = 0;  // the HZ order's size
   std::vector<uint64_t> candidates_;
   std::vector<HzIndexEntry> entries_, brick_entries_;
-  std::vector<uint8_t> kept_, brick_written_;
+  std::vector<uint8_t> kept_, block_written_, brick_written_;
   std::unique_ptr<AtomicFileWriter> writer_;
   std::vector<Worker> workers_;
   std::mutex max_mu_;

@@ -353,7 +353,9 @@ TEST(HzStore, WriterTakesBlocksAndBricksInRunsInAnyOrder) {
   {
     auto unfinished = HzStoreWriter::Create(dir / "unfinished.sdb", ref, w);
     ASSERT_TRUE(unfinished.ok()) << unfinished.status().message();
-    ASSERT_TRUE((*unfinished)->WriteBlocks(0, (*unfinished)->candidate_blocks().size(), fill).ok());
+    std::vector<uint64_t> all((*unfinished)->candidate_blocks().size());
+    for (uint64_t i = 0; i < all.size(); ++i) all[i] = i;
+    ASSERT_TRUE((*unfinished)->WriteBlocks(all, fill).ok());
     const Result<HzHeader> refused = (*unfinished)->Finish();
     ASSERT_FALSE(refused.ok());
     EXPECT_NE(refused.status().message().find("brick 0 was not written"), std::string_view::npos)
@@ -368,9 +370,14 @@ TEST(HzStore, WriterTakesBlocksAndBricksInRunsInAnyOrder) {
   HzStoreWriter& out = **writer;
   const uint64_t blocks = out.candidate_blocks().size(), bricks = out.header().bricks;
   ASSERT_GT(blocks, 8u);
-  ASSERT_TRUE(out.WriteBlocks(blocks / 2, blocks - blocks / 2, fill).ok());
-  ASSERT_TRUE(out.WriteBlocks(0, blocks / 2, fill).ok());
-  EXPECT_FALSE(out.WriteBlocks(blocks, 1, fill).ok());  // past the candidates
+  // Odd candidates from the last down, then the even ones.
+  std::vector<uint64_t> odd, even;
+  for (uint64_t i = blocks; i-- > 0;) (i % 2 ? odd : even).push_back(i);
+  ASSERT_TRUE(out.WriteBlocks(odd, fill).ok());
+  const std::vector<uint64_t> again = {odd[0]}, past = {blocks};
+  EXPECT_FALSE(out.WriteBlocks(again, fill).ok());  // written before
+  EXPECT_FALSE(out.WriteBlocks(past, fill).ok());   // past the candidates
+  ASSERT_TRUE(out.WriteBlocks(even, fill).ok());
   ASSERT_TRUE(out.WriteBricks(2 * bricks / 3, bricks - 2 * bricks / 3, v.values.data(), nullptr).ok());
   ASSERT_TRUE(out.WriteBricks(bricks / 3, 2 * bricks / 3 - bricks / 3, v.values.data(), nullptr).ok());
   ASSERT_TRUE(out.WriteBricks(0, bricks / 3, v.values.data(), nullptr).ok());
@@ -385,6 +392,61 @@ TEST(HzStore, WriterTakesBlocksAndBricksInRunsInAnyOrder) {
     ASSERT_EQ(*got.ErrorBound(c), *want.ErrorBound(c)) << c.ToString();
   });
   ExpectFields<3>(**runs, v);
+}
+
+// Every vertex a virtual block holds is in its span (found by decoding
+// each position, not by the span's arithmetic), at the span's scale; the
+// candidates are the blocks whose span may reach the real grid, and every
+// block holding a real point is one. HT and HP, block_bits a multiple of D
+// or not.
+template <int D>
+void ExpectBlockSpans(const std::array<uint32_t, 4>& dims, int block_bits) {
+  SCOPED_TRACE("block_bits " + std::to_string(block_bits));
+  TempDir dir;
+  HzHeader params;
+  params.dimension = static_cast<uint8_t>(D);
+  params.domain_bits = static_cast<uint8_t>(std::max(1, DomainBitsFor(D, dims)));
+  params.block_bits = static_cast<uint8_t>(block_bits);
+  params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(D));
+  params.dims = dims;
+  params.field_max = 1;
+  auto writer = HzStoreWriter::Create(dir / "s.sdb", params, HzWriteOptions{});
+  ASSERT_TRUE(writer.ok()) << writer.status().message();
+  const HzHeader& h = (*writer)->header();
+  const HzOrder<D> order(h.domain_bits);
+  const std::set<uint64_t> candidates((*writer)->candidate_blocks().begin(),
+                                      (*writer)->candidate_blocks().end());
+  int spans = 0;
+  for (uint64_t b = 0; b < h.virtual_blocks; ++b) {
+    const HzStoreWriter::BlockSpan span = (*writer)->SpanOf(b);
+    spans += span.scale >= 0;
+    bool real = false;
+    for (uint64_t p = b << h.block_bits; p < std::min(order.size(), (b + 1) << h.block_bits); ++p) {
+      std::array<int64_t, D> g{};
+      if (!order.Decode(p, g)) continue;
+      bool inside = true;
+      for (int a = 0; a < D; ++a) {
+        ASSERT_GE(g[a], span.lo[a]) << "block " << b << " position " << p;
+        ASSERT_LE(g[a], span.hi[a]) << "block " << b << " position " << p;
+        inside = inside && g[a] < int64_t{dims[a]};
+      }
+      real = real || inside;
+      if (span.scale >= 0) {
+        ASSERT_EQ(h.domain_bits - 1 - order.Level(g) / D, span.scale) << "block " << b;
+      }
+    }
+    if (real) {
+      ASSERT_EQ(candidates.count(b), 1u) << "block " << b << " holds a real point";
+    }
+  }
+  EXPECT_GT(spans, 0);
+}
+
+TEST(HzStore, BlockSpansHoldTheirVertices) {
+  ExpectBlockSpans<3>({21, 17, 13, 1}, 6);
+  ExpectBlockSpans<3>({33, 9, 20, 1}, 7);
+  ExpectBlockSpans<4>({9, 5, 7, 6}, 6);
+  ExpectBlockSpans<4>({9, 9, 5, 9}, 7);
 }
 
 // The direct build reads the field in chunks of 2^20 voxels on every
