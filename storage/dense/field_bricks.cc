@@ -101,12 +101,26 @@ template <class V>
 Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const V* field,
                                  VoxelType type, ZstdCompressor* zstd,
                                  std::optional<BrickCoding> only) {
+  HeldField<V> whole{field, {1, 1, 1, 1}, 0, 0};  // x fastest
+  for (int a = 1; a < 4; ++a) whole.stride[a] = whole.stride[a - 1] * grid.dims()[a - 1];
+  return EncodeBrick(grid, b, whole, type, zstd, only);
+}
+
+template <class V>
+Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const HeldField<V>& held,
+                                 VoxelType type, ZstdCompressor* zstd,
+                                 std::optional<BrickCoding> only) {
   const BrickPlace place = grid.Place(b);
   const int D = grid.dimension();
+  assert(place.lattice >= held.shift);
   const std::array<uint32_t, 4>& e = place.extent;
-  std::array<int64_t, 4> stride{1, 1, 1, 1};  // the field's, x fastest
-  for (int a = 1; a < 4; ++a) stride[a] = stride[a - 1] * grid.dims()[a - 1];
-  const int64_t step = int64_t{1} << place.lattice;
+  const std::array<int64_t, 4>& stride = held.stride;
+  // In held points: the brick's first point, its step, the window's start.
+  std::array<int64_t, 4> first{};
+  for (int a = 0; a < 4; ++a) first[a] = int64_t{place.first[a]} >> held.shift;
+  first[static_cast<size_t>(D - 1)] -= held.first_plane;
+  const V* field = held.data;
+  const int64_t step = int64_t{1} << (place.lattice - held.shift);
   const size_t n = BrickVoxels(D, e);
   std::vector<double> values;
   values.reserve(n);
@@ -115,9 +129,8 @@ Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const V* fie
   for (uint32_t i3 = 0; i3 < e[3]; ++i3) {
     for (uint32_t i2 = 0; i2 < e[2]; ++i2) {
       for (uint32_t i1 = 0; i1 < e[1]; ++i1) {
-        int64_t index = (place.first[1] + i1 * step) * stride[1] +
-                        (place.first[2] + i2 * step) * stride[2] +
-                        (place.first[3] + i3 * step) * stride[3] + place.first[0];
+        int64_t index = (first[1] + i1 * step) * stride[1] + (first[2] + i2 * step) * stride[2] +
+                        (first[3] + i3 * step) * stride[3] + first[0];
         for (uint32_t i0 = 0; i0 < e[0]; ++i0, index += step) {
           const double v = static_cast<double>(field[index]);
           values.push_back(v);
@@ -156,7 +169,10 @@ Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const V* fie
 
 #define SDB_ENCODE_BRICK_(V)                                                                 \
   template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const V*, VoxelType, \
-                                            ZstdCompressor*, std::optional<BrickCoding>);
+                                            ZstdCompressor*, std::optional<BrickCoding>);    \
+  template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const HeldField<V>&, \
+                                            VoxelType, ZstdCompressor*,                      \
+                                            std::optional<BrickCoding>);
 SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_ENCODE_BRICK_)
 #undef SDB_ENCODE_BRICK_
 

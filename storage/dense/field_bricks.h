@@ -108,10 +108,30 @@ template <class V>
 Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const V* field,
                                  VoxelType type, ZstdCompressor* zstd,
                                  std::optional<BrickCoding> only = std::nullopt);
+
+// Part of the field, for a builder that does not hold all of it: every
+// 2^shift-th point per axis from 0 (shift 0: every point), x fastest with
+// `stride` (in held points), from held plane `first_plane` of the last
+// axis on. A brick of lattice s >= shift whose points are held is read
+// from it.
+template <class V>
+struct HeldField {
+  const V* data = nullptr;
+  std::array<int64_t, 4> stride{};
+  int64_t first_plane = 0;
+  int shift = 0;
+};
+template <class V>
+Result<EncodedBrick> EncodeBrick(const BrickGrid& grid, uint64_t b, const HeldField<V>& field,
+                                 VoxelType type, ZstdCompressor* zstd,
+                                 std::optional<BrickCoding> only = std::nullopt);
 #define SDB_ENCODE_BRICK_(V)                                                                \
   extern template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t, const V*,     \
                                                    VoxelType, ZstdCompressor*,               \
-                                                   std::optional<BrickCoding>);
+                                                   std::optional<BrickCoding>);             \
+  extern template Result<EncodedBrick> EncodeBrick(const BrickGrid&, uint64_t,               \
+                                                   const HeldField<V>&, VoxelType,          \
+                                                   ZstdCompressor*, std::optional<BrickCoding>);
 SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_ENCODE_BRICK_)
 #undef SDB_ENCODE_BRICK_
 

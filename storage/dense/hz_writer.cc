@@ -246,19 +246,22 @@ Status HzStoreWriter::WriteBlocks(std::span<const uint64_t> which, const HzFill&
 }
 
 template <class V>
-Status HzStoreWriter::WriteBricks(uint64_t first, uint64_t count, const V* field,
+Status HzStoreWriter::WriteBricks(std::span<const uint64_t> which, const HeldField<V>& field,
                                   const double* finest_max) {
-  if (first > h_.bricks || count > h_.bricks - first) {
-    return Status::InvalidArgument(path_ + ": bricks " + std::to_string(first) + " + " +
-                                   std::to_string(count) + " past the " + std::to_string(h_.bricks) +
-                                   " there are");
-  }
   if ((finest_max == nullptr) != h_.finest_stored()) {
     return Status::InvalidArgument(path_ + ": the finest errors' maxima go with a store that "
                                            "does not keep them");
   }
+  for (const uint64_t b : which) {
+    if (b >= h_.bricks || brick_written_[b]) {
+      return Status::InvalidArgument(path_ + ": brick " + std::to_string(b) +
+                                     (b >= h_.bricks ? " is past the " + std::to_string(h_.bricks) + " there are"
+                                                     : " was written before"));
+    }
+    brick_written_[b] = 1;
+  }
   const auto brick = [&](int w, uint64_t i) -> Status {
-    const uint64_t b = first + i;
+    const uint64_t b = which[i];
     Worker& wk = Prepare(w);
     SDB_ASSIGN_OR_RETURN(EncodedBrick coded,
                          EncodeBrick(*grid_, b, field, h_.voxel_type, wk.zstd.get()));
@@ -272,10 +275,9 @@ Status HzStoreWriter::WriteBricks(uint64_t first, uint64_t count, const V* field
       e.error_max = options_.errors_are_bounds ? quantizer_.EncodeBound(m) : quantizer_.Encode(m);
       RaiseErrorMax(m);
     }
-    brick_written_[b] = 1;
     return Status::OK();
   };
-  return RunParallel(count, options_.threads, "bricks", start_, options_.progress, brick);
+  return RunParallel(which.size(), options_.threads, "bricks", start_, options_.progress, brick);
 }
 
 void HzStoreWriter::RaiseErrorMax(double e) {
@@ -322,7 +324,8 @@ Result<HzHeader> HzStoreWriter::Finish() {
 }
 
 #define SDB_WRITE_BRICKS_(V) \
-  template Status HzStoreWriter::WriteBricks(uint64_t, uint64_t, const V*, const double*);
+  template Status HzStoreWriter::WriteBricks(std::span<const uint64_t>, const HeldField<V>&, \
+                                             const double*);
 SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_WRITE_BRICKS_)
 #undef SDB_WRITE_BRICKS_
 
@@ -342,7 +345,11 @@ Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
   std::vector<uint64_t> all(writer->candidate_blocks().size());
   for (uint64_t i = 0; i < all.size(); ++i) all[i] = i;
   SDB_RETURN_IF_ERROR(writer->WriteBlocks(all, fill));
-  SDB_RETURN_IF_ERROR(writer->WriteBricks(0, writer->header().bricks, field, finest_max));
+  std::vector<uint64_t> bricks(writer->header().bricks);
+  for (uint64_t b = 0; b < bricks.size(); ++b) bricks[b] = b;
+  HeldField<V> whole{field, {1, 1, 1, 1}, 0, 0};  // x fastest
+  for (int a = 1; a < 4; ++a) whole.stride[a] = whole.stride[a - 1] * params.dims[a - 1];
+  SDB_RETURN_IF_ERROR(writer->WriteBricks(bricks, whole, finest_max));
   return writer->Finish();
 }
 

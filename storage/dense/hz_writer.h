@@ -97,11 +97,13 @@ class HzStoreWriter {
   // candidate_blocks()) `which` lists; those whose errors all code to 0
   // are dropped. Each candidate is written at most once over all runs.
   Status WriteBlocks(std::span<const uint64_t> which, const HzFill& fill);
-  // Encodes and appends bricks [first, first + count) from `field` (the
-  // whole real grid, x fastest); `finest_max` as WriteHzStore's, indexed
-  // by lattice-0 brick from the grid's first.
+  // Encodes and appends the bricks `which` lists from `field` (holding
+  // their points: field_bricks.h); `finest_max` as WriteHzStore's, indexed
+  // by lattice-0 brick from the grid's first (read for the lattice-0
+  // bricks listed only). Each brick is written exactly once over all runs.
   template <class V>
-  Status WriteBricks(uint64_t first, uint64_t count, const V* field, const double* finest_max);
+  Status WriteBricks(std::span<const uint64_t> which, const HeldField<V>& field,
+                     const double* finest_max);
   // Completes the file. Returns the header written.
   Result<HzHeader> Finish();
 
@@ -128,7 +130,8 @@ class HzStoreWriter {
   double error_max_ = 0;
 };
 #define SDB_WRITE_BRICKS_(V) \
-  extern template Status HzStoreWriter::WriteBricks(uint64_t, uint64_t, const V*, const double*);
+  extern template Status HzStoreWriter::WriteBricks(std::span<const uint64_t>, \
+                                                    const HeldField<V>&, const double*);
 SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_WRITE_BRICKS_)
 #undef SDB_WRITE_BRICKS_
 

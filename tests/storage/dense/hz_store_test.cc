@@ -332,7 +332,7 @@ TEST(HzStore, DirectBuildMatchesTheEngine) {
 // leaves nothing.
 TEST(HzStore, WriterTakesBlocksAndBricksInRunsInAnyOrder) {
   TempDir dir;
-  const TestVolume v = TestVolume::Random(3, {21, 17, 13, 1}, VoxelType::kU8, 41);
+  const TestVolume v = TestVolume::Random(3, {21, 17, 40, 1}, VoxelType::kU8, 41);
   HzBuildOptions o;
   o.quantization = Quantization::kF32;  // copied exactly (errors_are_bounds)
   o.block_bits = 6;                      // many blocks
@@ -378,9 +378,24 @@ TEST(HzStore, WriterTakesBlocksAndBricksInRunsInAnyOrder) {
   EXPECT_FALSE(out.WriteBlocks(again, fill).ok());  // written before
   EXPECT_FALSE(out.WriteBlocks(past, fill).ok());   // past the candidates
   ASSERT_TRUE(out.WriteBlocks(even, fill).ok());
-  ASSERT_TRUE(out.WriteBricks(2 * bricks / 3, bricks - 2 * bricks / 3, v.values.data(), nullptr).ok());
-  ASSERT_TRUE(out.WriteBricks(bricks / 3, 2 * bricks / 3 - bricks / 3, v.values.data(), nullptr).ok());
-  ASSERT_TRUE(out.WriteBricks(0, bricks / 3, v.values.data(), nullptr).ok());
+  // Bricks in three runs, the last third first; the field as a whole, and
+  // as planes from 16 on for the bricks of the first two thirds that start
+  // there (the coarse lattices' bricks come first).
+  std::vector<std::vector<uint64_t>> thirds(3);
+  for (uint64_t i = 0; i < bricks; ++i) thirds[std::min<uint64_t>(2, 3 * i / bricks)].push_back(i);
+  const HeldField<double> whole{v.values.data(), {1, 21, 21 * 17, 21 * 17 * 40}, 0, 0};
+  HeldField<double> from16 = whole;
+  from16.data += 16 * 21 * 17;
+  from16.first_plane = 16;
+  std::vector<uint64_t> later;
+  for (const uint64_t brick : thirds[2]) {
+    (out.grid().Place(brick).first[2] >= 16 ? later : thirds[1]).push_back(brick);
+  }
+  ASSERT_FALSE(later.empty());
+  ASSERT_TRUE(out.WriteBricks(later, from16, nullptr).ok());
+  ASSERT_FALSE(out.WriteBricks(later, from16, nullptr).ok());  // written before
+  ASSERT_TRUE(out.WriteBricks(thirds[1], whole, nullptr).ok());
+  ASSERT_TRUE(out.WriteBricks(thirds[0], whole, nullptr).ok());
   ASSERT_TRUE(out.Finish().ok());
 
   auto runs = HzStore::Open(dir / "runs.sdb");
