@@ -55,6 +55,9 @@ struct HzBuildOptions {
   size_t memory_bytes = size_t{1} << 30;
   int threads = 0;  // 0: one per core
   std::optional<VolumeInfo> mask;  // as DenseBuildOptions::mask
+  // Read the field a window of planes at a time even when it fits in
+  // memory_bytes (a grid too small to stream is built in memory).
+  bool stream = false;
   std::function<void(const BuildProgress&)> progress;  // "field", "errors", "diamonds", "blocks", "bricks"
 };
 
@@ -64,7 +67,8 @@ struct HzBuildReport {
   uint64_t grid_points = 0;  // real grid points
   uint64_t nodes = 0;        // nodes whose error was read (the engine's path)
   // How the errors were computed: "diamonds" (the field in memory, octave
-  // by octave) or "engine" (per node, through a scratch format-1 store).
+  // by octave), "streamed" (the same a window of planes at a time) or
+  // "engine" (per node, through a scratch format-1 store).
   const char* method = "diamonds";
 };
 

@@ -103,21 +103,30 @@ bool DiamondErrors<D, V>::Interior(const std::array<int64_t, D>& g, int s) const
 
 template <int D, class V>
 double DiamondErrors<D, V>::FieldAt(const std::array<int64_t, D>& p) const {
-  int64_t i = 0;
+  int64_t i = -window_offset_;
   for (int a = 0; a < D; ++a) i += p[a] * field_stride_[a];
   return field_[i];
 }
 
 template <int D, class V>
-template <class T>
-double DiamondErrors<D, V>::CoarseScan(const std::array<int64_t, D>& g, int s) const {
+void DiamondErrors<D, V>::SetWindow(const V* planes, int64_t first_plane) {
+  field_ = planes;
+  window_offset_ = first_plane * field_stride_[D - 1];
+}
+
+template <int D, class V>
+template <class T, class Corner>
+double DiamondErrors<D, V>::CoarseScan(const std::array<int64_t, D>& g, int s, int64_t last_lo,
+                                       int64_t last_hi, const Corner& corner) const {
   uint32_t odd = 0, parity = 0;
   for (int a = 0; a < D; ++a) {
     odd |= static_cast<uint32_t>((g[a] >> s) & 1) << a;
     parity |= static_cast<uint32_t>((g[a] >> (s + 1)) & 1) << a;
   }
   const int64_t h = int64_t{1} << s, side = int64_t{1} << k_;
-  const GridView<D, V> view{field_, IPoint<D>{}, field_stride_};
+  IPoint<D> window_lo{};
+  window_lo[D - 1] = window_offset_ / field_stride_[D - 1];
+  const GridView<D, V> view{field_, window_lo, field_stride_};
   double worst = 0;
   for (const auto& t : FinestDiamonds<D>::Get().Of(odd, parity).simplices) {
     std::array<IPoint<D>, D + 1> v{};
@@ -135,14 +144,16 @@ double DiamondErrors<D, V>::CoarseScan(const std::array<int64_t, D>& g, int s) c
     for (int a = 0; a < D; ++a) {
       lo[a] = std::max<int64_t>(scan.box_lo()[a], 0);
       hi[a] = std::min<int64_t>(scan.box_hi()[a], dims_[a] - 1);
-      empty = empty || lo[a] > hi[a];
     }
+    lo[D - 1] = std::max(lo[D - 1], last_lo);
+    hi[D - 1] = std::min(hi[D - 1], last_hi);
+    for (int a = 0; a < D; ++a) empty = empty || lo[a] > hi[a];
     if (empty) continue;
     std::array<T, D + 1> f{};
     for (int i = 0; i <= D; ++i) {
-      int64_t index = 0;
-      for (int a = 0; a < D; ++a) index += std::min(v[i][a], dims_[a] - 1) * field_stride_[a];
-      f[i] = static_cast<T>(field_[index]);
+      std::array<int64_t, D> c{};
+      for (int a = 0; a < D; ++a) c[a] = std::min(v[i][a], dims_[a] - 1);
+      f[i] = static_cast<T>(corner(c));
     }
     worst = std::max(worst, MaxError<D, T, V>(scan, f, range_, lo, hi, view).error);
   }
@@ -151,12 +162,42 @@ double DiamondErrors<D, V>::CoarseScan(const std::array<int64_t, D>& g, int s) c
 
 template <int D, class V>
 double DiamondErrors<D, V>::Coarse(const std::array<int64_t, D>& g, int s) const {
-  return exact_ ? CoarseScan<int64_t>(g, s) : CoarseScan<double>(g, s);
+  const auto corner = [this](const std::array<int64_t, D>& c) { return FieldAt(c); };
+  const int64_t all = std::numeric_limits<int64_t>::max();
+  return exact_ ? CoarseScan<int64_t>(g, s, -all, all, corner)
+                : CoarseScan<double>(g, s, -all, all, corner);
+}
+
+template <int D, class V>
+void DiamondErrors<D, V>::ComputeRowInto(int scale, int64_t j, const RowSink& sink) const {
+  ComputeRow(scale, j, [&sink](const std::array<int64_t, D>& g, double e) { sink(g, e); });
+}
+
+template <int D, class V>
+double DiamondErrors<D, V>::CoarsePart(const std::array<int64_t, D>& g, int s, int64_t last_lo,
+                                       int64_t last_hi, const CornerValues& corner) const {
+  const auto at = [&corner](const std::array<int64_t, D>& c) { return corner(c); };
+  return exact_ ? CoarseScan<int64_t>(g, s, last_lo, last_hi, at)
+                : CoarseScan<double>(g, s, last_lo, last_hi, at);
 }
 
 template <int D, class V>
 void DiamondErrors<D, V>::ComputeItem(int worker, uint64_t item) {
   const Item it = items_[item];
+  ComputeRow(it.s, it.j, [&](const std::array<int64_t, D>& g, double e) {
+    if (float* slot = Slot(g)) {
+      *slot = RoundUp(e);
+    } else {
+      far_by_worker_[static_cast<size_t>(worker)].emplace_back(
+          order_.PositionAtLevel(g, order_.Level(g)), RoundUp(e));
+    }
+  });
+}
+
+template <int D, class V>
+template <class Sink>
+void DiamondErrors<D, V>::ComputeRow(int scale, int64_t j, Sink&& sink) const {
+  const Item it{scale, j};
   const int64_t h = int64_t{1} << it.s, side = int64_t{1} << k_, reach = 2 * h;
   // Vertices of the slab: multiples of h on every axis, up to the domain
   // and to where a diamond still reaches the real grid.
@@ -171,7 +212,7 @@ void DiamondErrors<D, V>::ComputeItem(int worker, uint64_t item) {
       double e;
       if (use_stencils_ && it.s < kRowStencilScales && Interior(g, it.s)) {
         uint32_t pattern = 0, parity = 0;
-        int64_t index = 0;
+        int64_t index = -window_offset_;
         for (int a = 0; a < D; ++a) {
           pattern |= static_cast<uint32_t>((g[a] >> it.s) & 1) << a;
           parity |= static_cast<uint32_t>((g[a] >> (it.s + 1)) & 1) << a;
@@ -192,14 +233,7 @@ void DiamondErrors<D, V>::ComputeItem(int worker, uint64_t item) {
       } else {
         e = Coarse(g, it.s);
       }
-      if (e > 0) {
-        if (float* slot = Slot(g)) {
-          *slot = RoundUp(e);
-        } else {
-          far_by_worker_[static_cast<size_t>(worker)].emplace_back(
-              order_.PositionAtLevel(g, order_.Level(g)), RoundUp(e));
-        }
-      }
+      if (e > 0) sink(g, e);
     }
     int a = 0;
     for (; a < D - 1; ++a) {
@@ -256,7 +290,7 @@ double DiamondErrors<D, V>::Finest(const std::array<int64_t, D>& g) const {
   if (!use_stencils_) return Coarse(g, 0);
   // The reader computes these the same way (storage/error/finest_box_errors.h).
   bool real = true;
-  int64_t index = 0;
+  int64_t index = -window_offset_;
   for (int a = 0; a < D; ++a) {
     real = real && g[a] < dims_[a];
     index += g[a] * field_stride_[a];

@@ -63,6 +63,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -93,6 +94,31 @@ class DiamondErrors {
 
   uint64_t item_count() const { return items_.size(); }
   void ComputeItem(int worker, uint64_t item);
+
+  // For a builder holding the field a window at a time (planes of the last
+  // axis): the field given to the constructor, and here, holds the real
+  // grid's planes from `first_plane` on (x fastest, the same strides);
+  // every lookup subtracts that. REQUIRES: the planes a call reads are in
+  // the window (a diamond of scale s reaches 2^(s+1) from its vertex; the
+  // finest boxes 2).
+  void SetWindow(const V* planes, int64_t first_plane);
+  // Scales below this use stencils over the field near the vertex (reach
+  // at most 2^kLocalScales); coarser diamonds are scanned.
+  static constexpr int kLocalScales = D == 3 ? 5 : 3;
+  // Calls sink(g, error) for every vertex g of scale `scale` (0 < scale <
+  // kLocalScales) whose last coordinate is j * 2^scale and whose error is
+  // not 0, computed as ComputeItem does (without the table).
+  using RowSink = std::function<void(const std::array<int64_t, D>&, double)>;
+  void ComputeRowInto(int scale, int64_t j, const RowSink& sink) const;
+  // The largest error over the part of g's diamond (scale s) whose grid
+  // points have their last coordinate in [last_lo, last_hi] (the exact
+  // scan), taking the simplices' corner values from `corner` (real grid
+  // points, clamped: a corner may lie outside the window). The maximum of
+  // the parts over a partition of the last axis is the diamond's error
+  // when the diamond is scanned (scale >= kLocalScales).
+  using CornerValues = std::function<double(const std::array<int64_t, D>&)>;
+  double CoarsePart(const std::array<int64_t, D>& g, int s, int64_t last_lo, int64_t last_hi,
+                    const CornerValues& corner) const;
   // Gathers the few coarse diamonds past the table (vertices beyond the real
   // grid whose diamonds reach back into it).
   void Finish();
@@ -128,11 +154,15 @@ class DiamondErrors {
   // the real grid: the stencils then serve it, clipped at the domain's faces.
   bool Interior(const std::array<int64_t, D>& g, int s) const;
   double Coarse(const std::array<int64_t, D>& g, int s) const;
-  template <class T>
-  double CoarseScan(const std::array<int64_t, D>& g, int s) const;
+  template <class T, class Corner>
+  double CoarseScan(const std::array<int64_t, D>& g, int s, int64_t last_lo, int64_t last_hi,
+                    const Corner& corner) const;
+  template <class Sink>
+  void ComputeRow(int scale, int64_t j, Sink&& sink) const;
   float* Slot(const std::array<int64_t, D>& g);
 
   const V* field_;
+  int64_t window_offset_ = 0;  // the first plane's index in the whole grid
   std::array<int64_t, D> dims_;
   std::array<int64_t, D> field_stride_{};
   int k_;
@@ -149,7 +179,7 @@ class DiamondErrors {
   std::array<DiamondStencils<D>, kStencilScales> stencils_;
   // Row stencils of the middle octaves (scale kStencilScales ..
   // kRowStencilScales - 1); coarser diamonds are few, scanned directly.
-  static constexpr int kRowStencilScales = D == 3 ? 5 : 3;
+  static constexpr int kRowStencilScales = kLocalScales;
   std::vector<DiamondRowStencils<D>> row_stencils_;
   // The table: extent_[a] grid points per axis, even ones tabled
   // (stride_ per half coordinate).

@@ -464,6 +464,49 @@ TEST(HzStore, BlockSpansHoldTheirVertices) {
   ExpectBlockSpans<4>({9, 9, 5, 9}, 7);
 }
 
+// The streamed build (a window of planes at a time) makes the store the
+// direct build makes, answer for answer: every node's bound, every field
+// value, the grid bricks' finest maxima (Verify), HT and HP, integer and
+// float voxels, non-cubic, several slabs and chunks.
+template <int D>
+void ExpectStreamedBuildMatchesDirect(const TestVolume& v, const std::string& name, int block_bits) {
+  SCOPED_TRACE(name);
+  TempDir dir;
+  const std::string nrrd = dir / (name + ".nrrd");
+  ASSERT_TRUE(v.WriteNrrd(nrrd).ok());
+  HzBuildOptions options;
+  options.block_bits = block_bits;
+  const auto direct = BuildHzStore(*OpenVolume(nrrd), dir / "direct.sdb", options);
+  ASSERT_TRUE(direct.ok()) << direct.status().message();
+  ASSERT_STREQ(direct->method, "diamonds");
+  options.stream = true;
+  const auto streamed = BuildHzStore(*OpenVolume(nrrd), dir / "streamed.sdb", options);
+  ASSERT_TRUE(streamed.ok()) << streamed.status().message();
+  ASSERT_STREQ(streamed->method, "streamed");
+  auto a = HzStore::Open(dir / "direct.sdb");
+  auto b = HzStore::Open(dir / "streamed.sdb");
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_TRUE((*b)->Verify().ok());
+  EXPECT_EQ((*b)->header().field_min, (*a)->header().field_min);
+  EXPECT_EQ((*b)->header().field_max, (*a)->header().field_max);
+  EXPECT_EQ((*b)->stored_blocks(), (*a)->stored_blocks());
+  HzStore::Reader<D> want(**a), got(**b);
+  ForEachInternalCode<D>((*a)->header().leaf_level(), [&](SimplexCode<D> c) {
+    ASSERT_EQ(*got.ErrorBound(c), *want.ErrorBound(c)) << c.ToString();
+  });
+  for (uint64_t brick = 0; brick < (*a)->bricks(); ++brick) {
+    ASSERT_EQ((*b)->brick_entry(brick).error_max, (*a)->brick_entry(brick).error_max) << brick;
+  }
+  ExpectFields<D>(**b, v);
+}
+
+TEST(HzStore, StreamedBuildMatchesDirect) {
+  ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {65, 40, 77, 1}, VoxelType::kU8, 51), "ht_u8", 6);
+  ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {70, 66, 150, 1}, VoxelType::kF32, 52), "ht_f32", 9);
+  ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {33, 17, 20, 9}, VoxelType::kI16, 53), "hp_i16", 6);
+  ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {9, 12, 10, 40}, VoxelType::kF32, 54), "hp_long_t", 6);
+}
+
 // The direct build reads the field in chunks of 2^20 voxels on every
 // worker; a value no store can hold is still reported as a one-thread read
 // would: the first in file order (chunk 0 here, though chunk 2 holds one too
