@@ -101,6 +101,8 @@ void ImportDense(const VolumeInfo& input, const ImportArgs& a, const DenseBuildO
                points_per_second, HumanBytes(peak));
     if (std::string(built->method) == "engine") {
       fmt::print("  errors per node through format 1 (a mask or missing values), all stored\n");
+    } else if (std::string(built->method) == "streamed") {
+      fmt::print("  the field read a window of planes at a time (larger than --memory-mb)\n");
     }
     fmt::print("  {} on disk ({:.2f} bytes per grid point, {} error blocks, {} bricks)\n",
                HumanBytes(h.file_size), static_cast<double>(h.file_size) / built->grid_points,
@@ -391,7 +393,8 @@ void RegisterStoreCommands(CLI::App& app) {
                     "become missing values (NaN; integer fields are then stored as float32). NaN "
                     "in a float input is missing too")
         ->check(CLI::ExistingFile);
-    cmd->add_option("--memory-mb", a->memory_mb, "the builder's memory bound, block index included; too small fails at once with the need")
+    cmd->add_option("--memory-mb", a->memory_mb, "the builder's memory bound, block index included; a volume larger than it is read a window of planes "
+                    "at a time; too small fails at once with the need")
         ->capture_default_str();
     cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")
         ->capture_default_str();

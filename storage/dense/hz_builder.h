@@ -2,9 +2,9 @@
 // error of its diamond (the largest of the seed's errors over the nodes
 // whose split creates it: one cluster), and the field as bricks.
 //
-// BuildHzStore reads the field into memory and computes every diamond's
-// error octave by octave on every core (storage/error/diamond_errors.h),
-// then writes the store, leaving the finest octave's errors to the reader
+// BuildHzStore reads the field into memory (or a window of it at a time)
+// and computes every diamond's error octave by octave on every core
+// (storage/error/diamond_errors.h), then writes the store, leaving the finest octave's errors to the reader
 // (it computes them from the field the same way). Where that does not apply
 // (a mask, missing values) it takes the per-node errors from format 1's
 // streaming error engine instead, through a scratch format-1 store beside
@@ -17,10 +17,16 @@
 // vertex (every coordinate even: an eighth of the grid in the HT, a
 // sixteenth in the HP; the finest octave's errors are reduced to each grid
 // brick's largest as they are computed), a chunk of the input per reader
-// and the writer's blocks per thread. The engine's
-// path holds the field as doubles and a float per vertex. Both are checked
-// against memory_bytes before anything is allocated. Streaming within the
-// bound is issue 16's next step.
+// and the writer's blocks per thread. When that exceeds memory_bytes (or
+// HzBuildOptions::stream), the build streams: it reads the input twice, a
+// plane at a time, and holds a window of planes of the last axis (64 + 2 x
+// 32 in the HT, 32 + 2 x 8 in the HP), tables for one run of blocks per
+// local scale, every scanned diamond's maximum, every 8th point per axis
+// and a double per corner-lattice point (every 32nd in the HT, 8th in the
+// HP) and a plane of doubles per reader: the same store as the direct
+// path's, its blocks in another order. The engine's path holds the field
+// as doubles and a float per vertex. Each is checked against memory_bytes
+// before anything is allocated.
 //
 // Thread safety: may run in several threads at once for different outputs.
 // Lifetimes: ConvertToHz reads `f1` during the call only.
