@@ -520,11 +520,15 @@ class StreamedBuild {
   }
 
   // Reads the real planes [lo, hi) into the window (planes from window_first_).
+  // The readers stay open from slab to slab (a gzip file is read by one,
+  // which would inflate everything before a plane if opened anew).
   Status ReadPlanes(int64_t lo, int64_t hi) {
     if (lo >= hi) return Status::OK();
-    std::vector<std::unique_ptr<VolumeReader>> reader(static_cast<size_t>(threads_));
-    std::vector<std::vector<double>> buffer(static_cast<size_t>(threads_));
     const int readers = input_.encoding == VolumeInfo::Encoding::kGzip ? 1 : threads_;
+    std::vector<std::unique_ptr<VolumeReader>>& reader = readers_;
+    std::vector<std::vector<double>>& buffer = buffers_;
+    reader.resize(static_cast<size_t>(readers));
+    buffer.resize(static_cast<size_t>(readers));
     return RunParallel(static_cast<uint64_t>(hi - lo), readers, "field", start_, {},
                        [&](int w, uint64_t i) -> Status {
       auto& r = reader[static_cast<size_t>(w)];
@@ -718,6 +722,8 @@ class StreamedBuild {
   int64_t window_first_ = -1, window_end_ = -1;
   std::unique_ptr<HzStoreWriter> writer_;
   std::unique_ptr<DiamondErrors<D, V>> diamonds_;
+  std::vector<std::unique_ptr<VolumeReader>> readers_;  // pass 2's, per worker
+  std::vector<std::vector<double>> buffers_;
 };
 
 // The direct build: the whole field in memory (as V, the stored voxel
