@@ -204,6 +204,35 @@ Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
   return report;
 }
 
+// The store's parameters for a build from `input` (the writer sets the rest).
+HzHeader ParamsFor(int dimension, const VolumeInfo& input, const HzBuildOptions& options,
+                   VoxelType stored, int k, double fmin, double fmax) {
+  HzHeader params;
+  params.dimension = static_cast<uint8_t>(dimension);
+  params.quantization = options.quantization;
+  params.voxel_type = stored;
+  params.domain_bits = static_cast<uint8_t>(k);
+  params.block_bits = static_cast<uint8_t>(options.block_bits);
+  params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(dimension));
+  params.dims = input.dims;
+  params.spacing = input.spacing;
+  params.field_min = fmin;
+  params.field_max = fmax;
+  params.scale_slope = input.scale;
+  params.scale_intercept = input.shift;
+  params.source = DescribeSource(input);
+  return params;
+}
+
+// The writer's options (no progress: the caller reports its own phases).
+HzWriteOptions WriteOptionsFor(const HzBuildOptions& options, int threads) {
+  HzWriteOptions write;
+  write.compression = options.compression;
+  write.zstd_level = options.zstd_level;
+  write.threads = threads;
+  return write;
+}
+
 // The streamed build: the field read a window of planes of the last axis
 // at a time, so that memory holds the window, not the grid. Pass 1 reads
 // every plane once for the range (the quantum depends on it), the checks
@@ -304,25 +333,9 @@ class StreamedBuild {
     coarse_.assign(coarse_size_, V{});
     window_.assign(static_cast<size_t>(slab_ + 2 * halo_) * plane_, V{});
 
-    HzHeader params;
-    params.dimension = static_cast<uint8_t>(D);
-    params.quantization = options_.quantization;
-    params.voxel_type = stored_;
-    params.domain_bits = static_cast<uint8_t>(k_);
-    params.block_bits = static_cast<uint8_t>(options_.block_bits);
-    params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(D));
-    params.dims = input_.dims;
-    params.spacing = input_.spacing;
-    params.field_min = fmin_;
-    params.field_max = fmax_;
-    params.scale_slope = input_.scale;
-    params.scale_intercept = input_.shift;
-    params.source = DescribeSource(input_);
-    HzWriteOptions write;
-    write.compression = options_.compression;
-    write.zstd_level = options_.zstd_level;
-    write.threads = threads_;
-    SDB_ASSIGN_OR_RETURN(writer_, HzStoreWriter::Create(out_, params, write));
+    SDB_ASSIGN_OR_RETURN(writer_, HzStoreWriter::Create(
+                                      out_, ParamsFor(D, input_, options_, stored_, k_, fmin_, fmax_),
+                                      WriteOptionsFor(options_, threads_)));
     AssignBlocks();
 
     diamonds_ = std::make_unique<DiamondErrors<D, V>>(window_.data(), dims_, k_, !IsFloatType(stored_),
@@ -862,25 +875,9 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
                                   }));
   diamonds.Finish();
 
-  HzHeader params;
-  params.dimension = static_cast<uint8_t>(D);
-  params.quantization = options.quantization;
-  params.voxel_type = stored;
-  params.domain_bits = static_cast<uint8_t>(k);
-  params.block_bits = static_cast<uint8_t>(options.block_bits);
-  params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(D));
-  params.dims = input.dims;
-  params.spacing = input.spacing;
-  params.field_min = fmin;
-  params.field_max = fmax;
-  params.scale_slope = input.scale;
-  params.scale_intercept = input.shift;
-  params.source = DescribeSource(input);
+  const HzHeader params = ParamsFor(D, input, options, stored, k, fmin, fmax);
   const HzOrder<D> order(k);
-  HzWriteOptions write;
-  write.compression = options.compression;
-  write.zstd_level = options.zstd_level;
-  write.threads = threads;
+  HzWriteOptions write = WriteOptionsFor(options, threads);
   write.progress = options.progress;
   // HZ order is not the table's: the positions' vertices are found a batch
   // at a time and their entries asked for before any is read.
