@@ -466,16 +466,11 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64
   // in the width of a block's (StoredErrorAt reads them), at their tiles.
   std::array<int64_t, D> g = first;
   for (uint64_t i = 0; i < points; ++i) {
-    const uint32_t code = quantizer_.Encode(static_cast<double>(RoundUpToFloat(errors[i])));
-    uint8_t* to = codes->data() + error_size_ * static_cast<uint64_t>(tiles.Slot(g));
+    StoreErrorCode(header_.quantization, codes->data(), static_cast<size_t>(tiles.Slot(g)),
+                   quantizer_.Encode(static_cast<double>(RoundUpToFloat(errors[i]))));
     for (int a = 0; a < D; ++a) {
       if (++g[a] < first[a] + extent[a]) break;
       g[a] = first[a];
-    }
-    switch (header_.quantization) {
-      case Quantization::kU16: StoreLittle<uint16_t>(to, static_cast<uint16_t>(code)); break;
-      case Quantization::kU8: *to = static_cast<uint8_t>(code); break;
-      case Quantization::kF32: StoreLittle<uint32_t>(to, code); break;
     }
   }
   boxes_.fetch_add(1, std::memory_order_relaxed);

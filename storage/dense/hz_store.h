@@ -59,7 +59,6 @@
 #include "storage/error/finest_box_errors.h"
 #include "storage/error/quantize.h"
 #include "storage/io/file.h"
-#include "util/little_endian.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -159,12 +158,7 @@ class HzStore {
 
   // The error code at `slot` of a decoded block (or of FinestCodes).
   uint32_t StoredErrorAt(const uint8_t* block, uint32_t slot) const {
-    switch (header_.quantization) {
-      case Quantization::kU16: return LoadLittle<uint16_t>(block + 2 * size_t{slot});
-      case Quantization::kU8: return block[slot];
-      case Quantization::kF32: return LoadLittle<uint32_t>(block + 4 * size_t{slot});
-    }
-    return 0;
+    return LoadErrorCode(header_.quantization, block, slot);
   }
   double VoxelAt(const uint8_t* brick, size_t slot) const;
 

@@ -218,11 +218,7 @@ Status HzStoreWriter::WriteBlocks(std::span<const uint64_t> which, const HzFill&
       emax = std::max(emax, e);
       any_error = any_error || code != 0;
       code_max = std::max(code_max, code);  // f32 bits of non-negative floats order as the floats
-      switch (h_.quantization) {
-        case Quantization::kU16: StoreLittle<uint16_t>(wk.raw.data() + 2 * i, static_cast<uint16_t>(code)); break;
-        case Quantization::kU8: wk.raw[i] = static_cast<uint8_t>(code); break;
-        case Quantization::kF32: StoreLittle<uint32_t>(wk.raw.data() + 4 * i, code); break;
-      }
+      StoreErrorCode(h_.quantization, wk.raw.data(), i, code);
     }
     RaiseErrorMax(emax);
     if (!any_error && candidates_[item] != 0) return Status::OK();  // not stored
