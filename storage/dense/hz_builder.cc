@@ -263,10 +263,11 @@ class StreamedBuild {
   StreamedBuild(const VolumeInfo& input, const std::string& out, const HzBuildOptions& options,
                 Clock::time_point start, int k, int threads)
       : input_(input), out_(out), options_(options), start_(start), k_(k), threads_(threads),
-        side_(int64_t{1} << k), grid_(D, input.dims, k, HzDefaultBrickBits(D)) {
+        side_(int64_t{1} << k), grid_(D, input.dims, k, HzDefaultBrickBits(D)), order_(k) {
     n_ = 1;
     for (int a = 0; a < D; ++a) {
       dims_[a] = input.dims[a];
+      stride_[a] = static_cast<int64_t>(n_);
       n_ *= input.dims[a];
     }
     plane_ = n_ / static_cast<uint64_t>(dims_[L]);
@@ -349,13 +350,12 @@ class StreamedBuild {
       }
     }
     // The scanned scales' blocks (and those spanning several octaves).
-    const HzOrder<D> order(k_);
     SDB_RETURN_IF_ERROR(writer_->WriteBlocks(scanned_blocks_, [&](int, uint64_t first, size_t count,
                                                                   double* errors) -> Status {
       for (size_t i = 0; i < count; ++i) {
         std::array<int64_t, D> g{};
-        if (!order.Decode(first + i, g)) continue;
-        const int level = order.Level(g);
+        if (!order_.Decode(first + i, g)) continue;
+        const int level = order_.Level(g);
         if (level < 0) continue;
         const int s = k_ - 1 - level / D;
         if (s < S) continue;  // finest positions past the stored ones (not written)
@@ -425,18 +425,12 @@ class StreamedBuild {
       double min = std::numeric_limits<double>::infinity(), max = -min;
     };
     std::vector<PlaneResult> found(static_cast<size_t>(dims_[L]));
-    const int readers = input_.encoding == VolumeInfo::Encoding::kGzip ? 1 : threads_;
-    std::vector<std::unique_ptr<VolumeReader>> reader(static_cast<size_t>(readers));
-    std::vector<std::vector<double>> buffer(static_cast<size_t>(readers));
-    const Status read = RunParallel(static_cast<uint64_t>(dims_[L]), readers, "field", start_,
+    std::vector<std::unique_ptr<VolumeReader>> reader(static_cast<size_t>(Readers()));
+    std::vector<std::vector<double>> buffer(static_cast<size_t>(Readers()));
+    const Status read = RunParallel(static_cast<uint64_t>(dims_[L]), Readers(), "field", start_,
                                     options_.progress, [&](int w, uint64_t z) -> Status {
-      auto& r = reader[static_cast<size_t>(w)];
-      if (r == nullptr) {
-        SDB_ASSIGN_OR_RETURN(r, VolumeReader::Open(input_));
-      }
       std::vector<double>& values = buffer[static_cast<size_t>(w)];
-      values.resize(plane_);
-      SDB_RETURN_IF_ERROR(r->Read(z * plane_, plane_, values.data()));
+      SDB_RETURN_IF_ERROR(ReadPlane(reader[static_cast<size_t>(w)], static_cast<int64_t>(z), values));
       PlaneResult& result = found[z];
       result.status = CheckStorableValues(input_, z * plane_, values.data(), plane_);
       if (!result.status.ok()) return Status::OK();
@@ -456,7 +450,7 @@ class StreamedBuild {
       // The plane's corner points (distinct planes: no race).
       ForEachCorner(p, [&](const std::array<int64_t, D>& q, uint64_t at) {
         uint64_t i = 0;
-        for (int a = 0; a < L; ++a) i += static_cast<uint64_t>(q[a]) * static_cast<uint64_t>(a == 0 ? 1 : PlaneStride(a));
+        for (int a = 0; a < L; ++a) i += static_cast<uint64_t>(q[a] * stride_[a]);
         corners_[at] = values[i];
       });
       return Status::OK();
@@ -470,11 +464,18 @@ class StreamedBuild {
     }
     return true;
   }
-  int64_t PlaneStride(int a) const {
-    int64_t st = 1;
-    for (int b = 0; b < a; ++b) st *= dims_[b];
-    return st;
+  // Workers reading the input: one for a gzip file (each reader inflates
+  // everything before what it reads), else every one.
+  int Readers() const { return input_.encoding == VolumeInfo::Encoding::kGzip ? 1 : threads_; }
+  // Plane z of the input into `values`, through `reader` (opened on first use).
+  Status ReadPlane(std::unique_ptr<VolumeReader>& reader, int64_t z, std::vector<double>& values) {
+    if (reader == nullptr) {
+      SDB_ASSIGN_OR_RETURN(reader, VolumeReader::Open(input_));
+    }
+    values.resize(plane_);
+    return reader->Read(static_cast<uint64_t>(z) * plane_, plane_, values.data());
   }
+
   // The corner lattice's index of coordinate c on axis a, or -1.
   int64_t CornerIndex(int a, int64_t c) const {
     if (c % halo_ == 0) return c / halo_;
@@ -537,21 +538,13 @@ class StreamedBuild {
   // which would inflate everything before a plane if opened anew).
   Status ReadPlanes(int64_t lo, int64_t hi) {
     if (lo >= hi) return Status::OK();
-    const int readers = input_.encoding == VolumeInfo::Encoding::kGzip ? 1 : threads_;
-    std::vector<std::unique_ptr<VolumeReader>>& reader = readers_;
-    std::vector<std::vector<double>>& buffer = buffers_;
-    reader.resize(static_cast<size_t>(readers));
-    buffer.resize(static_cast<size_t>(readers));
-    return RunParallel(static_cast<uint64_t>(hi - lo), readers, "field", start_, {},
+    readers_.resize(static_cast<size_t>(Readers()));
+    buffers_.resize(static_cast<size_t>(Readers()));
+    return RunParallel(static_cast<uint64_t>(hi - lo), Readers(), "field", start_, {},
                        [&](int w, uint64_t i) -> Status {
-      auto& r = reader[static_cast<size_t>(w)];
-      if (r == nullptr) {
-        SDB_ASSIGN_OR_RETURN(r, VolumeReader::Open(input_));
-      }
       const int64_t z = lo + static_cast<int64_t>(i);
-      std::vector<double>& values = buffer[static_cast<size_t>(w)];
-      values.resize(plane_);
-      SDB_RETURN_IF_ERROR(r->Read(static_cast<uint64_t>(z) * plane_, plane_, values.data()));
+      std::vector<double>& values = buffers_[static_cast<size_t>(w)];
+      SDB_RETURN_IF_ERROR(ReadPlane(readers_[static_cast<size_t>(w)], z, values));
       V* to = window_.data() + static_cast<size_t>(z - window_first_) * plane_;
       for (uint64_t j = 0; j < plane_; ++j) {
         const double v = stored_ == VoxelType::kF32 ? static_cast<double>(static_cast<float>(values[j])) : values[j];
@@ -563,7 +556,7 @@ class StreamedBuild {
         while (true) {
           uint64_t from = 0, at = static_cast<uint64_t>(z >> kCoarseShift) * static_cast<uint64_t>(coarse_stride_[L]);
           for (int a = 0; a < L; ++a) {
-            from += static_cast<uint64_t>(q[a] << kCoarseShift) * static_cast<uint64_t>(PlaneStride(a));
+            from += static_cast<uint64_t>((q[a] << kCoarseShift) * stride_[a]);
             at += static_cast<uint64_t>(q[a]) * static_cast<uint64_t>(coarse_stride_[a]);
           }
           coarse_[at] = to[from];
@@ -641,31 +634,11 @@ class StreamedBuild {
           if (float* slot = LocalSlot(g, it.s, cf)) *slot = RoundUpToFloat(e);
         });
       } else if (it.kind == 1) {
-        const int64_t h = int64_t{1} << it.s;
-        std::array<int64_t, D> g{};
-        g[L] = it.j * h;
-        std::array<int64_t, D> row_end{};
-        for (int a = 0; a < L; ++a) row_end[a] = std::min(side_, dims_[a] - 1 + 2 * h) / h * h;
-        while (true) {
-          bool odd = false;
-          for (int a = 0; a < D; ++a) odd = odd || ((g[a] >> it.s) & 1) != 0;
-          if (odd) {
-            const double e = diamonds_->CoarsePart(g, it.s, z0, real_hi, corner);
-            if (e > 0) {
-              float& slot = scanned_[static_cast<size_t>(it.s)].table[ScannedIndex(g, it.s)];
-              slot = std::max(slot, RoundUpToFloat(e));
-            }
-          }
-          int a = 0;
-          for (; a < L; ++a) {
-            if (g[a] < row_end[a]) {
-              g[a] += h;
-              break;
-            }
-            g[a] = 0;
-          }
-          if (a == L) break;
-        }
+        diamonds_->ComputeRowPartInto(it.s, it.j, z0, real_hi, corner,
+                                      [&](const std::array<int64_t, D>& g, double e) {
+          float& slot = scanned_[static_cast<size_t>(it.s)].table[ScannedIndex(g, it.s)];
+          slot = std::max(slot, RoundUpToFloat(e));
+        });
       } else {
         const BrickGrid::Box box = grid_.FinestBox(static_cast<uint64_t>(it.j));
         std::array<int64_t, D> first{}, extent{};
@@ -680,11 +653,10 @@ class StreamedBuild {
     SDB_RETURN_IF_ERROR(computed);
     HeldField<V> held{window_.data(), {}, window_first_, 0};
     held.stride[0] = 1;
-    for (int a = 1; a < 4; ++a) held.stride[a] = a < D ? PlaneStride(a) : 0;
+    for (int a = 1; a < 4; ++a) held.stride[a] = a < D ? stride_[a] : 0;
     SDB_RETURN_IF_ERROR(writer_->WriteBricks(bricks, held, finest_max_.data()));
 
     // Chunks this slab completes: their blocks, then a clean table.
-    const HzOrder<D> order(k_);
     for (int s = 1; s < S; ++s) {
       Local& t = local_[static_cast<size_t>(s)];
       if (!last && z1 % t.chunk != 0) continue;
@@ -695,18 +667,15 @@ class StreamedBuild {
                                                                          double* errors) -> Status {
           for (size_t i = 0; i < count; ++i) {
             std::array<int64_t, D> g{};
-            if (!order.Decode(first + i, g)) continue;
+            if (!order_.Decode(first + i, g)) continue;
             if (const float* slot = LocalSlot(g, s, cf)) errors[i] = *slot;
           }
           return Status::OK();
         }));
       }
+      // (Chunks past the last slab hold no vertex with data: their
+      // candidates are never written, so not stored.)
       std::fill(t.table.begin(), t.table.end(), 0.0f);
-      if (last) {  // chunks past the last slab hold no vertex with data; written for completeness
-        for (uint64_t c = chunk + 1; c < t.blocks.size(); ++c) {
-          SDB_RETURN_IF_ERROR(writer_->WriteBlocks(t.blocks[c], [](int, uint64_t, size_t, double*) { return Status::OK(); }));
-        }
-      }
     }
     return Status::OK();
   }
@@ -718,7 +687,8 @@ class StreamedBuild {
   int k_, threads_;
   int64_t side_;
   BrickGrid grid_;
-  std::array<int64_t, D> dims_{};
+  HzOrder<D> order_;
+  std::array<int64_t, D> dims_{}, stride_{};  // the field's, x fastest
   uint64_t n_ = 1, plane_ = 1;
   int64_t slab_ = 0, halo_ = 0, last_vertex_plane_ = 0;
   std::array<Local, S> local_{};

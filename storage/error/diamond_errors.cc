@@ -195,46 +195,19 @@ void DiamondErrors<D, V>::ComputeItem(int worker, uint64_t item) {
 }
 
 template <int D, class V>
-template <class Sink>
-void DiamondErrors<D, V>::ComputeRow(int scale, int64_t j, Sink&& sink) const {
-  const Item it{scale, j};
-  const int64_t h = int64_t{1} << it.s, side = int64_t{1} << k_, reach = 2 * h;
-  // Vertices of the slab: multiples of h on every axis, up to the domain
-  // and to where a diamond still reaches the real grid.
+template <class F>
+void DiamondErrors<D, V>::ForEachRowVertex(int s, int64_t j, F&& f) const {
+  const int64_t h = int64_t{1} << s, side = int64_t{1} << k_;
+  // Vertices of the row: multiples of h on every axis, odd ones on some,
+  // up to the domain and to where a diamond still reaches the real grid.
   std::array<int64_t, D> last{};
   for (int a = 0; a < D - 1; ++a) last[a] = std::min(side, dims_[a] - 1 + 2 * h) / h * h;
   std::array<int64_t, D> g{};
-  g[D - 1] = it.j * h;
+  g[D - 1] = j * h;
   while (true) {
     bool odd = false;
-    for (int a = 0; a < D; ++a) odd = odd || ((g[a] >> it.s) & 1) != 0;
-    if (odd) {
-      double e;
-      if (use_stencils_ && it.s < kRowStencilScales && Interior(g, it.s)) {
-        uint32_t pattern = 0, parity = 0;
-        int64_t index = -window_offset_;
-        for (int a = 0; a < D; ++a) {
-          pattern |= static_cast<uint32_t>((g[a] >> it.s) & 1) << a;
-          parity |= static_cast<uint32_t>((g[a] >> (it.s + 1)) & 1) << a;
-          index += g[a] * field_stride_[a];
-        }
-        bool clip = false;
-        for (int a = 0; a < D; ++a) clip = clip || g[a] < reach || g[a] + reach > side;
-        const V* center = field_ + index;
-        if (it.s < kStencilScales) {
-          const auto& st = stencils_[static_cast<size_t>(it.s)];
-          e = clip ? st.ClippedError(center, pattern, parity, g, side)
-                   : st.InteriorError(center, pattern, parity);
-        } else {
-          const auto& st = row_stencils_[static_cast<size_t>(it.s - kStencilScales)];
-          e = clip ? st.ClippedError(center, pattern, parity, g, side)
-                   : st.InteriorError(center, pattern, parity);
-        }
-      } else {
-        e = Coarse(g, it.s);
-      }
-      if (e > 0) sink(g, e);
-    }
+    for (int a = 0; a < D; ++a) odd = odd || ((g[a] >> s) & 1) != 0;
+    if (odd) f(g);
     int a = 0;
     for (; a < D - 1; ++a) {
       if (g[a] < last[a]) {
@@ -245,6 +218,46 @@ void DiamondErrors<D, V>::ComputeRow(int scale, int64_t j, Sink&& sink) const {
     }
     if (a == D - 1) break;
   }
+}
+
+template <int D, class V>
+double DiamondErrors<D, V>::RowVertexError(const std::array<int64_t, D>& g, int s) const {
+  if (!(use_stencils_ && s < kRowStencilScales && Interior(g, s))) return Coarse(g, s);
+  const int64_t side = int64_t{1} << k_, reach = int64_t{2} << s;
+  uint32_t pattern = 0, parity = 0;
+  int64_t index = -window_offset_;
+  for (int a = 0; a < D; ++a) {
+    pattern |= static_cast<uint32_t>((g[a] >> s) & 1) << a;
+    parity |= static_cast<uint32_t>((g[a] >> (s + 1)) & 1) << a;
+    index += g[a] * field_stride_[a];
+  }
+  bool clip = false;
+  for (int a = 0; a < D; ++a) clip = clip || g[a] < reach || g[a] + reach > side;
+  const V* center = field_ + index;
+  if (s < kStencilScales) {
+    const auto& st = stencils_[static_cast<size_t>(s)];
+    return clip ? st.ClippedError(center, pattern, parity, g, side) : st.InteriorError(center, pattern, parity);
+  }
+  const auto& st = row_stencils_[static_cast<size_t>(s - kStencilScales)];
+  return clip ? st.ClippedError(center, pattern, parity, g, side) : st.InteriorError(center, pattern, parity);
+}
+
+template <int D, class V>
+template <class Sink>
+void DiamondErrors<D, V>::ComputeRow(int scale, int64_t j, Sink&& sink) const {
+  ForEachRowVertex(scale, j, [&](const std::array<int64_t, D>& g) {
+    const double e = RowVertexError(g, scale);
+    if (e > 0) sink(g, e);
+  });
+}
+
+template <int D, class V>
+void DiamondErrors<D, V>::ComputeRowPartInto(int scale, int64_t j, int64_t last_lo, int64_t last_hi,
+                                             const CornerValues& corner, const RowSink& sink) const {
+  ForEachRowVertex(scale, j, [&](const std::array<int64_t, D>& g) {
+    const double e = CoarsePart(g, scale, last_lo, last_hi, corner);
+    if (e > 0) sink(g, e);
+  });
 }
 
 template <int D, class V>

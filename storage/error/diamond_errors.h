@@ -110,15 +110,16 @@ class DiamondErrors {
   // not 0, computed as ComputeItem does (without the table).
   using RowSink = std::function<void(const std::array<int64_t, D>&, double)>;
   void ComputeRowInto(int scale, int64_t j, const RowSink& sink) const;
-  // The largest error over the part of g's diamond (scale s) whose grid
-  // points have their last coordinate in [last_lo, last_hi] (the exact
-  // scan), taking the simplices' corner values from `corner` (real grid
-  // points, clamped: a corner may lie outside the window). The maximum of
-  // the parts over a partition of the last axis is the diamond's error
-  // when the diamond is scanned (scale >= kLocalScales).
+  // The same row's vertices (scale >= kLocalScales: scanned), each the
+  // largest error over the part of its diamond whose grid points have
+  // their last coordinate in [last_lo, last_hi] (the exact scan), taking
+  // the simplices' corner values from `corner` (real grid points, clamped:
+  // a corner may lie outside the window); sink(g, part) where not 0. The
+  // maximum of the parts over a partition of the last axis is the
+  // diamond's error.
   using CornerValues = std::function<double(const std::array<int64_t, D>&)>;
-  double CoarsePart(const std::array<int64_t, D>& g, int s, int64_t last_lo, int64_t last_hi,
-                    const CornerValues& corner) const;
+  void ComputeRowPartInto(int scale, int64_t j, int64_t last_lo, int64_t last_hi,
+                          const CornerValues& corner, const RowSink& sink) const;
   // Gathers the few coarse diamonds past the table (vertices beyond the real
   // grid whose diamonds reach back into it).
   void Finish();
@@ -159,6 +160,13 @@ class DiamondErrors {
                     const Corner& corner) const;
   template <class Sink>
   void ComputeRow(int scale, int64_t j, Sink&& sink) const;
+  // f(g) for every vertex of scale s whose last coordinate is j * 2^s and
+  // whose diamond can reach the real grid.
+  template <class F>
+  void ForEachRowVertex(int s, int64_t j, F&& f) const;
+  double RowVertexError(const std::array<int64_t, D>& g, int s) const;
+  double CoarsePart(const std::array<int64_t, D>& g, int s, int64_t last_lo, int64_t last_hi,
+                    const CornerValues& corner) const;
   float* Slot(const std::array<int64_t, D>& g);
 
   const V* field_;
