@@ -140,11 +140,13 @@ class DiamondStencils {
     const int64_t h = int64_t{1} << scale_bits;
     std::vector<std::array<int64_t, D>> offsets;
     std::vector<std::array<double, D + 1>> weights;
+    std::vector<int64_t> seen;
     for (uint32_t odd = 1; odd < (1u << D); ++odd) {
       for (uint32_t parity = 0; parity < (1u << D); ++parity) {
         Flat& f = flat_[odd][parity];
+        Flat& u = unique_[odd][parity];
+        seen.clear();
         for (const auto& s : diamonds.Of(odd, parity).simplices) {
-          f.simplex_end.push_back(0);
           f.box.push_back(BoxOf(s, h));
           for (int i = 0; i <= D; ++i) {
             int64_t index = 0;
@@ -152,13 +154,22 @@ class DiamondStencils {
             f.vertex.push_back(index);
           }
           ScaledSimplexPoints<D>(s, scale_bits, &offsets, &weights);
+          const size_t unique_before = u.point.size();
           for (size_t p = 0; p < offsets.size(); ++p) {
             int64_t index = 0;
             for (int a = 0; a < D; ++a) index += offsets[p][a] * strides[a];
             f.point.push_back(index);
             for (int i = 0; i <= D; ++i) f.weight.push_back(weights[p][i]);
+            if (std::find(seen.begin(), seen.end(), index) != seen.end()) continue;
+            seen.push_back(index);
+            u.point.push_back(index);
+            for (int i = 0; i <= D; ++i) u.weight.push_back(weights[p][i]);
           }
-          f.simplex_end.back() = static_cast<uint32_t>(f.point.size());
+          f.simplex_end.push_back(static_cast<uint32_t>(f.point.size()));
+          // A simplex whose points all came earlier is left out.
+          if (u.point.size() == unique_before) continue;
+          u.vertex.insert(u.vertex.end(), f.vertex.end() - (D + 1), f.vertex.end());
+          u.simplex_end.push_back(static_cast<uint32_t>(u.point.size()));
         }
       }
     }
@@ -211,12 +222,17 @@ class DiamondStencils {
   template <bool kClip, class V>
   double Run(const V* center, uint32_t odd, uint32_t parity, const std::array<int64_t, D>& g,
              int64_t side) const {
-    const Flat& f = flat_[odd][parity];
+    // With every simplex in the domain, a point they share (on a common
+    // face: the same interpolant there, the mesh being conforming) is
+    // computed once; else point by point of the simplices kept.
+    bool clipped = false;
+    if constexpr (kClip) {
+      for (const Box& b : flat_[odd][parity].box) clipped = clipped || !Inside(b, g, side);
+    }
+    const Flat& f = clipped ? flat_[odd][parity] : unique_[odd][parity];
     double worst = 0, other = 0;
     for (size_t s = 0; s < f.simplex_end.size(); ++s) {
-      if constexpr (kClip) {
-        if (!Inside(f.box[s], g, side)) continue;
-      }
+      if (clipped && !Inside(f.box[s], g, side)) continue;
       std::array<double, D + 1> v;
       for (int i = 0; i <= D; ++i) v[i] = center[f.vertex[s * (D + 1) + static_cast<size_t>(i)]];
       // Two running maxima: points alternate between them, so a point's
@@ -247,6 +263,10 @@ class DiamondStencils {
     std::vector<double> weight;           // D + 1 per point, divided by det
   };
   std::array<std::array<Flat, 1 << D>, 1 << D> flat_;
+  // The same with each point under the first simplex holding it only, and
+  // only the simplices left with points (no boxes: for diamonds wholly
+  // inside the domain).
+  std::array<std::array<Flat, 1 << D>, 1 << D> unique_;
 };
 
 // The templates at a coarser octave's scale as rows: each simplex's grid
