@@ -245,34 +245,118 @@ class ScannableSimplex {
       hi[c] = std::min(hi_[c], box_hi[c]);
       if (lo[c] > hi[c]) return;
     }
+    // Most rows of the box miss the simplex (5/6 of a 4-simplex's, half a
+    // tetrahedron's). Rows with a point satisfy the facets free of x and,
+    // for each facet bounding x from below and each bounding it from
+    // above, the pair's combination free of x (a real x must lie between
+    // them): half-spaces in y, z, t that give each (z, t) an interval of y
+    // holding every such row. Rows in it are solved exactly; the interval
+    // only needs to contain them, so it is found in double precision and
+    // widened by a point.
+    const YBounds yb = BoundsOfY(lo, hi);
     IPoint<D> p = lo;
-    // Odometer over the coordinates 1..D-1 (y fastest), x solved per row.
+    // Odometer over the coordinates 2..D-1 (z fastest), then y over its
+    // interval, x solved per row.
     while (true) {
-      int64_t xmin = lo[0], xmax = hi[0];
-      bool empty = false;
-      for (int i = 0; i <= D && !empty; ++i) {
-        int64_t rest = 0;
-        for (int c = 1; c < D; ++c) rest += normal_[i][c] * p[c];
-        const int64_t rhs = offset_[i] - rest;  // need normal_x * x >= rhs
-        const int64_t nx = normal_[i][0];
-        if (nx == 1) {
-          xmin = std::max(xmin, rhs);
-        } else if (nx == -1) {
-          xmax = std::min(xmax, -rhs);
-        } else if (nx > 0) {
-          xmin = std::max(xmin, internal::CeilDiv(rhs, nx));
-        } else if (nx < 0) {
-          xmax = std::min(xmax, internal::FloorDiv(rhs, nx));
-        } else if (rhs > 0) {
-          empty = true;
+      int64_t ylo = lo[1], yhi = hi[1];
+      for (int b = 0; b < yb.count && ylo <= yhi; ++b) {
+        const YBound& c = yb.bound[b];
+        Int128 r = c.q;  // need m_y * y <= r
+        for (int k = 2; k < D; ++k) r -= c.m[k] * p[k];
+        if (c.m[1] == 0) {
+          if (r < 0) ylo = yhi + 1;
+          continue;
+        }
+        const double y = std::clamp(static_cast<double>(r) / static_cast<double>(c.m[1]),
+                                    static_cast<double>(lo[1] - 2), static_cast<double>(hi[1] + 2));
+        if (c.m[1] > 0) {
+          yhi = std::min(yhi, static_cast<int64_t>(std::floor(y)) + 1);
+        } else {
+          ylo = std::max(ylo, static_cast<int64_t>(std::ceil(y)) - 1);
         }
       }
-      if (!empty && xmin <= xmax) {
-        p[0] = xmin;
-        row(p, xmax);
+      for (p[1] = ylo; p[1] <= yhi; ++p[1]) {
+        int64_t xmin = lo[0], xmax = hi[0];
+        bool empty = false;
+        for (int i = 0; i <= D && !empty; ++i) {
+          int64_t rest = 0;
+          for (int c = 1; c < D; ++c) rest += normal_[i][c] * p[c];
+          const int64_t rhs = offset_[i] - rest;  // need normal_x * x >= rhs
+          const int64_t nx = normal_[i][0];
+          if (nx == 1) {
+            xmin = std::max(xmin, rhs);
+          } else if (nx == -1) {
+            xmax = std::min(xmax, -rhs);
+          } else if (nx > 0) {
+            xmin = std::max(xmin, internal::CeilDiv(rhs, nx));
+          } else if (nx < 0) {
+            xmax = std::min(xmax, internal::FloorDiv(rhs, nx));
+          } else if (rhs > 0) {
+            empty = true;
+          }
+        }
+        if (!empty && xmin <= xmax) {
+          p[0] = xmin;
+          row(p, xmax);
+        }
       }
-      if (!NextRow<D>(p, lo, hi)) return;
+      p[1] = lo[1];
+      int c = 2;
+      for (; c < D; ++c) {
+        if (p[c] < hi[c]) {
+          ++p[c];
+          break;
+        }
+        p[c] = lo[c];
+      }
+      if (c == D) return;
     }
+  }
+
+  // m . (y, z, t) <= q (m[0] unused), exact in 128 bits: normals reach
+  // 2^39 and offsets 2^52 in 4D.
+  struct YBound {
+    std::array<Int128, D> m;
+    Int128 q;
+  };
+  struct YBounds {
+    std::array<YBound, (D + 3) * (D + 3) / 4 + D + 1> bound;
+    int count = 0;
+  };
+  // The half-spaces free of x that every row of the box [lo, hi] meeting
+  // the simplex satisfies (ForEachRow).
+  YBounds BoundsOfY(const IPoint<D>& lo, const IPoint<D>& hi) const {
+    // The facets and the box's x bounds, as n . p >= o.
+    std::array<IPoint<D>, D + 3> n{};
+    std::array<int64_t, D + 3> o{};
+    for (int i = 0; i <= D; ++i) {
+      n[i] = normal_[i];
+      o[i] = offset_[i];
+    }
+    n[D + 1][0] = 1;
+    o[D + 1] = lo[0];
+    n[D + 2][0] = -1;
+    o[D + 2] = -hi[0];
+    YBounds out;
+    for (int i = 0; i < D + 3; ++i) {
+      if (n[i][0] != 0) continue;
+      YBound& b = out.bound[static_cast<size_t>(out.count++)];  // -n . p <= -o
+      for (int c = 1; c < D; ++c) b.m[c] = -static_cast<Int128>(n[i][c]);
+      b.q = -static_cast<Int128>(o[i]);
+    }
+    for (int i = 0; i < D + 3; ++i) {
+      if (n[i][0] <= 0) continue;
+      for (int j = 0; j < D + 3; ++j) {
+        if (n[j][0] >= 0) continue;
+        // x >= (o_i - R_i) / n_i,x and x <= (o_j - R_j) / n_j,x (R: the
+        // terms in y, z, t) meet when n_j,x R_i - n_i,x R_j <= n_j,x o_i - n_i,x o_j.
+        YBound& b = out.bound[static_cast<size_t>(out.count++)];
+        const Int128 ni = n[i][0], nj = n[j][0];
+        for (int c = 1; c < D; ++c) b.m[c] = nj * n[i][c] - ni * n[j][c];
+        b.q = nj * o[i] - ni * o[j];
+      }
+    }
+    return out;
   }
 
   // G = adj(A) b for b_j = f(v_{j+1}) - f(v_0): the scaled gradient.

@@ -138,6 +138,53 @@ void CheckEnumeration(uint64_t seed, int k, int trials) {
 TEST(SimplexScan, RowsVisitExactlyThePointsInside3D) { CheckEnumeration<3>(1, 4, 300); }
 TEST(SimplexScan, RowsVisitExactlyThePointsInside4D) { CheckEnumeration<4>(2, 3, 200); }
 
+// The same at the largest coordinates the scan is proven for (where the
+// rows' y intervals need 128-bit products), in a small box around a point
+// near a random vertex: the box cuts the simplex's faces and edges there.
+template <int D>
+void CheckEnumerationAtScale(uint64_t seed, int trials) {
+  std::mt19937_64 rng(seed);
+  int k = 0;
+  while ((int64_t{1} << (k + 1)) <= kMaxScanCoordinate<D>) ++k;
+  int nonempty = 0;
+  for (int t = 0; t < trials; ++t) {
+    const Verts<D> v = RandomHierarchySimplex<D>(rng, k);
+    const ScannableSimplex<D> s(v);
+    const IPoint<D>& corner = v[rng() % (D + 1)];
+    IPoint<D> lo, hi;
+    for (int c = 0; c < D; ++c) {
+      lo[c] = std::max<int64_t>(0, corner[c] - 3 + static_cast<int64_t>(rng() % 3));
+      hi[c] = std::min<int64_t>(kMaxScanCoordinate<D>, lo[c] + 4);
+    }
+    std::set<IPoint<D>> got, expected;
+    s.ForEachRow(lo, hi, [&](IPoint<D> p, int64_t x_end) {
+      for (int64_t x = p[0]; x <= x_end; ++x) {
+        p[0] = x;
+        got.insert(p);
+      }
+    });
+    IPoint<D> p = lo;
+    while (true) {
+      if (InsideBrute<D>(v, p)) expected.insert(p);
+      int c = 0;
+      for (; c < D; ++c) {
+        if (p[c] < hi[c]) {
+          ++p[c];
+          break;
+        }
+        p[c] = lo[c];
+      }
+      if (c == D) break;
+    }
+    ASSERT_EQ(got, expected) << "trial " << t;
+    nonempty += expected.empty() ? 0 : 1;
+  }
+  EXPECT_GT(nonempty, trials / 2);
+}
+
+TEST(SimplexScan, RowsVisitExactlyThePointsInsideAtScale3D) { CheckEnumerationAtScale<3>(5, 2000); }
+TEST(SimplexScan, RowsVisitExactlyThePointsInsideAtScale4D) { CheckEnumerationAtScale<4>(6, 2000); }
+
 // Exact error by barycentric weights: |f(p) - sum w_i f(v_i)|, w_i = vol_i /
 // vol, as a long double from exact integers.
 template <int D>
