@@ -268,6 +268,20 @@ AtomicFileWriter::~AtomicFileWriter() {
 Result<uint64_t> AtomicFileWriter::Append(std::span<const uint8_t> bytes) {
   const uint64_t offset = end_.fetch_add(bytes.size());
   SDB_RETURN_IF_ERROR(WriteFully(fd_, offset, bytes, final_path_));
+  // The disk starts on what was appended a few MiB at a time, while the
+  // writer goes on: Commit's flush then waits for the last few only (for a
+  // 45 MiB store it waited 0.19 s, a tenth of the build). Initiating
+  // writeback is a hint: its errors are Commit's fsync's to report.
+  constexpr uint64_t kWritebackBytes = uint64_t{8} << 20;
+  const uint64_t end = offset + bytes.size();
+  uint64_t from = writeback_from_.load();
+  while (end >= from + kWritebackBytes) {
+    if (writeback_from_.compare_exchange_weak(from, end)) {
+      sync_file_range(fd_, static_cast<off_t>(from), static_cast<off_t>(end - from),
+                      SYNC_FILE_RANGE_WRITE);
+      break;
+    }
+  }
   return offset;
 }
 

@@ -181,6 +181,7 @@ class AtomicFileWriter {
   std::string temp_path_;
   int fd_;
   std::atomic<uint64_t> end_{0};
+  std::atomic<uint64_t> writeback_from_{0};  // Append has started the disk on what is before
   bool committed_ = false;
 };
 
