@@ -419,21 +419,30 @@ class Interpolant {
       // interpolant's part computed from x rather than accumulated: no
       // chain from one point to the next (the loop ran at a point per
       // maximum's latency), and no rounding accumulating along a row.
+      // In pairs of lanes (the compiler left the loop scalar): the same
+      // operations per point, so the same bits.
+      typedef double Pair __attribute__((vector_size(16)));
       const double base = n_x, f0 = f0_;
-      double w[4] = {worst, 0, 0, 0};
+      const Pair f0s = {f0, f0}, dets = {det, det}, bases = {base, base}, gxs = {gx, gx};
+      const Pair zero = {0, 0}, two = {2, 2}, four = {4, 4};
+      Pair w0 = {worst, 0}, w1 = zero, x0 = {0, 1};
       int64_t i = 0;
-      for (; i + 4 <= count; i += 4) {
-        for (int j = 0; j < 4; ++j) {
-          const double n = (static_cast<double>(row[i + j]) - f0) * det +
-                           (base - gx * static_cast<double>(i + j));
-          w[j] = std::max(w[j], std::abs(n));
-        }
+      for (; i + 4 <= count; i += 4, x0 += four) {
+        const Pair a = {static_cast<double>(row[i]), static_cast<double>(row[i + 1])};
+        const Pair b = {static_cast<double>(row[i + 2]), static_cast<double>(row[i + 3])};
+        Pair na = (a - f0s) * dets + (bases - gxs * x0);
+        Pair nb = (b - f0s) * dets + (bases - gxs * (x0 + two));
+        na = na < zero ? -na : na;
+        nb = nb < zero ? -nb : nb;
+        w0 = na > w0 ? na : w0;
+        w1 = nb > w1 ? nb : w1;
       }
+      double w = std::max(std::max(w0[0], w0[1]), std::max(w1[0], w1[1]));
       for (; i < count; ++i) {
         const double n = (static_cast<double>(row[i]) - f0) * det + (base - gx * static_cast<double>(i));
-        w[0] = std::max(w[0], std::abs(n));
+        w = std::max(w, std::abs(n));
       }
-      return std::max(std::max(w[0], w[1]), std::max(w[2], w[3]));
+      return w;
     } else {
       // Exact integers: the interpolant's part accumulated along the row.
       for (int64_t i = 0; i < count; ++i) {
