@@ -349,7 +349,12 @@ class DiamondRowStencils {
   double Run(const V* center, uint32_t odd, uint32_t parity, const std::array<int64_t, D>& g,
              int64_t side) const {
     const Flat& f = flat_[odd][parity];
-    double w[4] = {0, 0, 0, 0};
+    // Two running maxima of pairs of lanes, as in Interpolant::RowMax: the
+    // same operations per point as one at a time.
+    typedef double Pair __attribute__((vector_size(16)));
+    const Pair zero = {0, 0}, two = {2, 2};
+    Pair w0 = zero, w1 = zero;
+    double w = 0;
     for (const Simplex& sx : f.simplices) {
       if constexpr (kClip) {
         bool inside = true;
@@ -370,24 +375,28 @@ class DiamondRowStencils {
         double at = f0;
         for (int c = 0; c < D; ++c) at += grad[c] * row.from_first[c];
         const V* v = center + row.index;
-        // Four running maxima, as in DiamondStencils::Run.
         // x counted in double as well (the same small integers, exactly):
         // no conversion per point.
+        const Pair ats = {at, at}, g0 = {grad[0], grad[0]};
+        Pair x = {0, 1};
         int32_t i = 0;
-        double x = 0;
-        for (; i + 4 <= row.count; i += 4, x += 4) {
-          for (int j = 0; j < 4; ++j) {
-            const double e = std::abs(static_cast<double>(v[i + j]) - (at + grad[0] * (x + j)));
-            w[j] = e > w[j] ? e : w[j];
-          }
+        for (; i + 4 <= row.count; i += 4, x += two + two) {
+          const Pair a = {static_cast<double>(v[i]), static_cast<double>(v[i + 1])};
+          const Pair b = {static_cast<double>(v[i + 2]), static_cast<double>(v[i + 3])};
+          Pair ea = a - (ats + g0 * x);
+          Pair eb = b - (ats + g0 * (x + two));
+          ea = ea < zero ? -ea : ea;
+          eb = eb < zero ? -eb : eb;
+          w0 = ea > w0 ? ea : w0;
+          w1 = eb > w1 ? eb : w1;
         }
         for (; i < row.count; ++i) {
           const double e = std::abs(static_cast<double>(v[i]) - (at + grad[0] * i));
-          w[0] = e > w[0] ? e : w[0];
+          w = e > w ? e : w;
         }
       }
     }
-    return std::max(std::max(w[0], w[1]), std::max(w[2], w[3]));
+    return std::max(std::max(w, std::max(w0[0], w0[1])), std::max(w1[0], w1[1]));
   }
 
   struct Simplex {
