@@ -49,6 +49,24 @@ bool InsideBrute(const Verts<D>& v, const IPoint<D>& p) {
   return true;
 }
 
+// Calls f(p) for every point of the box [lo, hi], x fastest.
+template <int D, class F>
+void ForEachBoxPoint(const IPoint<D>& lo, const IPoint<D>& hi, F&& f) {
+  IPoint<D> p = lo;
+  while (true) {
+    f(p);
+    int c = 0;
+    for (; c < D; ++c) {
+      if (p[c] < hi[c]) {
+        ++p[c];
+        break;
+      }
+      p[c] = lo[c];
+    }
+    if (c == D) return;
+  }
+}
+
 // Random simplices from the hierarchy, scaled onto a grid of side 2^k.
 template <int D>
 Verts<D> RandomHierarchySimplex(std::mt19937_64& rng, int k) {
@@ -115,22 +133,12 @@ void CheckEnumeration(uint64_t seed, int k, int trials) {
       }
     });
     std::set<IPoint<D>> expected;
-    IPoint<D> p = s.box_lo();
-    while (true) {
+    ForEachBoxPoint<D>(s.box_lo(), s.box_hi(), [&](const IPoint<D>& p) {
       bool in_box = true;
       for (int c = 0; c < D; ++c) in_box = in_box && p[c] >= lo[c] && p[c] <= hi[c];
       if (in_box && InsideBrute<D>(v, p)) expected.insert(p);
       ASSERT_EQ(s.Contains(p), InsideBrute<D>(v, p));
-      int c = 0;
-      for (; c < D; ++c) {
-        if (p[c] < s.box_hi()[c]) {
-          ++p[c];
-          break;
-        }
-        p[c] = s.box_lo()[c];
-      }
-      if (c == D) break;
-    }
+    });
     ASSERT_EQ(got, expected) << "trial " << t;
   }
 }
@@ -163,19 +171,9 @@ void CheckEnumerationAtScale(uint64_t seed, int trials) {
         got.insert(p);
       }
     });
-    IPoint<D> p = lo;
-    while (true) {
+    ForEachBoxPoint<D>(lo, hi, [&](const IPoint<D>& p) {
       if (InsideBrute<D>(v, p)) expected.insert(p);
-      int c = 0;
-      for (; c < D; ++c) {
-        if (p[c] < hi[c]) {
-          ++p[c];
-          break;
-        }
-        p[c] = lo[c];
-      }
-      if (c == D) break;
-    }
+    });
     ASSERT_EQ(got, expected) << "trial " << t;
     nonempty += expected.empty() ? 0 : 1;
   }
@@ -203,26 +201,15 @@ long double ErrorBrute(const Verts<D>& v, const std::array<int64_t, D + 1>& fv,
       hi[c] = std::max(hi[c], q[c]);
     }
   }
-  IPoint<D> p = lo;
-  while (true) {
-    if (InsideBrute<D>(v, p)) {
-      Int128 interp_times_total = 0;
-      for (int i = 0; i <= D; ++i) interp_times_total += VolumeWith<D>(v, i, p) * fv[i];
-      const Int128 num = field(p) * total - interp_times_total;
-      const long double e = static_cast<long double>(num < 0 ? -num : num) /
-                            static_cast<long double>(total < 0 ? -total : total);
-      worst = std::max(worst, e);
-    }
-    int c = 0;
-    for (; c < D; ++c) {
-      if (p[c] < hi[c]) {
-        ++p[c];
-        break;
-      }
-      p[c] = lo[c];
-    }
-    if (c == D) break;
-  }
+  ForEachBoxPoint<D>(lo, hi, [&](const IPoint<D>& p) {
+    if (!InsideBrute<D>(v, p)) return;
+    Int128 interp_times_total = 0;
+    for (int i = 0; i <= D; ++i) interp_times_total += VolumeWith<D>(v, i, p) * fv[i];
+    const Int128 num = field(p) * total - interp_times_total;
+    const long double e = static_cast<long double>(num < 0 ? -num : num) /
+                          static_cast<long double>(total < 0 ? -total : total);
+    worst = std::max(worst, e);
+  });
   return worst;
 }
 
