@@ -1,12 +1,16 @@
 #include "storage/io/lmdb.h"
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <string>
 
 #include "storage/io/file.h"
+#include "storage/io/lmdb_check.h"
 
 namespace simplexdb::lmdb {
 
@@ -53,8 +57,50 @@ Status FromCode(int rc, const std::string& path, std::string_view action) {
   }
 }
 
+namespace {
+
+// A descriptor that closes itself.
+struct Fd {
+  int fd = -1;
+  ~Fd() {
+    if (fd >= 0) close(fd);
+  }
+};
+
+// LMDB's lock file (STORE-lock) holds the reader table, which LMDB writes
+// through a shared mapping: on a full file system a page of it with no
+// block behind it faults (SIGBUS) at the first read transaction. Allocating
+// the table's bytes first turns that into an error here. LMDB sizes the
+// table (max_readers - 1) * 64 + 192 bytes (a 64-byte slot per reader after
+// two cache lines of header) and adopts a larger existing file.
+Status AllocateLockFile(const std::string& path, const std::string& name, unsigned max_readers,
+                        bool* allocated) {
+  *allocated = false;
+  Fd lock;
+  lock.fd = open((path + "-lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lock.fd < 0) return StatusFromErrno(errno, name, "open its LMDB lock file");
+  struct stat st {};
+  if (fstat(lock.fd, &st) != 0) {
+    return StatusFromErrno(errno, name, "read the size of its LMDB lock file");
+  }
+  const off_t wanted = std::max<off_t>(st.st_size, off_t{max_readers} * 64 + 128);
+  const int rc = posix_fallocate(lock.fd, 0, wanted);
+  if (rc != 0) return StatusFromErrno(rc, name, "allocate its LMDB lock file");
+  *allocated = true;
+  return Status::OK();
+}
+
+}  // namespace
+
 Result<std::unique_ptr<Env>> Env::Open(const std::string& path, const Options& options) {
   const std::string& name = options.name.empty() ? path : options.name;
+  // An existing file is checked before LMDB maps it (storage/io/lmdb_check.h).
+  Fd file;
+  file.fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (file.fd < 0 && (errno != ENOENT || options.read_only)) return StatusFromErrno(errno, name, "open");
+  const bool existing = file.fd >= 0;
+  if (existing) SDB_RETURN_IF_ERROR(CheckMetas(file.fd, name).status());
+
   MDB_env* raw = nullptr;
   int rc = mdb_env_create(&raw);
   if (rc != MDB_SUCCESS) return lmdb::FromCode(rc, name, "create an LMDB environment");
@@ -68,30 +114,40 @@ Result<std::unique_ptr<Env>> Env::Open(const std::string& path, const Options& o
   // Builders sync once, explicitly, when they are done (MDB_NOSYNC): a crash
   // before that leaves a temporary file, never a store under its real name.
   unsigned flags = MDB_NOSUBDIR | MDB_NOTLS;
+  bool locked = true;
+  if (Status lock = AllocateLockFile(path, name, options.max_readers, &locked); !lock.ok()) {
+    // A reader that cannot have a reader table (a full or read-only file
+    // system, a folder it may not write) reads without one (MDB_NOLOCK).
+    // The price: LMDB cannot then keep a writer in another process (`update`,
+    // the only writer of an existing store) from reusing the pages of the
+    // reader's snapshot. A writer needs the table.
+    if (!options.read_only) return lock;
+  }
   if (options.read_only) {
     flags |= MDB_RDONLY;
+    if (!locked) flags |= MDB_NOLOCK;
   } else if (!options.sync_commits) {
     flags |= MDB_NOSYNC;
   }
   rc = mdb_env_open(raw, path.c_str(), flags, 0644);
   if (rc != MDB_SUCCESS) return env->FromCode(rc, options.read_only ? "open" : "create");
-  // LMDB reads pages through its map and trusts the file to hold every page
-  // its meta page counts: a truncated file would fault (SIGBUS) on first
-  // touch. Check the size first.
-  MDB_envinfo info;
-  MDB_stat stat_info;
-  mdb_env_info(raw, &info);
-  mdb_env_stat(raw, &stat_info);
-  const uint64_t needed = (static_cast<uint64_t>(info.me_last_pgno) + 1) * stat_info.ms_psize;
-  struct stat now;
-  if (stat(path.c_str(), &now) != 0) return env->FromCode(errno, "open");
-  if (static_cast<uint64_t>(now.st_size) < needed) {
-    return Status::Corruption(env->name() + ": truncated: " + std::to_string(now.st_size) +
-                              " bytes, but its pages need " + std::to_string(needed));
+  if (locked) {
+    int dead = 0;
+    rc = mdb_reader_check(raw, &dead);
+    if (rc != MDB_SUCCESS) return env->FromCode(rc, "clear stale readers");
   }
-  int dead = 0;
-  rc = mdb_reader_check(raw, &dead);
-  if (rc != MDB_SUCCESS) return env->FromCode(rc, "clear stale readers");
+  if (existing && options.check_pages) {
+    // Every page the current snapshot reaches; a read transaction keeps a
+    // writer elsewhere from reusing them meanwhile. A commit between reading
+    // the meta and walking gives NotFound: walk the newer snapshot.
+    Status checked;
+    for (int attempt = 0; attempt < 8; ++attempt) {
+      SDB_ASSIGN_OR_RETURN(Txn txn, Txn::Begin(*env, /*read_only=*/true));
+      checked = CheckPages(file.fd, name, mdb_txn_id(txn.get()));
+      if (checked.code() != Status::Code::kNotFound) break;
+    }
+    SDB_RETURN_IF_ERROR(checked);
+  }
   return env;
 }
 
@@ -122,7 +178,26 @@ Result<Txn> Txn::Begin(Env& env, bool read_only) {
     if (rc == MDB_SUCCESS) rc = mdb_txn_begin(env.get(), nullptr, read_only ? MDB_RDONLY : 0, &txn);
   }
   if (rc != MDB_SUCCESS) return env.FromCode(rc, "begin a transaction");
-  return Txn(&env, txn);
+  Txn out(&env, txn);
+  if (read_only) {
+    // A file cut short since it was opened would fault on first touch of a
+    // page past its end (the pages of this snapshot were checked at open).
+    MDB_envinfo info;
+    mdb_env_info(env.get(), &info);
+    int fd = -1;
+    struct stat st {};
+    if (mdb_env_get_fd(env.get(), &fd) == MDB_SUCCESS && fstat(fd, &st) == 0) {
+      MDB_stat stat_info;
+      mdb_env_stat(env.get(), &stat_info);
+      const uint64_t needed = (static_cast<uint64_t>(info.me_last_pgno) + 1) * stat_info.ms_psize;
+      if (static_cast<uint64_t>(st.st_size) < needed) {
+        return Status::Corruption(env.name() + ": truncated since it was opened: " +
+                                  std::to_string(st.st_size) + " bytes, but its pages need " +
+                                  std::to_string(needed));
+      }
+    }
+  }
+  return out;
 }
 
 Txn& Txn::operator=(Txn&& other) noexcept {

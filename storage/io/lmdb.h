@@ -87,12 +87,22 @@ class Env {
     // The file errors name (empty: `path`): a builder writing a temporary
     // names its output, which is what the user asked for.
     std::string name;
+    // Walk every page of an existing file's current snapshot before using
+    // it (lmdb::CheckPages, storage/io/lmdb_check.h): reads every branch and
+    // leaf page once. Its meta pages are checked whatever this says.
+    bool check_pages = true;
   };
-  // Opens (a writer creates) the single-file environment at `path`, checks
-  // that the file holds every page LMDB's meta page counts (Corruption if it
-  // was cut short), and clears the reader slots of processes that died
-  // (mdb_reader_check). Errors: FromCode's; NotFound for a missing file (a
-  // reader) or folder.
+  // Opens (a writer creates) the single-file environment at `path`. An
+  // existing file is checked first (storage/io/lmdb_check.h: its meta pages,
+  // that it holds every page they count, and with Options::check_pages every
+  // page of its current snapshot), so LMDB never reads a damaged page:
+  // Corruption names the damage. The lock file's reader table is allocated
+  // before LMDB maps it (a full file system would fault at the first read
+  // otherwise); a reader that cannot allocate it reads without one
+  // (MDB_NOLOCK), a writer fails. Then clears the reader slots of processes
+  // that died (mdb_reader_check). Errors: FromCode's; NotFound for a missing
+  // file (a reader) or folder; ResourceExhausted when a writer's lock file
+  // cannot be allocated on a full disk.
   static Result<std::unique_ptr<Env>> Open(const std::string& path, const Options& options);
   ~Env();  // closes the environment
 
@@ -121,7 +131,9 @@ class Env {
 
 class Txn {
  public:
-  // A read-only snapshot, or the (single) write transaction.
+  // A read-only snapshot, or the (single) write transaction. A read-only
+  // one first checks that the file still holds every page (Corruption if it
+  // was cut short since the open).
   static Result<Txn> Begin(Env& env, bool read_only);
   Txn(Txn&& other) noexcept : env_(other.env_), txn_(other.txn_) { other.txn_ = nullptr; }
   Txn& operator=(Txn&& other) noexcept;

@@ -8,8 +8,11 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "tests/storage/store_test_util.h"
 #include "tests/tools/cli_runner.h"
@@ -80,6 +83,38 @@ TEST_F(FullDisk, AnEarlierFileSurvivesAFailedRewrite) {
   r = RunCli("info " + target + " --json");
   EXPECT_NE(r.out.find("9"), std::string::npos);
   EXPECT_EQ(r.out.find("65"), std::string::npos) << r.out;
+}
+
+// Reading needs no space, but LMDB's lock file does: before it was
+// allocated ahead of LMDB's mapping, every read of a sparse store on a full
+// file system died of SIGBUS at the first transaction.
+TEST_F(FullDisk, ASparseStoreOnAFullDiskIsRead) {
+  const std::string small = dir_.path() + "/small.nrrd";
+  ASSERT_EQ(RunCli("generate --field perlin --dims 9,9,9 --type uint8 -o " + small).exit_code, 0);
+  const std::string built = dir_.path() + "/s.lmdb";
+  ASSERT_EQ(RunCli("import " + small + " --sparse -o " + built + " -q").exit_code, 0);
+  const std::string store = disk_ + "/s.lmdb";
+  fs::copy_file(built, store);
+  {  // fill the disk
+    std::FILE* fill = std::fopen((disk_ + "/fill").c_str(), "wb");
+    ASSERT_NE(fill, nullptr);
+    const std::vector<char> chunk(4096, 'x');
+    while (std::fwrite(chunk.data(), 1, chunk.size(), fill) == chunk.size() && std::fflush(fill) == 0) {
+    }
+    std::fclose(fill);
+  }
+  const std::string expected = RunCli("info " + built + " --json").out;
+  auto r = RunCli("info " + store + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  // The same report but for the path.
+  ASSERT_NE(r.out.find("\"kind\""), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.substr(r.out.find("\"kind\"")), expected.substr(expected.find("\"kind\"")));
+  r = RunCli("verify " + store);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli("extract " + store + " --error 1% --format codes -o -");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, RunCli("extract " + built + " --error 1% --format codes -o -").out);
+  EXPECT_FALSE(r.out.empty());
 }
 
 }  // namespace
