@@ -35,10 +35,11 @@
 // Cost: CheckMetas reads two pages; CheckPages reads every branch and leaf
 // page and the first page of every overflow run (free-page lists whole).
 //
-// Errors: Corruption "<name>: damaged LMDB file: <what>, <where>" for
-// damage; InvalidArgument when the file is not an LMDB file at all (no meta
-// page, another magic); NotSupported for another LMDB data version or page
-// size; IOError when reading fails.
+// Errors: Corruption "<name>: damaged LMDB file: <where>: <what>" for
+// damage ("<name>: truncated: ..." for a file shorter than its pages);
+// InvalidArgument when the file is not an LMDB file at all (shorter than a
+// meta page, or meta page 0 without LMDB's magic); NotSupported for another
+// LMDB data version; IOError when reading fails.
 //
 // Thread safety: pure functions of the file's bytes. The pages a meta
 // reaches do not change while a read transaction on that meta is open
@@ -64,9 +65,10 @@ struct MetaSummary {
 // `fd` is open for reading on the file `name` names in messages.
 Result<MetaSummary> CheckMetas(int fd, const std::string& name);
 
-// Walks every page reachable from the meta of transaction `txnid` (one of
-// the two meta pages holds it; Corruption when neither does any more: the
-// caller retries with a fresh transaction). REQUIRES: CheckMetas passed.
+// Walks every page reachable from the meta of transaction `txnid`, which
+// one of the two meta pages holds; NotFound when neither does any more (two
+// commits since: the caller retries with a fresh transaction).
+// REQUIRES: CheckMetas passed.
 Status CheckPages(int fd, const std::string& name, uint64_t txnid);
 
 }  // namespace simplexdb::lmdb
