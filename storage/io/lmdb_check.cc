@@ -68,7 +68,6 @@ struct Meta {
   uint64_t page_number = 0;
   uint32_t magic = 0, version = 0, page_size = 0;
   uint16_t env_flags = 0;
-  uint64_t map_bytes = 0;
   DbRecord free_db, main_db;
   uint64_t last_page = 0, txnid = 0;
 };
@@ -79,7 +78,6 @@ Meta ParseMeta(const uint8_t* p) {
   m.page_flags = Load<uint16_t>(p + 10);
   m.magic = Load<uint32_t>(p + 16);
   m.version = Load<uint32_t>(p + 20);
-  m.map_bytes = Load<uint64_t>(p + 32);
   m.page_size = Load<uint32_t>(p + 40);  // the free database record's pad
   m.env_flags = Load<uint16_t>(p + 44);  // and its flags
   m.free_db = ParseDb(p + 40);
@@ -450,8 +448,6 @@ Result<MetaSummary> CheckMetas(int fd, const std::string& name) {
   s.page_size = m.page_size;
   s.last_page = m.last_page;
   s.txnid = m.txnid;
-  s.map_bytes = m.map_bytes;
-  s.slot = metas.slot;
   return s;
 }
 

@@ -58,8 +58,6 @@ struct MetaSummary {
   uint32_t page_size = 0;
   uint64_t last_page = 0;  // the highest page number in use
   uint64_t txnid = 0;      // the transaction that wrote the meta
-  uint64_t map_bytes = 0;
-  int slot = 0;            // 0 or 1: the meta page LMDB reads
 };
 
 // `fd` is open for reading on the file `name` names in messages.
