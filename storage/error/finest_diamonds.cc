@@ -90,6 +90,31 @@ FinestDiamonds<D>::FinestDiamonds() {
         }
         t.simplices.push_back(std::move(s));
       }
+      // The split edge: the pair of opposite offsets in every simplex.
+      const auto has = [](const typename DiamondTemplate<D>::Simplex& s, const std::array<int8_t, D>& o) {
+        return std::find(s.vertex.begin(), s.vertex.end(), o) != s.vertex.end();
+      };
+      std::vector<std::array<int8_t, D>>& corners = vertices_[odd][parity];
+      for (const auto& s : t.simplices) {
+        for (const auto& o : s.vertex) {
+          if (std::find(corners.begin(), corners.end(), o) == corners.end()) corners.push_back(o);
+        }
+      }
+      std::sort(corners.begin(), corners.end());
+      int edges = 0;
+      for (const auto& o : corners) {
+        std::array<int8_t, D> minus{};
+        for (int a = 0; a < D; ++a) minus[a] = static_cast<int8_t>(-o[a]);
+        if (o <= minus) continue;  // each pair once, by its larger offset
+        bool shared = true;
+        for (const auto& s : t.simplices) shared = shared && has(s, o) && has(s, minus);
+        if (shared) {
+          split_[odd][parity] = o;
+          ++edges;
+        }
+      }
+      assert(edges == 1);
+      (void)edges;
     }
   }
 }

@@ -26,6 +26,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -59,6 +60,20 @@ class FinestDiamonds {
   // cube of parity `parity` (bit a: u[a] odd).
   const DiamondTemplate<D>& Of(uint32_t odd, uint32_t parity) const {
     return templates_[odd][parity];
+  }
+
+  // The split edge of that template's diamond: its vertex v is the midpoint
+  // of v - SplitOffset and v + SplitOffset, the edge every simplex of the
+  // diamond shares. At a coarser octave (scale 2^s) both times 2^s.
+  const std::array<int8_t, D>& SplitOffset(uint32_t odd, uint32_t parity) const {
+    return split_[odd][parity];
+  }
+  // The distinct vertices of the template's simplices, as offsets from v
+  // (v itself is not one: it is created by their split). Every one is
+  // created before v by any refinement that creates v: the split vertices
+  // of the diamond's ancestors, or domain corners. Scaled like SplitOffset.
+  const std::vector<std::array<int8_t, D>>& VertexOffsets(uint32_t odd, uint32_t parity) const {
+    return vertices_[odd][parity];
   }
 
   // The error of the diamond of finest-octave vertex g (coordinates in
@@ -113,7 +128,30 @@ class FinestDiamonds {
  private:
   FinestDiamonds();
   std::array<std::array<DiamondTemplate<D>, 1 << D>, 1 << D> templates_;
+  std::array<std::array<std::array<int8_t, D>, 1 << D>, 1 << D> split_{};
+  std::array<std::array<std::vector<std::array<int8_t, D>>, 1 << D>, 1 << D> vertices_;
 };
+
+// Where a vertex of the grid [0, 2^k]^D (not one of the domain's corners)
+// sits among the diamond templates: its octave's scale 2^scale_bits (the
+// trailing zero bits its coordinates share), its odd-axis pattern and its
+// cube's parity on that octave's lattice. O(D).
+struct DiamondShape {
+  int scale_bits;
+  uint32_t odd, parity;
+};
+template <int D>
+DiamondShape ShapeOfVertex(const std::array<int64_t, D>& g) {
+  uint64_t any = 0;
+  for (int a = 0; a < D; ++a) any |= static_cast<uint64_t>(g[a]);
+  const int s = std::countr_zero(any);
+  DiamondShape shape{s, 0, 0};
+  for (int a = 0; a < D; ++a) {
+    shape.odd |= static_cast<uint32_t>(g[a] >> s & 1) << a;
+    shape.parity |= static_cast<uint32_t>(g[a] >> (s + 1) & 1) << a;
+  }
+  return shape;
+}
 
 // The grid points of template simplex `t` scaled by 2^scale_bits (a
 // diamond of octave k-1-scale_bits: the hierarchies are self-similar), the

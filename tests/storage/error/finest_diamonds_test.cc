@@ -167,5 +167,79 @@ void ExpectInteriorStencilsAgree(uint32_t side, uint64_t seed) {
 TEST(FinestDiamonds, HtInteriorStencilsAgree) { ExpectInteriorStencilsAgree<3>(33, 5); }
 TEST(FinestDiamonds, HpInteriorStencilsAgree) { ExpectInteriorStencilsAgree<4>(11, 6); }
 
+// The split edge and the diamond's vertices, scaled to every octave, against
+// the geometry of the nodes themselves: for every node of a domain of side
+// 2^k, its split edge's ends are its split vertex v -/+ 2^s SplitOffset, and
+// its vertices are among v + 2^s VertexOffsets; over the node's cluster, the
+// vertices are exactly the offsets that land in the domain.
+template <int D>
+void ExpectSplitEdgesAreTheNodes(int k) {
+  SCOPED_TRACE("k = " + std::to_string(k));
+  const auto& diamonds = FinestDiamonds<D>::Get();
+  const int64_t side = int64_t{1} << k;
+  std::map<std::array<int64_t, D>, SimplexCode<D>> creators;
+  int nodes = 0;
+  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
+    for (int l = 0; l < D * k; ++l) {
+      for (uint64_t p = 0; p < (uint64_t{1} << l); ++p) {
+        const SimplexCode<D> c = SimplexCode<D>::FromPath(top, p, l);
+        const std::array<int64_t, D> v = LatticeToGrid<D>(SplitVertex(c), k);
+        creators.emplace(v, c);
+        const DiamondShape shape = ShapeOfVertex<D>(v);
+        const int64_t h = int64_t{1} << shape.scale_bits;
+        std::array<std::array<int64_t, D>, D + 1> g{};
+        const auto lattice = Vertices<D>(c);
+        for (int i = 0; i <= D; ++i) g[i] = LatticeToGrid<D>(lattice[i], k);
+        const auto edge = SplitEdge<D>(c);
+        const auto& o = diamonds.SplitOffset(shape.odd, shape.parity);
+        std::array<int64_t, D> lo{}, hi{};
+        for (int a = 0; a < D; ++a) {
+          lo[a] = v[a] - h * o[a];
+          hi[a] = v[a] + h * o[a];
+        }
+        const std::set<std::array<int64_t, D>> ends = {g[edge[0]], g[edge[1]]};
+        ASSERT_EQ(ends, (std::set<std::array<int64_t, D>>{lo, hi})) << c.ToString();
+        for (int i = 0; i <= D; ++i) {
+          bool found = false;
+          for (const auto& w : diamonds.VertexOffsets(shape.odd, shape.parity)) {
+            bool same = true;
+            for (int a = 0; a < D; ++a) same = same && g[i][a] == v[a] + h * w[a];
+            found = found || same;
+          }
+          ASSERT_TRUE(found) << c.ToString() << " vertex " << i;
+        }
+        ++nodes;
+      }
+    }
+  }
+  for (const auto& [v, code] : creators) {
+    std::set<std::array<int64_t, D>> from_cluster, from_offsets;
+    for (const auto m : Cluster(code)) {
+      const auto lattice = Vertices<D>(m);
+      for (int i = 0; i <= D; ++i) from_cluster.insert(LatticeToGrid<D>(lattice[i], k));
+    }
+    const DiamondShape shape = ShapeOfVertex<D>(v);
+    const int64_t h = int64_t{1} << shape.scale_bits;
+    for (const auto& w : diamonds.VertexOffsets(shape.odd, shape.parity)) {
+      std::array<int64_t, D> p{};
+      bool inside = true;
+      for (int a = 0; a < D; ++a) {
+        p[a] = v[a] + h * w[a];
+        inside = inside && p[a] >= 0 && p[a] <= side;
+      }
+      if (inside) from_offsets.insert(p);
+    }
+    ASSERT_EQ(from_offsets, from_cluster) << code.ToString();
+  }
+  EXPECT_GT(nodes, 0);
+}
+
+TEST(FinestDiamonds, HtSplitEdgesAreTheNodes) {
+  for (int k = 1; k <= 4; ++k) ExpectSplitEdgesAreTheNodes<3>(k);
+}
+TEST(FinestDiamonds, HpSplitEdgesAreTheNodes) {
+  for (int k = 1; k <= 3; ++k) ExpectSplitEdgesAreTheNodes<4>(k);
+}
+
 }  // namespace
 }  // namespace simplexdb
