@@ -46,6 +46,7 @@
 #include "hierarchy/simplex_code.h"
 #include "storage/dense/dense_store.h"
 #include "storage/dense/hz_store.h"
+#include "storage/sparse/hz_sparse_store.h"
 #include "storage/sparse/sparse_store.h"
 #include "util/status.h"
 
@@ -275,6 +276,40 @@ class HzSource {
  private:
   HzStore::Reader<D> reader_;
   int block_bits_;
+  SourceInfo info_;
+  SourceStats stats_;
+};
+
+// A sparse store of format 2's source (storage/sparse/hz_sparse_store.h):
+// every grid point has a value (the kept ones stored, the dropped ones
+// rebuilt), a dropped diamond's bound is 0. Models ReadSource<HzSparseSource<D>, D>;
+// making one reads nothing.
+template <int D>
+class HzSparseSource {
+ public:
+  static constexpr bool kFieldComplete = true;
+
+  // REQUIRES: store.dimension() == D; the store outlives the source.
+  explicit HzSparseSource(const HzSparseStore& store)
+      : reader_(store), info_(InfoFromHeader(store.header(), store.path())) {}
+
+  const SourceInfo& info() const { return info_; }
+  SourceStats stats() const { return stats_; }
+
+  Result<double> Error(SimplexCode<D> code) {
+    ++stats_.error_lookups;
+    return reader_.ErrorBound(code);
+  }
+  Result<double> ErrorForThreshold(SimplexCode<D> code, double) { return Error(code); }
+  Result<std::optional<double>> Field(const std::array<int64_t, D>& p) {
+    ++stats_.field_lookups;
+    SDB_ASSIGN_OR_RETURN(const double v, reader_.Field(p));
+    return std::optional<double>(v);
+  }
+  void Descend(SimplexCode<D>) {}
+
+ private:
+  HzSparseStore::Reader<D> reader_;
   SourceInfo info_;
   SourceStats stats_;
 };

@@ -1,0 +1,253 @@
+#include "storage/sparse/hz_sparse_format.h"
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+
+#include <nlohmann/json.hpp>
+
+#include "hierarchy/simplex_code.h"
+#include "storage/io/checksum.h"
+
+namespace simplexdb {
+namespace {
+
+constexpr const char* kFormatName = "simplexdb-sparse";
+
+void PutU32(std::vector<uint8_t>& out, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out.push_back(static_cast<uint8_t>(v >> (8 * i)));
+}
+uint32_t GetU32(const uint8_t* p) {
+  uint32_t v = 0;
+  for (int i = 0; i < 4; ++i) v |= uint32_t{p[i]} << (8 * i);
+  return v;
+}
+void PutU64(std::vector<uint8_t>& out, uint64_t v) {
+  for (int i = 0; i < 8; ++i) out.push_back(static_cast<uint8_t>(v >> (8 * i)));
+}
+uint64_t GetU64(const uint8_t* p) {
+  uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v |= uint64_t{p[i]} << (8 * i);
+  return v;
+}
+
+// n values of `width` bytes as byte planes: every value's byte 0, then 1...
+void PutPlanes(std::vector<uint8_t>& out, std::span<const uint64_t> values, size_t width) {
+  const size_t at = out.size();
+  out.resize(at + values.size() * width);
+  for (size_t b = 0; b < width; ++b) {
+    uint8_t* plane = out.data() + at + b * values.size();
+    for (size_t i = 0; i < values.size(); ++i) plane[i] = static_cast<uint8_t>(values[i] >> (8 * b));
+  }
+}
+void GetPlanes(const uint8_t* in, size_t n, size_t width, uint64_t* values) {
+  for (size_t i = 0; i < n; ++i) values[i] = 0;
+  for (size_t b = 0; b < width; ++b) {
+    const uint8_t* plane = in + b * n;
+    for (size_t i = 0; i < n; ++i) values[i] |= uint64_t{plane[i]} << (8 * b);
+  }
+}
+
+// The order-preserving integer image of a float's bits, and back.
+template <class U>
+U ToOrdered(U bits) {
+  constexpr U sign = static_cast<U>(U{1} << (8 * sizeof(U) - 1));
+  return (bits & sign) != 0 ? static_cast<U>(~bits) : static_cast<U>(bits | sign);
+}
+template <class U>
+U FromOrdered(U u) {
+  constexpr U sign = static_cast<U>(U{1} << (8 * sizeof(U) - 1));
+  return (u & sign) != 0 ? static_cast<U>(u & ~sign) : static_cast<U>(~u);
+}
+
+}  // namespace
+
+uint64_t HzResidual(VoxelType type, double value, double p) {
+  switch (type) {
+    case VoxelType::kF32: {
+      const float v = static_cast<float>(value), q = static_cast<float>(p);
+      const uint32_t a = ToOrdered(std::bit_cast<uint32_t>(v)), b = ToOrdered(std::bit_cast<uint32_t>(q));
+      return static_cast<uint32_t>(a - b);
+    }
+    case VoxelType::kF64:
+      return ToOrdered(std::bit_cast<uint64_t>(value)) - ToOrdered(std::bit_cast<uint64_t>(p));
+    default: {
+      const uint64_t mask = (uint64_t{1} << (8 * VoxelSize(type))) - 1;
+      return static_cast<uint64_t>(static_cast<int64_t>(value) - std::llround(p)) & mask;
+    }
+  }
+}
+
+double HzFromResidual(VoxelType type, uint64_t residual, double p) {
+  switch (type) {
+    case VoxelType::kF32: {
+      const uint32_t b = ToOrdered(std::bit_cast<uint32_t>(static_cast<float>(p)));
+      return std::bit_cast<float>(FromOrdered(static_cast<uint32_t>(b + residual)));
+    }
+    case VoxelType::kF64:
+      return std::bit_cast<double>(FromOrdered(ToOrdered(std::bit_cast<uint64_t>(p)) + residual));
+    default: {
+      const uint64_t sum = static_cast<uint64_t>(std::llround(p)) + residual;
+      switch (type) {
+        case VoxelType::kU8: return static_cast<uint8_t>(sum);
+        case VoxelType::kI8: return static_cast<int8_t>(static_cast<uint8_t>(sum));
+        case VoxelType::kU16: return static_cast<uint16_t>(sum);
+        default: return static_cast<int16_t>(static_cast<uint16_t>(sum));
+      }
+    }
+  }
+}
+
+size_t HzSparseErrorWidth(Quantization q) { return QuantizedSize(q); }
+size_t HzSparseVoxelWidth(VoxelType type) { return VoxelSize(type); }
+
+std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h) {
+  nlohmann::json j;
+  j["format"] = kFormatName;
+  j["version"] = h.version;
+  j["hierarchy"] = h.dimension == 3 ? "ht" : "hp";
+  j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
+  j["domain_bits"] = h.domain_bits;
+  j["voxel_type"] = std::string(VoxelTypeName(h.voxel_type));
+  j["quantization"] = std::string(QuantizationName(h.quantization));
+  j["quantum"] = h.quantum;
+  j["field_min"] = h.field_min;
+  j["field_max"] = h.field_max;
+  j["error_max"] = h.error_max;
+  j["tolerance"] = h.tolerance;
+  j["block_bits"] = h.block_bits;
+  j["blocks"] = h.blocks;
+  j["kept"] = h.kept;
+  j["source"] = h.source;
+  const std::string text = j.dump(2);
+  std::vector<uint8_t> out(text.begin(), text.end());
+  PutU64(out, Checksum(std::span<const uint8_t>(out.data(), text.size())));
+  return out;
+}
+
+Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, const std::string& file) {
+  const auto bad = [&](const std::string& why) {
+    return Status::Corruption(file + ": sparse store header: " + why);
+  };
+  if (value.size() < 8) return bad("shorter than its checksum");
+  const std::span<const uint8_t> text = value.first(value.size() - 8);
+  if (Checksum(text) != GetU64(value.data() + text.size())) return bad("checksum mismatch");
+  const nlohmann::json j = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return bad("not a JSON object");
+  if (j.value("format", "") != kFormatName) {
+    return Status::InvalidArgument(file + ": an LMDB file, but not a SimplexDB sparse store");
+  }
+  HzSparseHeader h;
+  try {
+    h.version = j.at("version").get<uint32_t>();
+    if (h.version != kHzSparseFormatVersion) {
+      return Status::NotSupported(file + ": sparse store format version " + std::to_string(h.version) +
+                                  "; this build reads version " +
+                                  std::to_string(kHzSparseFormatVersion) + " (import the volume again)");
+    }
+    const std::string hierarchy = j.at("hierarchy").get<std::string>();
+    if (hierarchy != "ht" && hierarchy != "hp") return bad("hierarchy '" + hierarchy + "'");
+    h.dimension = hierarchy == "ht" ? 3 : 4;
+    const auto dims = j.at("dims").get<std::vector<uint32_t>>();
+    if (static_cast<int>(dims.size()) != h.dimension) return bad("dims do not match the hierarchy");
+    for (int a = 0; a < h.dimension; ++a) h.dims[a] = dims[a];
+    h.domain_bits = j.at("domain_bits").get<int>();
+    const int max_bits = h.dimension == 3 ? SimplexCode<3>::kMaxLevel / 3 : SimplexCode<4>::kMaxLevel / 4;
+    if (h.domain_bits < 1 || h.domain_bits > max_bits) return bad("domain_bits out of range");
+    for (int a = 0; a < h.dimension; ++a) {
+      if (h.dims[a] < 1 || h.dims[a] > (uint64_t{1} << h.domain_bits) + 1) return bad("dims exceed the domain");
+    }
+    Result<VoxelType> type = ParseVoxelType(j.at("voxel_type").get<std::string>());
+    if (!type.ok()) return bad(std::string(type.status().message()));
+    h.voxel_type = *type;
+    Result<Quantization> q = ParseQuantization(j.at("quantization").get<std::string>());
+    if (!q.ok()) return bad(std::string(q.status().message()));
+    h.quantization = *q;
+    h.quantum = j.at("quantum").get<double>();
+    h.field_min = j.at("field_min").get<double>();
+    h.field_max = j.at("field_max").get<double>();
+    h.error_max = j.at("error_max").get<double>();
+    h.tolerance = j.at("tolerance").get<double>();
+    h.block_bits = j.at("block_bits").get<int>();
+    h.blocks = j.at("blocks").get<uint64_t>();
+    h.kept = j.at("kept").get<uint64_t>();
+    h.source = j.at("source").get<std::string>();
+  } catch (const nlohmann::json::exception& e) {
+    return bad(e.what());
+  }
+  if (!(std::isfinite(h.field_min) && std::isfinite(h.field_max) && h.field_min <= h.field_max)) {
+    return bad("field range");
+  }
+  if (!(std::isfinite(h.error_max) && h.error_max >= 0 && std::isfinite(h.tolerance) && h.tolerance >= 0 &&
+        std::isfinite(h.quantum) && h.quantum >= 0)) {
+    return bad("error range, tolerance or quantum");
+  }
+  // Blocks hold at most 2^24 positions (a decoded block's arrays), at
+  // least 2^D (the corners share block 0).
+  if (h.block_bits < h.dimension || h.block_bits > 24) return bad("block_bits out of range");
+  return h;
+}
+
+Result<std::vector<uint8_t>> EncodeHzSparseBlock(uint64_t block, const HzSparseBlock& b,
+                                                 size_t error_width, size_t voxel_width,
+                                                 ZstdCompressor& zstd) {
+  std::vector<uint8_t> raw;
+  raw.reserve(12 + b.kept.size() + b.errors.size() * error_width + b.residuals.size() * voxel_width);
+  PutU32(raw, b.vertices);
+  PutU32(raw, static_cast<uint32_t>(b.residuals.size()));
+  PutU32(raw, static_cast<uint32_t>(b.errors.size()));
+  raw.insert(raw.end(), b.kept.begin(), b.kept.end());
+  std::vector<uint64_t> wide(b.errors.begin(), b.errors.end());
+  PutPlanes(raw, wide, error_width);
+  PutPlanes(raw, b.residuals, voxel_width);
+  SDB_ASSIGN_OR_RETURN(std::vector<uint8_t> frame, zstd.Compress(raw));
+  std::vector<uint8_t> value;
+  value.reserve(4 + frame.size() + 8);
+  PutU32(value, static_cast<uint32_t>(raw.size()));
+  value.insert(value.end(), frame.begin(), frame.end());
+  PutU64(value, Checksum(value, block));
+  return value;
+}
+
+Result<HzSparseBlock> DecodeHzSparseBlock(uint64_t block, std::span<const uint8_t> value,
+                                          uint32_t vertices, size_t error_width,
+                                          size_t voxel_width, ZstdDecompressor& zstd,
+                                          const std::string& file) {
+  const auto bad = [&](const std::string& why) {
+    return Status::Corruption(file + ": block " + std::to_string(block) + ": " + why);
+  };
+  if (value.size() < 12) return bad("value of " + std::to_string(value.size()) + " bytes");
+  const std::span<const uint8_t> summed = value.first(value.size() - 8);
+  if (Checksum(summed, block) != GetU64(value.data() + summed.size())) return bad("checksum mismatch");
+  const uint32_t raw_size = GetU32(value.data());
+  const size_t bitmap = (size_t{vertices} + 7) / 8;
+  const uint64_t largest = 12 + bitmap + uint64_t{vertices} * (error_width + voxel_width);
+  if (raw_size < 12 + bitmap || raw_size > largest) {
+    return bad("content of " + std::to_string(raw_size) + " bytes");
+  }
+  std::vector<uint8_t> raw(raw_size);
+  SDB_RETURN_IF_ERROR(zstd.Decompress(summed.subspan(4), raw, file + ": block " + std::to_string(block)));
+  HzSparseBlock b;
+  b.vertices = GetU32(raw.data());
+  const uint32_t kept = GetU32(raw.data() + 4), errors = GetU32(raw.data() + 8);
+  if (b.vertices != vertices) {
+    return bad("holds " + std::to_string(b.vertices) + " vertices; the block has " + std::to_string(vertices));
+  }
+  if (kept > vertices || errors > kept ||
+      raw_size != 12 + bitmap + uint64_t{errors} * error_width + uint64_t{kept} * voxel_width) {
+    return bad("counts do not match its size");
+  }
+  b.kept.assign(raw.begin() + 12, raw.begin() + 12 + static_cast<std::ptrdiff_t>(bitmap));
+  uint64_t ones = 0;
+  for (uint8_t byte : b.kept) ones += static_cast<uint64_t>(std::popcount(byte));
+  if ((vertices & 7) != 0 && (b.kept.back() >> (vertices & 7)) != 0) return bad("bits past its vertices");
+  if (ones != kept) return bad("bitmap of " + std::to_string(ones) + " kept, counted " + std::to_string(kept));
+  std::vector<uint64_t> wide(errors);
+  GetPlanes(raw.data() + 12 + bitmap, errors, error_width, wide.data());
+  b.errors.assign(wide.begin(), wide.end());
+  b.residuals.resize(kept);
+  GetPlanes(raw.data() + 12 + bitmap + errors * error_width, kept, voxel_width, b.residuals.data());
+  return b;
+}
+
+}  // namespace simplexdb

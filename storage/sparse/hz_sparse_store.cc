@@ -1,0 +1,349 @@
+#include "storage/sparse/hz_sparse_store.h"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "storage/error/finest_box_errors.h"
+#include "storage/io/file.h"
+#include "storage/io/lmdb.h"
+#include "storage/sparse/sparse_store.h"
+
+namespace simplexdb {
+namespace {
+
+constexpr uint8_t kHeaderKey[] = {'h', 'e', 'a', 'd', 'e', 'r'};
+
+template <int D>
+std::array<int64_t, D> WindowStrides() {
+  std::array<int64_t, D> s{};
+  int64_t stride = 1;
+  for (int a = 0; a < D; ++a) {
+    s[a] = stride;
+    stride *= 5;
+  }
+  return s;
+}
+
+}  // namespace
+
+Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& path, const Options& options) {
+  struct stat st;
+  if (stat(path.c_str(), &st) != 0) return StatusFromErrno(errno, path, "open");
+  if (!S_ISREG(st.st_mode)) return Status::InvalidArgument(path + ": not a regular file");
+  if (!LooksLikeLmdb(path)) return Status::InvalidArgument(path + ": not a sparse store (not an LMDB file)");
+  std::unique_ptr<HzSparseStore> store(new HzSparseStore());
+  store->path_ = path;
+  lmdb::Env::Options env_options;
+  env_options.read_only = true;
+  SDB_ASSIGN_OR_RETURN(store->env_, lmdb::Env::Open(path, env_options));
+  SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*store->env_, /*read_only=*/true));
+  Result<MDB_dbi> meta = txn.OpenDb("meta", false);
+  if (!meta.ok()) {
+    return Status::InvalidArgument(path + ": an LMDB file, but not a SimplexDB sparse store (" +
+                                   std::string(meta.status().message()) + ")");
+  }
+  Result<MDB_dbi> blocks = txn.OpenDb("blocks", false);
+  if (!blocks.ok()) {
+    if (txn.OpenDb("errors", false).ok()) {
+      return Status::NotSupported(path + ": a sparse store of format 1; this build reads format 2 "
+                                         "(import the volume again)");
+    }
+    return Status::InvalidArgument(path + ": an LMDB file, but not a SimplexDB sparse store (no blocks)");
+  }
+  store->blocks_db_ = *blocks;
+  bool found = false;
+  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn.Get(*meta, kHeaderKey, &found));
+  if (!found) return Status::Corruption(path + ": sparse store without a header");
+  SDB_ASSIGN_OR_RETURN(store->header_, DecodeHzSparseHeader(value, path));
+  // Committing a read-only transaction keeps its database handles open.
+  SDB_RETURN_IF_ERROR(txn.Commit());
+  const HzSparseHeader& h = store->header_;
+  store->quantizer_ = ErrorQuantizer(h.quantization, h.quantum, h.field_max - h.field_min);
+  store->cache_ = std::make_shared<BlockCache>(options.cache_bytes);
+  store->cache_id_ = BlockCache::NewStoreId();
+  return store;
+}
+
+HzSparseStore::~HzSparseStore() {
+  if (cache_) cache_->EraseStore(cache_id_);
+}
+
+uint64_t HzSparseStore::file_bytes() const {
+  struct stat st;
+  return stat(path_.c_str(), &st) == 0 ? static_cast<uint64_t>(st.st_size) : 0;
+}
+
+HzSparseStore::Stats HzSparseStore::stats() const {
+  return Stats{decoded_.load(std::memory_order_relaxed), rebuilt_.load(std::memory_order_relaxed)};
+}
+
+template <int D>
+HzSparseStore::Reader<D>::Reader(const HzSparseStore& store)
+    : store_(store),
+      order_(store.header().domain_bits),
+      stencils_(FinestDiamonds<D>::Get(), WindowStrides<D>()) {
+  for (int a = 0; a < D; ++a) dims_[a] = store.header().dims[a];
+}
+
+template <int D>
+HzSparseStore::Reader<D>::~Reader() = default;
+
+template <int D>
+Status HzSparseStore::Reader<D>::LoadBlock(uint64_t b) {
+  return Get(b).status();
+}
+
+template <int D>
+Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Get(uint64_t b) {
+  if (b == last_block_) return last_;
+  const BlockCache::Key key{store_.cache_id_, b};
+  std::shared_ptr<const BlockCache::Block> block = store_.cache_->Lookup(key);
+  if (block == nullptr) {
+    SDB_ASSIGN_OR_RETURN(View made, Materialize(b));
+    block = store_.cache_->Insert(key, made.block);
+  }
+  const uint64_t n = uint64_t{1} << store_.header().block_bits;
+  View v;
+  v.values = reinterpret_cast<const double*>(block->data());
+  v.states = reinterpret_cast<const uint32_t*>(block->data() + n * sizeof(double));
+  v.block = std::move(block);
+  last_block_ = b;
+  last_ = v;
+  return v;
+}
+
+template <int D>
+Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materialize(uint64_t b) {
+  const HzSparseHeader& h = store_.header();
+  const int bb = h.block_bits;
+  const uint64_t n = uint64_t{1} << bb, first = b << bb;
+  auto block = std::make_shared<BlockCache::Block>(n * (sizeof(double) + sizeof(uint32_t)));
+  auto* values = reinterpret_cast<double*>(block->data());
+  auto* states = reinterpret_cast<uint32_t*>(block->data() + n * sizeof(double));
+  std::fill(values, values + n, std::numeric_limits<double>::quiet_NaN());
+  std::fill(states, states + n, kDropped);
+  struct Vertex {
+    uint32_t offset;
+    std::array<int64_t, D> g;
+  };
+  std::vector<Vertex> vertices;
+  if (HzBlockMayHoldVertices<D>(bb, b)) {
+    ForEachHzVertex<D>(order_, first, n, [&](uint64_t p, const std::array<int64_t, D>& g) {
+      vertices.push_back(Vertex{static_cast<uint32_t>(p - first), g});
+    });
+  }
+  if (txn_ == nullptr) {
+    SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*store_.env_, /*read_only=*/true));
+    txn_ = std::make_unique<lmdb::Txn>(std::move(txn));
+  }
+  bool found = false;
+  const std::array<uint8_t, 8> key = lmdb::KeyBytes(b);
+  SDB_ASSIGN_OR_RETURN(const std::span<const uint8_t> value, txn_->Get(store_.blocks_db_, key, &found));
+  HzSparseBlock decoded;
+  if (found) {
+    SDB_ASSIGN_OR_RETURN(decoded, DecodeHzSparseBlock(b, value, static_cast<uint32_t>(vertices.size()),
+                                                      HzSparseErrorWidth(h.quantization),
+                                                      HzSparseVoxelWidth(h.voxel_type), zstd_, store_.path()));
+    store_.decoded_.fetch_add(1, std::memory_order_relaxed);
+  } else {
+    if (b == 0) return Status::Corruption(store_.path() + ": block 0 (the domain's corners) is missing");
+    store_.rebuilt_.fetch_add(1, std::memory_order_relaxed);
+  }
+  // Values at coarser vertices: this block's (filled in position order, so
+  // coarser first) or another's.
+  Status failed = Status::OK();
+  const auto value_at = [&](const std::array<int64_t, D>& q) -> double {
+    const uint64_t p = order_.Position(q);
+    if ((p >> bb) == b) return values[p - first];
+    Result<double> v = Value(q);
+    if (!v.ok()) {
+      failed = v.status();
+      return 0.0;
+    }
+    return *v;
+  };
+  const int finest_first = D * (h.domain_bits - 1);
+  size_t r = 0, e = 0;
+  for (size_t i = 0; i < vertices.size(); ++i) {
+    const Vertex& v = vertices[i];
+    const int level = order_.LevelAt(first + v.offset);
+    const bool kept = found && decoded.IsKept(static_cast<uint32_t>(i));
+    if (level < 0) {  // a domain corner: always kept, predicted 0
+      if (!kept) return Status::Corruption(store_.path() + ": block 0 drops a domain corner");
+      values[v.offset] = HzFromResidual(h.voxel_type, decoded.residuals[r++], 0.0);
+      states[v.offset] = 0;
+      continue;
+    }
+    if (kept) {
+      const double p = HzPredict<D>(v.g, dims_, false, value_at);
+      values[v.offset] = HzFromResidual(h.voxel_type, decoded.residuals[r++], p);
+      if (level < finest_first) {
+        if (e >= decoded.errors.size()) {
+          return Status::Corruption(store_.path() + ": block " + std::to_string(b) + " holds too few errors");
+        }
+        states[v.offset] = decoded.errors[e++];
+      } else {
+        states[v.offset] = kFinestKept;
+      }
+    } else {
+      values[v.offset] = HzPredict<D>(v.g, dims_, true, value_at);
+    }
+    SDB_RETURN_IF_ERROR(failed);
+  }
+  if (found && e != decoded.errors.size()) {
+    return Status::Corruption(store_.path() + ": block " + std::to_string(b) + " holds " +
+                              std::to_string(decoded.errors.size()) + " errors; its kept diamonds need " +
+                              std::to_string(e));
+  }
+  View out;
+  out.values = values;
+  out.states = states;
+  out.block = std::move(block);
+  return out;
+}
+
+template <int D>
+Result<double> HzSparseStore::Reader<D>::Value(const std::array<int64_t, D>& g) {
+  const uint64_t p = order_.Position(g);
+  const int bb = store_.header().block_bits;
+  SDB_ASSIGN_OR_RETURN(const View v, Get(p >> bb));
+  return v.values[p & ((uint64_t{1} << bb) - 1)];
+}
+
+template <int D>
+Result<double> HzSparseStore::Reader<D>::Field(const std::array<int64_t, D>& p) {
+  // Past the real grid, the nearest real point's value: a kept vertex there
+  // holds it exactly (the builder stored it), a dropped one takes it from
+  // that point, rebuilt.
+  std::array<int64_t, D> q{};
+  bool real = true;
+  for (int a = 0; a < D; ++a) {
+    q[a] = std::clamp<int64_t>(p[a], 0, dims_[a] - 1);
+    real = real && q[a] == p[a];
+  }
+  if (!real) {
+    SDB_ASSIGN_OR_RETURN(const bool kept, Kept(p));
+    if (kept) return Value(p);
+  }
+  return Value(q);
+}
+
+template <int D>
+Result<bool> HzSparseStore::Reader<D>::Kept(const std::array<int64_t, D>& g) {
+  const uint64_t p = order_.Position(g);
+  const int bb = store_.header().block_bits;
+  SDB_ASSIGN_OR_RETURN(const View v, Get(p >> bb));
+  return v.states[p & ((uint64_t{1} << bb) - 1)] != kDropped;
+}
+
+template <int D>
+Result<uint32_t> HzSparseStore::Reader<D>::FinestCode(const std::array<int64_t, D>& g) {
+  // The rebuilt values of the real points of [g - 2, g + 2], in a window of
+  // side 5 that the stencils are laid out for.
+  int64_t center = 0, stride = 1;
+  for (int a = 0; a < D; ++a) {
+    center += 2 * stride;
+    stride *= 5;
+  }
+  for (int64_t w = 0; w < stride; ++w) {
+    std::array<int64_t, D> q{};
+    bool real = true;
+    int64_t rest = w;
+    for (int a = 0; a < D; ++a) {
+      q[a] = g[a] + rest % 5 - 2;
+      rest /= 5;
+      real = real && q[a] >= 0 && q[a] < dims_[a];
+    }
+    if (!real) {
+      window_[static_cast<size_t>(w)] = 0;
+      continue;
+    }
+    SDB_ASSIGN_OR_RETURN(window_[static_cast<size_t>(w)], Value(q));
+  }
+  const auto field = [&](const std::array<int64_t, D>& p) {
+    int64_t i = 0, s = 1;
+    for (int a = 0; a < D; ++a) {
+      i += (p[a] - g[a] + 2) * s;
+      s *= 5;
+    }
+    return window_[static_cast<size_t>(i)];
+  };
+  const double e = FinestDiamondError<D>(stencils_, window_.data() + center, g, store_.header().domain_bits,
+                                         dims_, field);
+  return store_.quantizer().Encode(e + store_.header().tolerance);
+}
+
+template <int D>
+Result<double> HzSparseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
+  const int k = store_.header().domain_bits;
+  if (code.level() >= D * k) return 0.0;
+  const std::array<int64_t, D> g = LatticeToGrid<D>(cursor_.Of(code), k);
+  const uint64_t p = order_.PositionAtLevel(g, code.level());
+  const int bb = store_.header().block_bits;
+  SDB_ASSIGN_OR_RETURN(const View v, Get(p >> bb));
+  const uint32_t s = v.states[p & ((uint64_t{1} << bb) - 1)];
+  if (s == kDropped) return 0.0;
+  if (s != kFinestKept) return store_.quantizer().Decode(s);
+  SDB_ASSIGN_OR_RETURN(const uint32_t c, FinestCode(g));
+  return store_.quantizer().Decode(c);
+}
+
+namespace {
+
+template <int D>
+Status VerifyTyped(const HzSparseStore& store, lmdb::Env& env, unsigned int dbi,
+                   const std::function<void(uint64_t, uint64_t)>& progress) {
+  const HzSparseHeader& h = store.header();
+  const std::string& path = store.path();
+  const HzOrder<D> order(h.domain_bits);
+  const int bb = h.block_bits;
+  const uint64_t nblocks = (order.size() + (uint64_t{1} << bb) - 1) >> bb;
+  typename HzSparseStore::template Reader<D> reader(store);
+  SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(env, /*read_only=*/true));
+  SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, dbi));
+  ZstdDecompressor zstd;
+  MDB_val k, v;
+  uint64_t entries = 0, kept = 0;
+  int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_FIRST);
+  for (; rc == MDB_SUCCESS; rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT)) {
+    if (k.mv_size != 8) return Status::Corruption(path + ": a block key of " + std::to_string(k.mv_size) + " bytes");
+    const uint64_t b = lmdb::KeyValue(k);
+    if (b >= nblocks || !HzBlockMayHoldVertices<D>(bb, b)) {
+      return Status::Corruption(path + ": block " + std::to_string(b) + " lies past the domain");
+    }
+    uint32_t vertices = 0;
+    ForEachHzVertex<D>(order, b << bb, uint64_t{1} << bb, [&](uint64_t, const std::array<int64_t, D>&) { ++vertices; });
+    SDB_ASSIGN_OR_RETURN(const HzSparseBlock decoded,
+                         DecodeHzSparseBlock(b, {static_cast<const uint8_t*>(v.mv_data), v.mv_size}, vertices,
+                                             HzSparseErrorWidth(h.quantization), HzSparseVoxelWidth(h.voxel_type),
+                                             zstd, path));
+    kept += decoded.residuals.size();
+    SDB_RETURN_IF_ERROR(reader.LoadBlock(b));
+    ++entries;
+    if (progress) progress(entries, h.blocks);
+  }
+  if (rc != MDB_NOTFOUND) return env.FromCode(rc, "read the blocks");
+  if (entries != h.blocks || kept != h.kept) {
+    return Status::Corruption(path + ": " + std::to_string(entries) + " blocks holding " + std::to_string(kept) +
+                              " kept vertices; the header says " + std::to_string(h.blocks) + " and " +
+                              std::to_string(h.kept));
+  }
+  return Status::OK();
+}
+
+}  // namespace
+
+Status HzSparseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) const {
+  return header_.dimension == 3 ? VerifyTyped<3>(*this, *env_, blocks_db_, progress)
+                                : VerifyTyped<4>(*this, *env_, blocks_db_, progress);
+}
+
+template class HzSparseStore::Reader<3>;
+template class HzSparseStore::Reader<4>;
+
+}  // namespace simplexdb

@@ -1,0 +1,134 @@
+// HzSparseStore: the sparse store of format 2 (storage/sparse/
+// hz_sparse_format.h), read-only: one LMDB entry per block of the
+// hierarchical Z-order holding the diamonds kept at the store's tolerance t.
+//
+// What a reader answers, for a store built at tolerance t:
+//   - ErrorBound(node): 0 for a node whose diamond was dropped (its error and
+//     every descendant's is within t: a query never refines it); for a kept
+//     diamond below the finest octave, its stored error (the dense store's
+//     quantization, rounded up); for a kept finest diamond, its error over
+//     the rebuilt field plus t (the rebuilt values at the points inside are
+//     within t of the input), rounded up. At t = 0 every answer is the dense
+//     store's.
+//   - Field(p): the rebuilt value at p clamped to the real grid: the input's
+//     value at a kept vertex, within t of it at a dropped one (equal at
+//     t = 0).
+//
+// Thread safety: a store may be shared by threads; a Reader is one thread's.
+// Decoded blocks go to the store's cache (storage/dense/block_cache.h),
+// shared by its readers.
+// Lifetimes: the store must outlive its readers; a reader holds an LMDB
+// read transaction (a snapshot) for its life.
+// Errors: Open's are NotFound, InvalidArgument (not a SimplexDB sparse
+// store), NotSupported (another format version: the message says to import
+// again), Corruption (a damaged file, header or block, named); a reader's
+// lookups return Corruption for a damaged block.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "hierarchy/hz_order.h"
+#include "hierarchy/simplex_code.h"
+#include "storage/dense/block_cache.h"
+#include "storage/error/finest_diamonds.h"
+#include "storage/error/quantize.h"
+#include "storage/sparse/hz_sparse_format.h"
+#include "util/status.h"
+
+namespace simplexdb {
+
+namespace lmdb {
+class Env;
+class Txn;
+}  // namespace lmdb
+
+class HzSparseStore {
+ public:
+  struct Options {
+    size_t cache_bytes = size_t{256} << 20;  // decoded blocks, for all readers
+  };
+
+  static Result<std::unique_ptr<HzSparseStore>> Open(const std::string& path, const Options& options);
+  ~HzSparseStore();
+
+  const HzSparseHeader& header() const { return header_; }
+  int dimension() const { return header_.dimension; }
+  const std::string& path() const { return path_; }
+  const ErrorQuantizer& quantizer() const { return quantizer_; }
+  uint64_t file_bytes() const;
+
+  // Reads every block (checksum, sizes, counts, the kept values rebuilt),
+  // checks the count of blocks and kept vertices against the header and
+  // that every key names a block that can hold vertices. The B-tree's pages
+  // were walked by Open. The first failure, naming the block.
+  Status Verify(const std::function<void(uint64_t, uint64_t)>& progress = {}) const;
+
+  struct Stats {
+    uint64_t blocks_decoded = 0;  // entries decoded (cache misses)
+    uint64_t blocks_rebuilt = 0;  // blocks without an entry, rebuilt
+  };
+  Stats stats() const;
+
+  template <int D>
+  class Reader {
+   public:
+    // REQUIRES: store.dimension() == D. Errors of the first lookup include
+    // those of beginning the read transaction.
+    explicit Reader(const HzSparseStore& store);
+    ~Reader();
+
+    Result<double> ErrorBound(SimplexCode<D> code);
+    Result<double> Field(const std::array<int64_t, D>& p);
+    // Whether grid vertex g's diamond is kept (corners: true).
+    Result<bool> Kept(const std::array<int64_t, D>& g);
+    // Decodes (or rebuilds) block b into the cache.
+    Status LoadBlock(uint64_t b);
+
+   private:
+    struct View {
+      std::shared_ptr<const BlockCache::Block> block;
+      const double* values = nullptr;
+      const uint32_t* states = nullptr;
+    };
+    Result<View> Get(uint64_t b);
+    Result<View> Materialize(uint64_t b);
+    // The rebuilt value of domain vertex g (at position p).
+    Result<double> Value(const std::array<int64_t, D>& g);
+    Result<uint32_t> FinestCode(const std::array<int64_t, D>& g);
+
+    const HzSparseStore& store_;
+    HzOrder<D> order_;
+    SplitVertexCursor<D> cursor_;
+    std::array<int64_t, D> dims_{};
+    std::unique_ptr<lmdb::Txn> txn_;
+    ZstdDecompressor zstd_;
+    uint64_t last_block_ = ~uint64_t{0};
+    View last_;
+    DiamondStencils<D> stencils_;
+    std::array<double, D == 3 ? 125 : 625> window_{};
+  };
+
+  // A position's state in a decoded block: dropped (or not a vertex), kept
+  // in the finest octave (its error computed on demand), or the stored code.
+  static constexpr uint32_t kDropped = 0xFFFFFFFFu;
+  static constexpr uint32_t kFinestKept = 0xFFFFFFFEu;
+
+ private:
+  HzSparseStore() = default;
+
+  std::string path_;
+  HzSparseHeader header_;
+  ErrorQuantizer quantizer_{Quantization::kU16, 1, 0};
+  std::unique_ptr<lmdb::Env> env_;
+  unsigned int blocks_db_ = 0;
+  std::shared_ptr<BlockCache> cache_;
+  uint64_t cache_id_ = 0;
+  mutable std::atomic<uint64_t> decoded_{0}, rebuilt_{0};
+};
+
+}  // namespace simplexdb

@@ -1,0 +1,296 @@
+// The sparse store of format 2 against the dense store of format 2 and
+// against brute force: lossless, every node's bound and every grid point's
+// value are the dense store's; at a tolerance t, every value is within t of
+// the input, a dropped node's brute-force error is within t, a kept node's
+// bound is at least its brute-force error, and the kept diamonds are closed
+// under ancestors. Then damage: no crash, every case reported or answering
+// as the undamaged store.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include "hierarchy/geometry.h"
+#include "hierarchy/hz_order.h"
+#include "storage/dense/hz_builder.h"
+#include "storage/dense/hz_store.h"
+#include "storage/io/lmdb.h"
+#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/sparse/hz_sparse_store.h"
+#include "storage/volume/volume.h"
+#include "tests/storage/store_test_util.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::TempDir;
+using testing::TestVolume;
+
+// Noise in a box, an exactly linear ramp elsewhere (dropped when lossless),
+// so a store keeps some diamonds and drops others.
+TestVolume BoxInRamp(int dimension, std::array<uint32_t, 4> dims, VoxelType type, uint64_t seed) {
+  TestVolume v = TestVolume::Random(dimension, dims, type, seed);
+  for (uint64_t i = 0; i < v.values.size(); ++i) {
+    uint64_t rest = i;
+    std::array<int64_t, 4> p{};
+    for (int a = 0; a < 4; ++a) {
+      p[a] = static_cast<int64_t>(rest % dims[a]);
+      rest /= dims[a];
+    }
+    bool in_box = true;
+    for (int a = 0; a < dimension; ++a) in_box = in_box && p[a] >= 2 && p[a] <= 4;
+    if (!in_box) v.values[i] = static_cast<double>(p[0] + 2 * p[1] + p[2] + p[3]);
+  }
+  return v;
+}
+
+// Every node above the leaf level, by level.
+template <int D, class F>
+void ForEachNode(int k, F&& f) {
+  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
+    for (int l = 0; l < D * k; ++l) {
+      for (uint64_t p = 0; p < (uint64_t{1} << l); ++p) f(SimplexCode<D>::FromPath(top, p, l));
+    }
+  }
+}
+
+// Every real grid point.
+template <int D, class F>
+void ForEachPoint(const TestVolume& v, F&& f) {
+  std::array<int64_t, D> p{};
+  while (true) {
+    f(p);
+    int a = 0;
+    for (; a < D; ++a) {
+      if (++p[a] < static_cast<int64_t>(v.dims[a])) break;
+      p[a] = 0;
+    }
+    if (a == D) break;
+  }
+}
+
+struct Stores {
+  std::unique_ptr<HzStore> dense;
+  std::unique_ptr<HzSparseStore> sparse;
+  HzSparseBuildReport report;
+};
+
+Stores Build(const TestVolume& volume, const TempDir& dir, double tolerance, int block_bits = 0) {
+  const std::string nrrd = dir / "in.nrrd";
+  EXPECT_TRUE(volume.WriteNrrd(nrrd).ok());
+  Stores s;
+  HzBuildOptions dense;
+  dense.threads = 1;
+  const auto built = BuildHzStore(*OpenVolume(nrrd), dir / "dense.sdb", dense);
+  EXPECT_TRUE(built.ok()) << built.status().ToString();
+  s.dense = *HzStore::Open(dir / "dense.sdb");
+  HzSparseBuildOptions o;
+  o.tolerance = tolerance;
+  o.block_bits = block_bits;
+  o.threads = 2;
+  const auto report = BuildHzSparseStore(*OpenVolume(nrrd), dir / "sparse.sdb", o);
+  EXPECT_TRUE(report.ok()) << report.status().ToString();
+  if (report.ok()) s.report = *report;
+  auto opened = HzSparseStore::Open(dir / "sparse.sdb", {});
+  EXPECT_TRUE(opened.ok()) << opened.status().ToString();
+  if (opened.ok()) s.sparse = *std::move(opened);
+  return s;
+}
+
+template <int D>
+void ExpectLosslessIsDense(const TestVolume& volume, int block_bits) {
+  TempDir dir;
+  const Stores s = Build(volume, dir, 0, block_bits);
+  ASSERT_NE(s.sparse, nullptr);
+  EXPECT_TRUE(s.sparse->Verify().ok());
+  const int k = s.dense->header().domain_bits;
+  ASSERT_EQ(s.sparse->header().domain_bits, k);
+  HzStore::Reader<D> dense(*s.dense);
+  HzSparseStore::Reader<D> sparse(*s.sparse);
+  uint64_t nodes = 0, dropped = 0;
+  ForEachNode<D>(k, [&](SimplexCode<D> c) {
+    const double want = *dense.ErrorBound(c);
+    const Result<double> got = sparse.ErrorBound(c);
+    ASSERT_TRUE(got.ok()) << got.status().ToString();
+    ASSERT_EQ(*got, want) << c.ToString();
+    ++nodes;
+    dropped += want == 0;
+  });
+  ForEachPoint<D>(volume, [&](const std::array<int64_t, D>& p) {
+    std::array<int64_t, 4> q{};
+    for (int a = 0; a < D; ++a) q[a] = p[a];
+    ASSERT_EQ(*sparse.Field(p), volume.At(q));
+  });
+  // The ramp drops diamonds, the box keeps some: both kinds were checked.
+  EXPECT_GT(dropped, 0u);
+  EXPECT_LT(dropped, nodes);
+  EXPECT_LT(s.sparse->header().kept, nodes);
+}
+
+TEST(HzSparseStore, LosslessIsTheDenseStoreHt) {
+  ExpectLosslessIsDense<3>(BoxInRamp(3, {13, 9, 17, 1}, VoxelType::kU8, 1), 0);
+  ExpectLosslessIsDense<3>(BoxInRamp(3, {9, 9, 9, 1}, VoxelType::kI16, 2), 6);
+  ExpectLosslessIsDense<3>(BoxInRamp(3, {11, 6, 14, 1}, VoxelType::kF32, 3), 9);
+}
+TEST(HzSparseStore, LosslessIsTheDenseStoreHp) {
+  ExpectLosslessIsDense<4>(BoxInRamp(4, {5, 6, 4, 5}, VoxelType::kU16, 4), 0);
+  ExpectLosslessIsDense<4>(BoxInRamp(4, {5, 5, 5, 3}, VoxelType::kF64, 5), 8);
+}
+
+template <int D>
+void ExpectWithinTolerance(const TestVolume& volume, double tolerance, int block_bits) {
+  SCOPED_TRACE("tolerance " + std::to_string(tolerance));
+  TempDir dir;
+  const Stores s = Build(volume, dir, tolerance, block_bits);
+  ASSERT_NE(s.sparse, nullptr);
+  EXPECT_TRUE(s.sparse->Verify().ok());
+  const int k = s.sparse->header().domain_bits;
+  HzSparseStore::Reader<D> sparse(*s.sparse);
+  ForEachPoint<D>(volume, [&](const std::array<int64_t, D>& p) {
+    std::array<int64_t, 4> q{};
+    for (int a = 0; a < D; ++a) q[a] = p[a];
+    ASSERT_LE(std::abs(*sparse.Field(p) - volume.At(q)), tolerance) << p[0] << "," << p[1] << "," << p[2];
+  });
+  uint64_t kept = 0, dropped = 0;
+  ForEachNode<D>(k, [&](SimplexCode<D> c) {
+    const double bound = *sparse.ErrorBound(c);
+    const long double exact = testing::BruteForceError<D>(c, k, volume);
+    const auto v = LatticeToGrid<D>(SplitVertex(c), k);
+    const bool is_kept = *sparse.Kept(v);
+    if (!is_kept) {
+      ASSERT_EQ(bound, 0.0) << c.ToString();
+      ASSERT_LE(static_cast<double>(exact), tolerance + 1e-9) << c.ToString();
+      ++dropped;
+      return;
+    }
+    ++kept;
+    ASSERT_GE(bound, static_cast<double>(exact) - 1e-9) << c.ToString();
+    // Closed under ancestors: the parent's diamond is kept too.
+    if (c.level() > 0) {
+      ASSERT_TRUE(*sparse.Kept(LatticeToGrid<D>(SplitVertex(c.parent()), k))) << c.ToString();
+    }
+  });
+  EXPECT_GT(kept, 0u);
+  EXPECT_GT(dropped, 0u);
+}
+
+TEST(HzSparseStore, WithinToleranceHt) {
+  const TestVolume v = TestVolume::Random(3, {13, 9, 17, 1}, VoxelType::kU8, 6);
+  ExpectWithinTolerance<3>(v, 40, 0);
+  ExpectWithinTolerance<3>(v, 90, 7);
+  ExpectWithinTolerance<3>(BoxInRamp(3, {10, 12, 9, 1}, VoxelType::kF32, 7), 3.5, 0);
+}
+TEST(HzSparseStore, WithinToleranceHp) {
+  ExpectWithinTolerance<4>(TestVolume::Random(4, {5, 6, 4, 5}, VoxelType::kU8, 8), 60, 0);
+}
+
+TEST(HzSparseStore, RefusesBadInput) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(3, {5, 5, 5, 1}, VoxelType::kU8, 9);
+  ASSERT_TRUE(v.WriteNrrd(dir / "in.nrrd").ok());
+  HzSparseBuildOptions o;
+  o.tolerance = -1;
+  EXPECT_TRUE(BuildHzSparseStore(*OpenVolume(dir / "in.nrrd"), dir / "a.sdb", o).status().IsInvalidArgument());
+  o.tolerance = 0;
+  o.block_bits = 30;
+  EXPECT_TRUE(BuildHzSparseStore(*OpenVolume(dir / "in.nrrd"), dir / "a.sdb", o).status().IsInvalidArgument());
+  o.block_bits = 0;
+  o.memory_bytes = 1000;
+  const Status small = BuildHzSparseStore(*OpenVolume(dir / "in.nrrd"), dir / "a.sdb", o).status();
+  EXPECT_TRUE(small.IsResourceExhausted()) << small.ToString();
+  EXPECT_FALSE(std::filesystem::exists(dir / "a.sdb"));
+  // Not a store at all.
+  std::ofstream(dir / "junk.sdb") << "not a store";
+  EXPECT_FALSE(HzSparseStore::Open(dir / "junk.sdb", {}).ok());
+}
+
+// Random damage to a built store's file: Open or Verify reports it, or
+// every answer is the undamaged store's. (The LMDB layer's own damage
+// tests, storage/io/lmdb_check_test.cc, run the cases in child processes;
+// these run in process: a crash fails the whole test.)
+TEST(HzSparseStore, DamageIsReportedOrHarmless) {
+  TempDir dir;
+  const TestVolume v = BoxInRamp(3, {13, 9, 17, 1}, VoxelType::kU8, 10);
+  const Stores s = Build(v, dir, 0, 6);
+  ASSERT_NE(s.sparse, nullptr);
+  const int k = s.sparse->header().domain_bits;
+  std::vector<double> want;
+  {
+    HzSparseStore::Reader<3> r(*s.sparse);
+    ForEachNode<3>(k, [&](SimplexCode<3> c) { want.push_back(*r.ErrorBound(c)); });
+    ForEachPoint<3>(v, [&](const std::array<int64_t, 3>& p) { want.push_back(*r.Field(p)); });
+  }
+  const std::vector<uint8_t> good = testing::ReadFileBytes(dir / "sparse.sdb");
+  ASSERT_FALSE(good.empty());
+  std::mt19937_64 rng(11);
+  int reported = 0, harmless = 0;
+  for (int trial = 0; trial < 150; ++trial) {
+    std::vector<uint8_t> bad = good;
+    const int kind = trial % 3;
+    if (kind == 0) {  // one bit
+      const size_t at = rng() % bad.size();
+      bad[at] ^= static_cast<uint8_t>(1u << (rng() % 8));
+    } else if (kind == 1) {  // a run of bytes
+      const size_t at = rng() % bad.size();
+      for (size_t i = at; i < std::min(bad.size(), at + 1 + rng() % 64); ++i) bad[i] = static_cast<uint8_t>(rng());
+    } else {  // cut short
+      bad.resize(rng() % bad.size());
+    }
+    const std::string path = dir / ("bad" + std::to_string(trial) + ".sdb");
+    std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bad.data()),
+                                                 static_cast<std::streamsize>(bad.size()));
+    auto store = HzSparseStore::Open(path, {});
+    if (!store.ok() || !(*store)->Verify().ok()) {
+      ++reported;
+      std::filesystem::remove(path);
+      continue;
+    }
+    bool same = true;
+    {
+      HzSparseStore::Reader<3> r(**store);
+      size_t i = 0;
+      ForEachNode<3>(k, [&](SimplexCode<3> c) {
+        const Result<double> e = r.ErrorBound(c);
+        same = same && e.ok() && *e == want[i];
+        ++i;
+      });
+      ForEachPoint<3>(v, [&](const std::array<int64_t, 3>& p) {
+        const Result<double> f = r.Field(p);
+        same = same && f.ok() && *f == want[i];
+        ++i;
+      });
+    }
+    EXPECT_TRUE(same) << "trial " << trial << ": verify passed but the answers changed";
+    ++harmless;
+    store->reset();
+    std::filesystem::remove(path);
+    std::filesystem::remove(path + "-lock");
+  }
+  EXPECT_GT(reported, 50);
+  EXPECT_GT(harmless, 0);
+}
+
+TEST(HzSparseStore, AFormatOneStoreIsRefused) {
+  // An LMDB file with format 1's databases.
+  TempDir dir;
+  {
+    lmdb::Env::Options o;
+    o.read_only = false;
+    o.map_bytes = 1 << 20;
+    auto env = *lmdb::Env::Open(dir / "old.sdb", o);
+    auto txn = *lmdb::Txn::Begin(*env, false);
+    ASSERT_TRUE(txn.OpenDb("meta", true).ok());
+    ASSERT_TRUE(txn.OpenDb("errors", true).ok());
+    ASSERT_TRUE(txn.OpenDb("field", true).ok());
+    ASSERT_TRUE(txn.Commit().ok());
+  }
+  const Status s = HzSparseStore::Open(dir / "old.sdb", {}).status();
+  EXPECT_TRUE(s.IsNotSupported()) << s.ToString();
+  EXPECT_NE(s.message().find("import"), std::string_view::npos) << s.ToString();
+}
+
+}  // namespace
+}  // namespace simplexdb
