@@ -244,7 +244,7 @@ class Builder {
       if (options_.progress && (b & 255) == 0) {
         options_.progress(BuildProgress{"blocks", b, nblocks, SecondsSince()});
       }
-      if (!HzBlockMayHoldVertices<D>(bb, b)) continue;
+      if (!HzBlockMayHoldVertices<D>(bb, b) || !MayHoldNear(near, bb, b)) continue;
       block.vertices = 0;
       block.kept.clear();
       block.errors.clear();
@@ -300,6 +300,22 @@ class Builder {
       }
     }
     return Status::OK();
+  }
+
+  // False when block b lies inside one octave's segment and its cubes all
+  // lie past the near vertices of that octave on some axis (nothing kept).
+  bool MayHoldNear(const NearGrid<D>& near, int bb, uint64_t b) const {
+    const uint64_t first = b << bb;
+    if (first < (uint64_t{1} << D)) return true;
+    const int top = 63 - std::countl_zero(first);
+    const int o = top / D - 1;
+    if (bb > D * (o + 1)) return true;
+    const int s = k_ - 1 - o;
+    const auto u = internal::FromMorton<D>(first & ((uint64_t{1} << (D * (o + 1))) - 1));
+    for (int a = 0; a < D; ++a) {
+      if ((u[a] << (s + 1)) > near.limit(s, a)) return false;
+    }
+    return true;
   }
 
   bool Real(const std::array<int64_t, D>& g) const {

@@ -64,7 +64,9 @@ Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& pa
   SDB_RETURN_IF_ERROR(txn.Commit());
   const HzSparseHeader& h = store->header_;
   store->quantizer_ = ErrorQuantizer(h.quantization, h.quantum, h.field_max - h.field_min);
-  store->cache_ = std::make_shared<BlockCache>(options.cache_bytes);
+  // Few shards: a decoded block is 12 bytes per position (3 MiB at the HT's
+  // default 2^18), and a shard must hold several.
+  store->cache_ = std::make_shared<BlockCache>(options.cache_bytes, 4);
   store->cache_id_ = BlockCache::NewStoreId();
   return store;
 }
@@ -95,12 +97,28 @@ HzSparseStore::Reader<D>::~Reader() = default;
 
 template <int D>
 Status HzSparseStore::Reader<D>::LoadBlock(uint64_t b) {
-  return Get(b).status();
+  return Fetch(b).status();
 }
 
 template <int D>
-Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Get(uint64_t b) {
-  if (b == last_block_) return last_;
+Result<const typename HzSparseStore::Reader<D>::View*> HzSparseStore::Reader<D>::Get(uint64_t p) {
+  const int bb = store_.header().block_bits;
+  const uint64_t b = p >> bb;
+  size_t slot = 0;
+  if (b != 0) {
+    const int top = 63 - std::countl_zero(p);
+    const int octave = top / D - 1;
+    slot = static_cast<size_t>(octave) * (size_t{1} << D) + static_cast<size_t>(p >> (D * (octave + 1)));
+  }
+  View& held = held_[slot];
+  if (held.b != b) {
+    SDB_ASSIGN_OR_RETURN(held, Fetch(b));
+  }
+  return &held;
+}
+
+template <int D>
+Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Fetch(uint64_t b) {
   const BlockCache::Key key{store_.cache_id_, b};
   std::shared_ptr<const BlockCache::Block> block = store_.cache_->Lookup(key);
   if (block == nullptr) {
@@ -109,11 +127,10 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Get(ui
   }
   const uint64_t n = uint64_t{1} << store_.header().block_bits;
   View v;
+  v.b = b;
   v.values = reinterpret_cast<const double*>(block->data());
   v.states = reinterpret_cast<const uint32_t*>(block->data() + n * sizeof(double));
   v.block = std::move(block);
-  last_block_ = b;
-  last_ = v;
   return v;
 }
 
@@ -210,9 +227,8 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
 template <int D>
 Result<double> HzSparseStore::Reader<D>::Value(const std::array<int64_t, D>& g) {
   const uint64_t p = order_.Position(g);
-  const int bb = store_.header().block_bits;
-  SDB_ASSIGN_OR_RETURN(const View v, Get(p >> bb));
-  return v.values[p & ((uint64_t{1} << bb) - 1)];
+  SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
+  return v->values[p & ((uint64_t{1} << store_.header().block_bits) - 1)];
 }
 
 template <int D>
@@ -236,9 +252,8 @@ Result<double> HzSparseStore::Reader<D>::Field(const std::array<int64_t, D>& p) 
 template <int D>
 Result<bool> HzSparseStore::Reader<D>::Kept(const std::array<int64_t, D>& g) {
   const uint64_t p = order_.Position(g);
-  const int bb = store_.header().block_bits;
-  SDB_ASSIGN_OR_RETURN(const View v, Get(p >> bb));
-  return v.states[p & ((uint64_t{1} << bb) - 1)] != kDropped;
+  SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
+  return v->states[p & ((uint64_t{1} << store_.header().block_bits) - 1)] != kDropped;
 }
 
 template <int D>
@@ -284,9 +299,8 @@ Result<double> HzSparseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
   if (code.level() >= D * k) return 0.0;
   const std::array<int64_t, D> g = LatticeToGrid<D>(cursor_.Of(code), k);
   const uint64_t p = order_.PositionAtLevel(g, code.level());
-  const int bb = store_.header().block_bits;
-  SDB_ASSIGN_OR_RETURN(const View v, Get(p >> bb));
-  const uint32_t s = v.states[p & ((uint64_t{1} << bb) - 1)];
+  SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
+  const uint32_t s = v->states[p & ((uint64_t{1} << store_.header().block_bits) - 1)];
   if (s == kDropped) return 0.0;
   if (s != kFinestKept) return store_.quantizer().Decode(s);
   SDB_ASSIGN_OR_RETURN(const uint32_t c, FinestCode(g));

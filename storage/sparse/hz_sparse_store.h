@@ -91,11 +91,16 @@ class HzSparseStore {
 
    private:
     struct View {
+      uint64_t b = ~uint64_t{0};
       std::shared_ptr<const BlockCache::Block> block;
       const double* values = nullptr;
       const uint32_t* states = nullptr;
     };
-    Result<View> Get(uint64_t b);
+    // The block holding position p, held per segment (level and odd-axis
+    // pattern, hierarchy/hz_order.h): a walk, and a block's rebuild, read
+    // each segment a region at a time.
+    Result<const View*> Get(uint64_t p);
+    Result<View> Fetch(uint64_t b);
     Result<View> Materialize(uint64_t b);
     // The rebuilt value of domain vertex g (at position p).
     Result<double> Value(const std::array<int64_t, D>& g);
@@ -107,8 +112,7 @@ class HzSparseStore {
     std::array<int64_t, D> dims_{};
     std::unique_ptr<lmdb::Txn> txn_;
     ZstdDecompressor zstd_;
-    uint64_t last_block_ = ~uint64_t{0};
-    View last_;
+    std::array<View, (kCoordBits<D> + 1) << D> held_;
     DiamondStencils<D> stencils_;
     std::array<double, D == 3 ? 125 : 625> window_{};
   };
