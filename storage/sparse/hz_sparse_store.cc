@@ -303,7 +303,12 @@ Result<double> HzSparseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
   const uint32_t s = v->states[p & ((uint64_t{1} << store_.header().block_bits) - 1)];
   if (s == kDropped) return 0.0;
   if (s != kFinestKept) return store_.quantizer().Decode(s);
+  if (const auto it = finest_memo_.find(p); it != finest_memo_.end()) {
+    return store_.quantizer().Decode(it->second);
+  }
   SDB_ASSIGN_OR_RETURN(const uint32_t c, FinestCode(g));
+  if (finest_memo_.size() >= kFinestMemo) finest_memo_.clear();
+  finest_memo_.emplace(p, c);
   return store_.quantizer().Decode(c);
 }
 

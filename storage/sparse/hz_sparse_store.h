@@ -31,6 +31,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <unordered_map>
 
 #include "hierarchy/hz_order.h"
 #include "hierarchy/simplex_code.h"
@@ -113,6 +114,10 @@ class HzSparseStore {
     std::unique_ptr<lmdb::Txn> txn_;
     ZstdDecompressor zstd_;
     std::array<View, (kCoordBits<D> + 1) << D> held_;
+    // Finest codes computed, by position: a diamond's simplices (up to 6 in
+    // the HT, 24 in the HP) each ask for it. Cleared past kFinestMemo.
+    static constexpr size_t kFinestMemo = size_t{1} << 20;
+    std::unordered_map<uint64_t, uint32_t> finest_memo_;
     DiamondStencils<D> stencils_;
     std::array<double, D == 3 ? 125 : 625> window_{};
   };
