@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <limits>
@@ -253,7 +254,9 @@ template <int D>
 Result<bool> HzSparseStore::Reader<D>::Kept(const std::array<int64_t, D>& g) {
   const uint64_t p = order_.Position(g);
   SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
-  return v->states[p & ((uint64_t{1} << store_.header().block_bits) - 1)] != kDropped;
+  std::atomic_ref<uint32_t> state(
+      const_cast<uint32_t*>(v->states)[p & ((uint64_t{1} << store_.header().block_bits) - 1)]);
+  return state.load(std::memory_order_relaxed) != kDropped;
 }
 
 template <int D>
@@ -300,15 +303,16 @@ Result<double> HzSparseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
   const std::array<int64_t, D> g = LatticeToGrid<D>(cursor_.Of(code), k);
   const uint64_t p = order_.PositionAtLevel(g, code.level());
   SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
-  const uint32_t s = v->states[p & ((uint64_t{1} << store_.header().block_bits) - 1)];
+  // The block was made (non-const) by Materialize and published through
+  // the cache's lock; finest codes are filled in with atomic stores.
+  std::atomic_ref<uint32_t> state(
+      const_cast<uint32_t*>(v->states)[p & ((uint64_t{1} << store_.header().block_bits) - 1)]);
+  const uint32_t s = state.load(std::memory_order_relaxed);
   if (s == kDropped) return 0.0;
   if (s != kFinestKept) return store_.quantizer().Decode(s);
-  if (const auto it = finest_memo_.find(p); it != finest_memo_.end()) {
-    return store_.quantizer().Decode(it->second);
-  }
+  const std::shared_ptr<const BlockCache::Block> keep = v->block;  // FinestCode may move the held views
   SDB_ASSIGN_OR_RETURN(const uint32_t c, FinestCode(g));
-  if (finest_memo_.size() >= kFinestMemo) finest_memo_.clear();
-  finest_memo_.emplace(p, c);
+  state.store(c, std::memory_order_relaxed);
   return store_.quantizer().Decode(c);
 }
 

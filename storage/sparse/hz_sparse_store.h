@@ -31,7 +31,6 @@
 #include <functional>
 #include <memory>
 #include <string>
-#include <unordered_map>
 
 #include "hierarchy/hz_order.h"
 #include "hierarchy/simplex_code.h"
@@ -114,16 +113,15 @@ class HzSparseStore {
     std::unique_ptr<lmdb::Txn> txn_;
     ZstdDecompressor zstd_;
     std::array<View, (kCoordBits<D> + 1) << D> held_;
-    // Finest codes computed, by position: a diamond's simplices (up to 6 in
-    // the HT, 24 in the HP) each ask for it. Cleared past kFinestMemo.
-    static constexpr size_t kFinestMemo = size_t{1} << 20;
-    std::unordered_map<uint64_t, uint32_t> finest_memo_;
     DiamondStencils<D> stencils_;
     std::array<double, D == 3 ? 125 : 625> window_{};
   };
 
   // A position's state in a decoded block: dropped (or not a vertex), kept
-  // in the finest octave (its error computed on demand), or the stored code.
+  // in the finest octave with its error not computed yet, or the code. A
+  // reader computing a finest code writes it into the cached block (an
+  // atomic store of the one value any reader would compute), so the
+  // readers of a store compute each once while the block stays cached.
   static constexpr uint32_t kDropped = 0xFFFFFFFFu;
   static constexpr uint32_t kFinestKept = 0xFFFFFFFEu;
 
