@@ -94,15 +94,15 @@ FinestDiamonds<D>::FinestDiamonds() {
       const auto has = [](const typename DiamondTemplate<D>::Simplex& s, const std::array<int8_t, D>& o) {
         return std::find(s.vertex.begin(), s.vertex.end(), o) != s.vertex.end();
       };
-      std::vector<std::array<int8_t, D>>& corners = vertices_[odd][parity];
+      std::vector<std::array<int8_t, D>>& offsets = vertices_[odd][parity];
       for (const auto& s : t.simplices) {
         for (const auto& o : s.vertex) {
-          if (std::find(corners.begin(), corners.end(), o) == corners.end()) corners.push_back(o);
+          if (std::find(offsets.begin(), offsets.end(), o) == offsets.end()) offsets.push_back(o);
         }
       }
-      std::sort(corners.begin(), corners.end());
+      std::sort(offsets.begin(), offsets.end());
       int edges = 0;
-      for (const auto& o : corners) {
+      for (const auto& o : offsets) {
         std::array<int8_t, D> minus{};
         for (int a = 0; a < D; ++a) minus[a] = static_cast<int8_t>(-o[a]);
         if (o <= minus) continue;  // each pair once, by its larger offset
