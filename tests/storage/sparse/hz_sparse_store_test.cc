@@ -12,6 +12,8 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "hierarchy/geometry.h"
 #include "hierarchy/hz_order.h"
@@ -271,6 +273,35 @@ TEST(HzSparseStore, DamageIsReportedOrHarmless) {
   }
   EXPECT_GT(reported, 50);
   EXPECT_GT(harmless, 0);
+}
+
+// Readers of one store share its cache and fill the finest codes into the
+// cached blocks: two threads reading at once get one thread's answers.
+TEST(HzSparseStore, TwoThreadsReadAsOne) {
+  TempDir dir;
+  const TestVolume v = BoxInRamp(3, {13, 9, 17, 1}, VoxelType::kU8, 12);
+  const Stores s = Build(v, dir, 0, 6);
+  ASSERT_NE(s.sparse, nullptr);
+  const int k = s.sparse->header().domain_bits;
+  std::vector<double> want;
+  {
+    auto alone = *HzSparseStore::Open(dir / "sparse.sdb", {});
+    HzSparseStore::Reader<3> r(*alone);
+    ForEachNode<3>(k, [&](SimplexCode<3> c) { want.push_back(*r.ErrorBound(c)); });
+  }
+  std::vector<double> got[2];
+  const auto run = [&](int t) {
+    HzSparseStore::Reader<3> r(*s.sparse);
+    ForEachNode<3>(k, [&](SimplexCode<3> c) {
+      const Result<double> e = r.ErrorBound(c);
+      got[t].push_back(e.ok() ? *e : -1);
+    });
+  };
+  std::thread a(run, 0), b(run, 1);
+  a.join();
+  b.join();
+  EXPECT_EQ(got[0], want);
+  EXPECT_EQ(got[1], want);
 }
 
 TEST(HzSparseStore, AFormatOneStoreIsRefused) {
