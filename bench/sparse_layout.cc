@@ -2,8 +2,8 @@
 // hz_sparse_format.h) built from a volume at each tolerance asked for; one
 // JSON line each with the file's size per grid point, the kept fraction,
 // the blocks, the build's time and peak work, and the time to verify it
-// (every block read). bench/sparse_sizes.py sets them beside the dense
-// store of format 2.
+// (every block read). bench/README.md ("Sparse store format 2") sets them
+// beside the dense store of format 2.
 //
 //   sparse_layout VOLUME OUT_DIR [--dims X,Y,Z[,T] --type T] [--block-bits B]
 //                 [--tolerance PERCENT]... [--zstd-level L]
