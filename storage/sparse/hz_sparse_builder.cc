@@ -116,7 +116,7 @@ class Builder {
   Status Run(lmdb::Env& env, MDB_dbi blocks, HzSparseBuildReport* report) {
     const NearGrid<D> near(dims_, k_);
     const uint64_t points = input_.voxel_count();
-    const uint64_t need = points * 8 + near.size() * (4 + 1 + 1 + 8 + 8);
+    const uint64_t need = points * 8 + near.size() * (4 + 1 + 1 + 1 + 8 + 8);
     if (options_.memory_bytes > 0 && need > options_.memory_bytes) {
       return Status::ResourceExhausted(
           input_.description + ": a sparse store of it is built in memory and needs " +
@@ -140,8 +140,12 @@ class Builder {
     h.quantum = ErrorQuantizer::QuantumFor(h.quantization, range);
     const ErrorQuantizer quantizer(h.quantization, h.quantum, range);
 
-    // 0. Every near vertex's diamond error, rounded up to a float.
-    std::vector<float> err(near.size(), 0.0f);
+    // 0. Every near vertex's diamond error: its code as the dense store
+    // stores it (the same double, the same quantizer: lossless stores answer
+    // alike) and whether it exceeds t.
+    const double t = h.tolerance;
+    std::vector<uint32_t> code(near.size(), 0);
+    std::vector<uint8_t> above(near.size(), 0);
     {
       DiamondErrors<D, double> diamonds(field_.data(), dims_, k_, !IsFloatType(type_), range, threads_);
       diamonds.Allocate();
@@ -153,23 +157,23 @@ class Builder {
       diamonds.Finish();
       const HzOrder<D> order(k_);
       const int levels = D * k_;
+      std::vector<double> level_max(static_cast<size_t>(levels), 0.0);
       SDB_RETURN_IF_ERROR(RunParallel(static_cast<uint64_t>(levels), threads_, "errors", start_, {},
                                       [&](int, uint64_t c) {
+                                        double& largest = level_max[c];
                                         near.ForEachAtLevel(static_cast<int>(c), [&](const std::array<int64_t, D>& g) {
                                           const double e = diamonds.At(g, order.PositionAtLevel(g, static_cast<int>(c)));
-                                          float f = static_cast<float>(e);
-                                          if (static_cast<double>(f) < e) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-                                          err[near.Index(g)] = f;
+                                          const uint64_t i = near.Index(g);
+                                          code[i] = quantizer.Encode(e);
+                                          above[i] = e > t;
+                                          largest = std::max(largest, e);
                                         });
                                         return Status::OK();
                                       }));
+      for (const double e : level_max) h.error_max = std::max(h.error_max, e);
     }
-    double error_max = 0;
-    for (float e : err) error_max = std::max(error_max, static_cast<double>(e));
-    h.error_max = error_max;
 
     // 1-2. Keep and rebuild until every check holds.
-    const double t = h.tolerance;
     std::vector<uint8_t> kept(near.size()), force(near.size(), 0);
     std::vector<double> value(near.size(), 0.0);
     std::vector<uint64_t> residual(near.size(), 0);
@@ -182,7 +186,7 @@ class Builder {
       for (int c = levels - 1; c >= 0; --c) {
         near.ForEachAtLevel(c, [&](const std::array<int64_t, D>& g) {
           const uint64_t i = near.Index(g);
-          if (!kept[i] && !force[i] && !(err[i] > t)) return;
+          if (!kept[i] && !force[i] && !above[i]) return;
           kept[i] = 1;
           const DiamondShape sh = ShapeOfVertex<D>(g);
           for (const auto& w : FinestDiamonds<D>::Get().VertexOffsets(sh.odd, sh.parity)) {
@@ -257,7 +261,7 @@ class Builder {
         block.kept.back() |= static_cast<uint8_t>(1u << (n & 7));
         const int level = order.LevelAt(p);
         if (level >= 0 && level < finest_first) {
-          block.errors.push_back(quantizer.Encode(static_cast<double>(err[i])));
+          block.errors.push_back(code[i]);
         }
         block.residuals.push_back(residual[i]);
       });

@@ -11,7 +11,7 @@
 //      again until none fails;
 //   3. write each block holding a kept vertex, in key order.
 // The work arrays cover the real grid grown by a margin at each octave's
-// scale (far padding costs nothing): about 22 bytes per grid point besides
+// scale (far padding costs nothing): about 23 bytes per grid point besides
 // the field's 8, checked against `memory_bytes` before anything is read.
 //
 // Thread safety: one build per output path at a time. Errors: the volume
