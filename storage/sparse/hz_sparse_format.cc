@@ -8,27 +8,19 @@
 
 #include "hierarchy/simplex_code.h"
 #include "storage/io/checksum.h"
+#include "util/little_endian.h"
 
 namespace simplexdb {
 namespace {
 
 constexpr const char* kFormatName = "simplexdb-sparse";
 
-void PutU32(std::vector<uint8_t>& out, uint32_t v) {
-  for (int i = 0; i < 4; ++i) out.push_back(static_cast<uint8_t>(v >> (8 * i)));
-}
-uint32_t GetU32(const uint8_t* p) {
-  uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v |= uint32_t{p[i]} << (8 * i);
-  return v;
-}
-void PutU64(std::vector<uint8_t>& out, uint64_t v) {
-  for (int i = 0; i < 8; ++i) out.push_back(static_cast<uint8_t>(v >> (8 * i)));
-}
-uint64_t GetU64(const uint8_t* p) {
-  uint64_t v = 0;
-  for (int i = 0; i < 8; ++i) v |= uint64_t{p[i]} << (8 * i);
-  return v;
+// Appends v little-endian (util/little_endian.h).
+template <class T>
+void Append(std::vector<uint8_t>& out, T v) {
+  const size_t at = out.size();
+  out.resize(at + sizeof(T));
+  StoreLittle<T>(out.data() + at, v);
 }
 
 // n values of `width` bytes as byte planes: every value's byte 0, then 1...
@@ -121,7 +113,7 @@ std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h) {
   j["source"] = h.source;
   const std::string text = j.dump(2);
   std::vector<uint8_t> out(text.begin(), text.end());
-  PutU64(out, Checksum(std::span<const uint8_t>(out.data(), text.size())));
+  Append<uint64_t>(out, Checksum(std::span<const uint8_t>(out.data(), text.size())));
   return out;
 }
 
@@ -131,7 +123,7 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
   };
   if (value.size() < 8) return bad("shorter than its checksum");
   const std::span<const uint8_t> text = value.first(value.size() - 8);
-  if (Checksum(text) != GetU64(value.data() + text.size())) return bad("checksum mismatch");
+  if (Checksum(text) != LoadLittle<uint64_t>(value.data() + text.size())) return bad("checksum mismatch");
   const nlohmann::json j = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
   if (j.is_discarded() || !j.is_object()) return bad("not a JSON object");
   if (j.value("format", "") != kFormatName) {
@@ -193,9 +185,9 @@ Result<std::vector<uint8_t>> EncodeHzSparseBlock(uint64_t block, const HzSparseB
                                                  ZstdCompressor& zstd) {
   std::vector<uint8_t> raw;
   raw.reserve(12 + b.kept.size() + b.errors.size() * error_width + b.residuals.size() * voxel_width);
-  PutU32(raw, b.vertices);
-  PutU32(raw, static_cast<uint32_t>(b.residuals.size()));
-  PutU32(raw, static_cast<uint32_t>(b.errors.size()));
+  Append<uint32_t>(raw, b.vertices);
+  Append<uint32_t>(raw, static_cast<uint32_t>(b.residuals.size()));
+  Append<uint32_t>(raw, static_cast<uint32_t>(b.errors.size()));
   raw.insert(raw.end(), b.kept.begin(), b.kept.end());
   std::vector<uint64_t> wide(b.errors.begin(), b.errors.end());
   PutPlanes(raw, wide, error_width);
@@ -203,9 +195,9 @@ Result<std::vector<uint8_t>> EncodeHzSparseBlock(uint64_t block, const HzSparseB
   SDB_ASSIGN_OR_RETURN(std::vector<uint8_t> frame, zstd.Compress(raw));
   std::vector<uint8_t> value;
   value.reserve(4 + frame.size() + 8);
-  PutU32(value, static_cast<uint32_t>(raw.size()));
+  Append<uint32_t>(value, static_cast<uint32_t>(raw.size()));
   value.insert(value.end(), frame.begin(), frame.end());
-  PutU64(value, Checksum(value, block));
+  Append<uint64_t>(value, Checksum(value, block));
   return value;
 }
 
@@ -218,8 +210,8 @@ Result<HzSparseBlock> DecodeHzSparseBlock(uint64_t block, std::span<const uint8_
   };
   if (value.size() < 12) return bad("value of " + std::to_string(value.size()) + " bytes");
   const std::span<const uint8_t> summed = value.first(value.size() - 8);
-  if (Checksum(summed, block) != GetU64(value.data() + summed.size())) return bad("checksum mismatch");
-  const uint32_t raw_size = GetU32(value.data());
+  if (Checksum(summed, block) != LoadLittle<uint64_t>(value.data() + summed.size())) return bad("checksum mismatch");
+  const uint32_t raw_size = LoadLittle<uint32_t>(value.data());
   const size_t bitmap = (size_t{vertices} + 7) / 8;
   const uint64_t largest = 12 + bitmap + uint64_t{vertices} * (error_width + voxel_width);
   if (raw_size < 12 + bitmap || raw_size > largest) {
@@ -228,8 +220,8 @@ Result<HzSparseBlock> DecodeHzSparseBlock(uint64_t block, std::span<const uint8_
   std::vector<uint8_t> raw(raw_size);
   SDB_RETURN_IF_ERROR(zstd.Decompress(summed.subspan(4), raw, file + ": block " + std::to_string(block)));
   HzSparseBlock b;
-  b.vertices = GetU32(raw.data());
-  const uint32_t kept = GetU32(raw.data() + 4), errors = GetU32(raw.data() + 8);
+  b.vertices = LoadLittle<uint32_t>(raw.data());
+  const uint32_t kept = LoadLittle<uint32_t>(raw.data() + 4), errors = LoadLittle<uint32_t>(raw.data() + 8);
   if (b.vertices != vertices) {
     return bad("holds " + std::to_string(b.vertices) + " vertices; the block has " + std::to_string(vertices));
   }
