@@ -248,7 +248,7 @@ class Builder {
       if (options_.progress && (b & 255) == 0) {
         options_.progress(BuildProgress{"blocks", b, nblocks, SecondsSince()});
       }
-      if (!HzBlockMayHoldVertices<D>(bb, b) || !MayHoldNear(near, bb, b)) continue;
+      if (!MayHoldNear(near, bb, b)) continue;
       block.vertices = 0;
       block.kept.clear();
       block.errors.clear();
@@ -308,6 +308,7 @@ class Builder {
 
   // False when block b lies inside one octave's segment and its cubes all
   // lie past the near vertices of that octave on some axis (nothing kept).
+  // Stricter than HzBlockMayHoldVertices: the near limit is at most 2^k.
   bool MayHoldNear(const NearGrid<D>& near, int bb, uint64_t b) const {
     const uint64_t first = b << bb;
     if (first < (uint64_t{1} << D)) return true;

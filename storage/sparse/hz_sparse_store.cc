@@ -97,8 +97,10 @@ template <int D>
 HzSparseStore::Reader<D>::~Reader() = default;
 
 template <int D>
-Status HzSparseStore::Reader<D>::LoadBlock(uint64_t b) {
-  return Fetch(b).status();
+Result<uint64_t> HzSparseStore::Reader<D>::Rebuild(uint64_t b) {
+  SDB_ASSIGN_OR_RETURN(const View v, Materialize(b));
+  const uint64_t n = uint64_t{1} << store_.header().block_bits;
+  return static_cast<uint64_t>(n - static_cast<uint64_t>(std::count(v.states, v.states + n, kDropped)));
 }
 
 template <int D>
@@ -329,7 +331,6 @@ Status VerifyTyped(const HzSparseStore& store, lmdb::Env& env, unsigned int dbi,
   typename HzSparseStore::template Reader<D> reader(store);
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(env, /*read_only=*/true));
   SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, dbi));
-  ZstdDecompressor zstd;
   MDB_val k, v;
   uint64_t entries = 0, kept = 0;
   int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_FIRST);
@@ -339,14 +340,8 @@ Status VerifyTyped(const HzSparseStore& store, lmdb::Env& env, unsigned int dbi,
     if (b >= nblocks || !HzBlockMayHoldVertices<D>(bb, b)) {
       return Status::Corruption(path + ": block " + std::to_string(b) + " lies past the domain");
     }
-    uint32_t vertices = 0;
-    ForEachHzVertex<D>(order, b << bb, uint64_t{1} << bb, [&](uint64_t, const std::array<int64_t, D>&) { ++vertices; });
-    SDB_ASSIGN_OR_RETURN(const HzSparseBlock decoded,
-                         DecodeHzSparseBlock(b, {static_cast<const uint8_t*>(v.mv_data), v.mv_size}, vertices,
-                                             HzSparseErrorWidth(h.quantization), HzSparseVoxelWidth(h.voxel_type),
-                                             zstd, path));
-    kept += decoded.residuals.size();
-    SDB_RETURN_IF_ERROR(reader.LoadBlock(b));
+    SDB_ASSIGN_OR_RETURN(const uint64_t block_kept, reader.Rebuild(b));
+    kept += block_kept;
     ++entries;
     if (progress) progress(entries, h.blocks);
   }

@@ -62,7 +62,7 @@ class HzSparseStore {
   const ErrorQuantizer& quantizer() const { return quantizer_; }
   uint64_t file_bytes() const;
 
-  // Reads every block (checksum, sizes, counts, the kept values rebuilt),
+  // Reads every block once (checksum, sizes, counts, the kept values rebuilt),
   // checks the count of blocks and kept vertices against the header and
   // that every key names a block that can hold vertices. The B-tree's pages
   // were walked by Open. The first failure, naming the block.
@@ -86,8 +86,9 @@ class HzSparseStore {
     Result<double> Field(const std::array<int64_t, D>& p);
     // Whether grid vertex g's diamond is kept (corners: true).
     Result<bool> Kept(const std::array<int64_t, D>& g);
-    // Decodes (or rebuilds) block b into the cache.
-    Status LoadBlock(uint64_t b);
+    // Decodes block b from the file (a cached copy is not used) and
+    // rebuilds its values: its kept vertices (Verify's walk).
+    Result<uint64_t> Rebuild(uint64_t b);
 
    private:
     struct View {
