@@ -4,6 +4,8 @@
 
 #include <stdlib.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -13,8 +15,29 @@
 
 #include "storage/volume/generate.h"
 #include "storage/volume/nrrd_writer.h"
+#include "storage/volume/volume.h"
+#include "util/status.h"
 
 namespace simplexdb {
+
+// The volume a benchmark tool names on its command line: a file import
+// reads by itself, or a raw file with `dims_text` ("X,Y,Z[,T]") and
+// `type_text` (a voxel type name), as `simplexdb import` takes them
+// (InvalidArgument when only one of the two is given).
+inline Result<VolumeInfo> OpenBenchVolume(const std::string& path, const std::string& dims_text,
+                                          const std::string& type_text) {
+  if (dims_text.empty() && type_text.empty()) return OpenVolume(path);
+  if (dims_text.empty() || type_text.empty()) return Status::InvalidArgument("--dims and --type go together");
+  std::array<uint32_t, 4> dims{1, 1, 1, 1};
+  int dimension = 0;
+  for (size_t at = 0; at <= dims_text.size() && dimension < 4;) {
+    const size_t comma = std::min(dims_text.find(',', at), dims_text.size());
+    dims[dimension++] = static_cast<uint32_t>(std::stoul(dims_text.substr(at, comma - at)));
+    at = comma + 1;
+  }
+  SDB_ASSIGN_OR_RETURN(const VoxelType type, ParseVoxelType(type_text));
+  return OpenRawVolume(path, dimension, dims, type, ByteOrder::kLittle, 0);
+}
 
 inline const std::string& WorkDir() {
   static const std::string dir = [] {

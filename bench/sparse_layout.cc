@@ -20,6 +20,7 @@
 
 #include "storage/sparse/hz_sparse_builder.h"
 #include "storage/sparse/hz_sparse_store.h"
+#include "bench/bench_util.h"
 #include "storage/volume/volume.h"
 
 int main(int argc, char** argv) {
@@ -41,21 +42,7 @@ int main(int argc, char** argv) {
     if (std::strcmp(argv[i], "--type") == 0) type_text = argv[i + 1];
   }
   if (percents.empty()) percents = {0.0, 1.0};
-  Result<VolumeInfo> info = Status::InvalidArgument("--dims and --type go together");
-  if (dims_text.empty() && type_text.empty()) {
-    info = OpenVolume(argv[1]);
-  } else if (!dims_text.empty() && !type_text.empty()) {
-    std::array<uint32_t, 4> dims{1, 1, 1, 1};
-    int dimension = 0;
-    for (size_t at = 0; at <= dims_text.size() && dimension < 4;) {
-      const size_t comma = std::min(dims_text.find(',', at), dims_text.size());
-      dims[dimension++] = static_cast<uint32_t>(std::stoul(dims_text.substr(at, comma - at)));
-      at = comma + 1;
-    }
-    const Result<VoxelType> type = ParseVoxelType(type_text);
-    info = type.ok() ? OpenRawVolume(argv[1], dimension, dims, *type, ByteOrder::kLittle, 0)
-                     : Result<VolumeInfo>(type.status());
-  }
+  const Result<VolumeInfo> info = OpenBenchVolume(argv[1], dims_text, type_text);
   if (!info.ok()) {
     std::fprintf(stderr, "sparse_layout: %s\n", std::string(info.status().message()).c_str());
     return 1;
