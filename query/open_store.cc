@@ -21,9 +21,12 @@ Result<AnyStore> AnyStore::Open(const std::string& path, const StoreOptions& opt
   if (ProbeStoreKind(path) == StoreKind::kSparse) {
     if (options.in_memory) {
       return Status::InvalidArgument(path +
-                                     ": in_memory applies to dense stores; the LMDB store is read in place");
+                                     ": in_memory applies to dense stores; a sparse store's blocks are decoded as read");
     }
-    SDB_ASSIGN_OR_RETURN(store.sparse_, SparseStore::Open(path));
+    HzSparseStore::Options sparse;
+    sparse.cache_bytes = options.cache_bytes;
+    sparse.cache = options.cache;
+    SDB_ASSIGN_OR_RETURN(store.sparse_, HzSparseStore::Open(path, sparse));
     store.info_ = InfoFromHeader(store.sparse_->header(), store.sparse_->path());
     return store;
   }

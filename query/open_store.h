@@ -15,14 +15,15 @@
 // visitor). The dispatch costs a branch per Visit() call; inside the visitor
 // every error lookup is a direct (inlinable) call on the concrete source:
 // no virtual call in the refinement's hot path. Each Visit() instantiates
-// the visitor four times (HzSource and SparseSource, each for D = 3 and 4).
+// the visitor four times (HzSource and HzSparseSource, each for D = 3 and 4).
 //
 // The kind is recognized from the file's first bytes (an LMDB meta page is
-// the sparse store, anything else is opened as a dense store of format 2,
-// storage/dense/hz_store.h), so a file that is neither gets the dense
-// store's InvalidArgument naming it, and a dense store of format 1 (the
-// engine's scratch format, storage/dense/dense_store.h) is refused with a
-// message that says to import the volume again.
+// the sparse store of format 2, storage/sparse/hz_sparse_store.h; anything
+// else is opened as a dense store of format 2, storage/dense/hz_store.h), so
+// a file that is neither gets the dense store's InvalidArgument naming it,
+// and a store of format 1 (dense: the engine's scratch format; sparse: one
+// LMDB entry per node) is refused with a message that says to import the
+// volume again.
 //
 // Thread safety: an AnyStore may be shared by threads (the stores are);
 // Visit() is const and may run in several threads at once, each call with
@@ -44,7 +45,7 @@
 #include "query/source.h"
 #include "storage/dense/block_cache.h"
 #include "storage/dense/hz_store.h"
-#include "storage/sparse/sparse_store.h"
+#include "storage/sparse/hz_sparse_store.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -54,13 +55,11 @@ enum class StoreKind { kDense, kSparse };
 // "dense", "sparse".
 const char* StoreKindName(StoreKind kind);
 
-// How to open a store. The cache settings apply to dense stores only: the
-// LMDB store is read in place from its mapping (the OS page cache is its
-// cache).
+// How to open a store.
 struct StoreOptions {
-  size_t cache_bytes = size_t{256} << 20;  // dense: decoded blocks kept
+  size_t cache_bytes = size_t{256} << 20;  // decoded blocks kept
   bool in_memory = false;                  // dense: decode every block at open (in-core)
-  std::shared_ptr<BlockCache> cache;       // dense: share one cache between stores
+  std::shared_ptr<BlockCache> cache;       // share one cache between stores
 };
 
 // The kind of the store at `path` from its first bytes: kSparse for an LMDB
@@ -74,9 +73,9 @@ class AnyStore {
   // Opens and validates the store at `path`. Errors: those of
   // HzStore::Open (NotFound, InvalidArgument when the file is not a store,
   // NotSupported for format 1 and other format versions, Corruption) or of
-  // SparseStore::Open (the same codes; InvalidArgument also for another
+  // HzSparseStore::Open (the same codes; InvalidArgument also for another
   // program's LMDB file); InvalidArgument for options.in_memory on a sparse
-  // store (it is read in place).
+  // store (its blocks are decoded as read).
   static Result<AnyStore> Open(const std::string& path, const StoreOptions& options = {});
 
   AnyStore(AnyStore&&) noexcept = default;
@@ -90,15 +89,13 @@ class AnyStore {
   // The store itself, for what only one kind has (a dense store's cache, a
   // sparse store's header); null for the other kind.
   const HzStore* hz() const { return hz_.get(); }
-  const SparseStore* sparse() const { return sparse_.get(); }
+  const HzSparseStore* sparse() const { return sparse_.get(); }
 
   // Makes a source of this store's kind and dimension and calls
   // `visitor.template operator()<D>(source)` with it: a generic lambda
   // `[&]<int D, class Source>(Source& source) { ... }` is the usual form.
   // The visitor returns Status or void (taken as OK) for every source type.
-  // Returns the visitor's status, or the error of making the source
-  // (SparseSource::Create: ResourceExhausted when the store's LMDB reader
-  // slots are all taken, IOError), in which case the visitor is not called.
+  // Returns the visitor's status.
   template <class Visitor>
   Status Visit(Visitor&& visitor) const {
     if (hz_) {
@@ -110,10 +107,10 @@ class AnyStore {
       return Call<4>(visitor, source);
     }
     if (sparse_->dimension() == 3) {
-      SDB_ASSIGN_OR_RETURN(SparseSource<3> source, SparseSource<3>::Create(*sparse_));
+      HzSparseSource<3> source(*sparse_);
       return Call<3>(visitor, source);
     }
-    SDB_ASSIGN_OR_RETURN(SparseSource<4> source, SparseSource<4>::Create(*sparse_));
+    HzSparseSource<4> source(*sparse_);
     return Call<4>(visitor, source);
   }
 
@@ -136,7 +133,7 @@ class AnyStore {
 
   // Exactly one is set.
   std::unique_ptr<HzStore> hz_;
-  std::unique_ptr<SparseStore> sparse_;
+  std::unique_ptr<HzSparseStore> sparse_;
   SourceInfo info_;
 };
 

@@ -3,6 +3,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -15,9 +17,9 @@
 #include "storage/dense/hz_lattice.h"
 #include "storage/dense/hz_store.h"
 #include "storage/io/file.h"
-#include "storage/sparse/sparse_builder.h"
-#include "storage/sparse/sparse_store.h"
-#include "storage/sparse/sparse_update.h"
+#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/sparse/hz_sparse_store.h"
+#include "storage/sparse/hz_sparse_update.h"
 #include "storage/volume/nrrd_writer.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
@@ -26,74 +28,55 @@ namespace simplexdb::tools {
 namespace {
 
 using json = nlohmann::ordered_json;
+using Clock = std::chrono::steady_clock;
 
-std::unique_ptr<SparseStore> OpenSparse(const std::string& path) {
-  Result<std::unique_ptr<SparseStore>> s = SparseStore::Open(path);
+std::unique_ptr<HzSparseStore> OpenSparse(const std::string& path) {
+  Result<std::unique_ptr<HzSparseStore>> s = HzSparseStore::Open(path, {});
   if (!s.ok()) Fail(s.status());
   return *std::move(s);
 }
 
-// Internal nodes of the complete hierarchy: what a dense store holds.
-double CompleteNodes(int dimension, int leaf_level) {
-  return (dimension == 3 ? 6.0 : 24.0) * (std::ldexp(1.0, leaf_level) - 1);
+const char* SparseKind(int dimension) { return dimension == 3 ? "ht-sparse" : "hp-sparse"; }
+
+// Domain vertices: (2^k + 1)^D.
+double DomainVertices(const HzSparseHeader& h) {
+  return std::pow(std::ldexp(1.0, h.domain_bits) + 1, h.dimension);
 }
 
-uint64_t GridPoints(int dimension, const std::array<uint32_t, 4>& dims) {
-  uint64_t n = 1;
-  for (int c = 0; c < dimension; ++c) n *= dims[c];
-  return n;
-}
-
-SparseBuildReport Convert(const DenseStore& dense, const std::string& output,
-                          const std::string& tolerance, bool quiet, uint64_t memory_bytes = 0) {
-  SparseBuildOptions options;
-  options.memory_bytes = memory_bytes;
-  options.tolerance = ParseAmount(tolerance, "--tolerance",
-                                  dense.header().field_max - dense.header().field_min);
-  ProgressLine line(!quiet);
-  options.progress = ProgressTo(line, output);
-  Result<SparseBuildReport> report = ConvertDenseToSparse(dense, output, options);
-  line.Finish();
-  if (!report.ok()) Fail(report.status());
-  return *std::move(report);
-}
-
-void PrintSparseReport(const SparseBuildReport& r, const std::string& output, bool as_json,
+void PrintSparseReport(const HzSparseBuildReport& r, const std::string& output, bool as_json,
                        bool quiet) {
-  const SparseHeader& h = r.header;
-  const uint64_t points = GridPoints(h.dimension, h.dims);
+  const HzSparseHeader& h = r.header;
+  const double points = static_cast<double>(h.points());
   if (as_json) {
     json j;
     SetJsonBytes(j, "store", output);
-    j["kind"] = h.dimension == 3 ? "ht-sparse" : "hp-sparse";
-    j["nodes"] = h.nodes;
-    j["vertices"] = h.vertices;
+    j["kind"] = SparseKind(h.dimension);
+    j["format_version"] = h.version;
     j["tolerance"] = h.tolerance;
+    j["kept"] = h.kept;
+    j["blocks"] = h.blocks;
+    j["rounds"] = r.rounds;
+    j["kept_by_check"] = r.kept_by_check;
     j["seconds"] = r.seconds;
-    j["nodes_visited"] = r.nodes_visited;
-    j["map_growths"] = r.map_growths;
+    j["grid_points_per_second"] = points / std::max(r.seconds, 1e-9);
     j["file_bytes"] = r.file_bytes;
-    j["bytes_per_grid_point"] = static_cast<double>(r.file_bytes) / static_cast<double>(points);
+    j["bytes_per_grid_point"] = static_cast<double>(r.file_bytes) / points;
     j["peak_memory_bytes"] = PeakResidentBytes();
     std::cout << j.dump() << "\n";
   } else if (!quiet) {
-    fmt::print("{}: sparse {} store, tolerance {:.6g}: {} of {:.4g} nodes kept ({:.3g}%), {} "
-               "vertices\n",
-               output, h.dimension == 3 ? "HT" : "HP", h.tolerance, h.nodes,
-               CompleteNodes(h.dimension, h.leaf_level()),
-               100.0 * static_cast<double>(h.nodes) / CompleteNodes(h.dimension, h.leaf_level()),
-               h.vertices);
-    fmt::print("  converted in {:.2f} s; {} on disk ({:.2f} bytes per grid point), peak memory "
-               "{}\n",
-               r.seconds, HumanBytes(r.file_bytes),
-               static_cast<double>(r.file_bytes) / static_cast<double>(points),
-               HumanBytes(PeakResidentBytes()));
+    fmt::print("{}: sparse {} store, tolerance {:.6g}: {} of {:.4g} vertices kept ({:.3g}%) in {} "
+               "blocks\n",
+               output, h.dimension == 3 ? "HT" : "HP", h.tolerance, h.kept, DomainVertices(h),
+               100.0 * static_cast<double>(h.kept) / DomainVertices(h), h.blocks);
+    fmt::print("  built in {:.2f} s ({:.3g} grid points/s); {} on disk ({:.2f} bytes per grid "
+               "point), peak memory {}\n",
+               r.seconds, points / std::max(r.seconds, 1e-9), HumanBytes(r.file_bytes),
+               static_cast<double>(r.file_bytes) / points, HumanBytes(PeakResidentBytes()));
   }
 }
 
 // The dense store's field, written losslessly to a scratch NRRD beside the
-// output, imported as a sparse store (as import --sparse does): the sparse
-// store keeps each node's own error, which the dense store does not.
+// output, imported as a sparse store (as import --sparse does).
 void ConvertDenseToSparse(const std::string& input, const std::string& output,
                           const std::string& tolerance, uint64_t memory_bytes, bool as_json,
                           bool quiet) {
@@ -117,6 +100,10 @@ void ConvertDenseToSparse(const std::string& input, const std::string& output,
   {
     std::vector<double> values(n);
     if (Status s = ReadLattice(dense, 0, lo, hi, values.data()); !s.ok()) Fail(s);
+    if (std::any_of(values.begin(), values.end(), [](double v) { return std::isnan(v); })) {
+      Fail(Status::NotSupported(input + ": the field has missing values (NaN); the sparse store "
+                                        "does not take them yet (keep the dense store)"));
+    }
     if (Status s = WriteNrrd(field.path(), h.dimension, h.dims, h.voxel_type, values, h.spacing);
         !s.ok()) {
       Fail(s);
@@ -129,6 +116,95 @@ void ConvertDenseToSparse(const std::string& input, const std::string& output,
   options.memory_bytes = memory_bytes;
   options.quantization = h.quantization;
   ImportSparse(*volume, output, options, tolerance, as_json, quiet);
+}
+
+// The sparse store's rebuilt field (the input's values at t = 0), checked
+// whole first, written to a scratch NRRD beside the output and imported as a
+// dense store.
+template <int D>
+void ReadSparseField(const HzSparseStore& store, std::vector<double>& values, ProgressLine& line,
+                     const std::string& output) {
+  const HzSparseHeader& h = store.header();
+  HzSparseStore::Reader<D> reader(store);
+  std::array<int64_t, D> p{};
+  for (uint64_t i = 0; i < values.size(); ++i) {
+    uint64_t rest = i;
+    for (int a = 0; a < D; ++a) {
+      p[a] = static_cast<int64_t>(rest % h.dims[a]);
+      rest /= h.dims[a];
+    }
+    Result<double> v = reader.Field(p);
+    if (!v.ok()) Fail(v.status());
+    values[i] = *v;
+    if ((i & 0xFFFFF) == 0) {
+      line.Update(fmt::format("{}: field {}/{}", output, i, values.size()));
+    }
+  }
+}
+
+void ConvertSparseToDense(const std::string& input, const std::string& output,
+                          const std::string& compression, uint64_t memory_bytes, bool as_json,
+                          bool quiet) {
+  const Clock::time_point start = Clock::now();
+  const auto sparse = OpenSparse(input);
+  const HzSparseHeader& h = sparse->header();
+  Result<Compression> c = ParseCompression(compression);
+  if (!c.ok()) throw CommandError("--compression: " + std::string(c.status().message()), 2);
+  const uint64_t n = h.points();
+  if (memory_bytes != 0 && n * sizeof(double) > memory_bytes) {
+    Fail(Status::ResourceExhausted(fmt::format(
+        "{}: converting to a dense store reads the field into memory, {}, more than the bound of "
+        "{} (--memory-mb)",
+        input, HumanBytes(n * sizeof(double)), HumanBytes(memory_bytes))));
+  }
+  if (Status s = PrepareOutput(output); !s.ok()) Fail(s);
+  ProgressLine line(!quiet && !as_json);
+  // A store that fails its checksums is not converted (a damaged block the
+  // field never reads would otherwise pass unseen).
+  if (Status s = sparse->Verify([&](uint64_t done, uint64_t total) {
+        line.Update(fmt::format("{}: verifying block {}/{}", input, done, total));
+      });
+      !s.ok()) {
+    line.Finish();
+    throw CommandError(std::string(s.message()) + "; not converted", 1);
+  }
+  const TemporaryFile field(output, "field.nrrd");
+  {
+    std::vector<double> values(n);
+    if (h.dimension == 3) {
+      ReadSparseField<3>(*sparse, values, line, output);
+    } else {
+      ReadSparseField<4>(*sparse, values, line, output);
+    }
+    if (Status s = WriteNrrd(field.path(), h.dimension, h.dims, h.voxel_type, values, h.spacing);
+        !s.ok()) {
+      line.Finish();
+      Fail(s);
+    }
+  }
+  Result<VolumeInfo> volume = OpenVolume(field.path());
+  if (!volume.ok()) Fail(volume.status());
+  volume->description = h.source;
+  HzBuildOptions options;
+  options.quantization = h.quantization;
+  options.compression = *c;
+  options.memory_bytes = memory_bytes;
+  options.progress = ProgressTo(line, output);
+  const Result<HzBuildReport> built = BuildHzStore(*volume, output, options);
+  line.Finish();
+  if (!built.ok()) Fail(built.status());
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  if (as_json) {
+    json j;
+    SetJsonBytes(j, "store", output);
+    j["kind"] = h.dimension == 3 ? "ht-dense" : "hp-dense";
+    j["seconds"] = seconds;
+    j["file_bytes"] = built->header.file_size;
+    std::cout << j.dump() << "\n";
+  } else if (!quiet) {
+    fmt::print("{}: dense store from {} in {:.2f} s, {} on disk\n", output, input, seconds,
+               HumanBytes(built->header.file_size));
+  }
 }
 
 void RunConvert(const std::string& input, const std::string& output, const std::string& to,
@@ -150,46 +226,7 @@ void RunConvert(const std::string& input, const std::string& output, const std::
   if (ProbeStoreKind(input) != StoreKind::kSparse) {
     throw CommandError(input + " is not a sparse store; only sparse stores convert --to dense", 2);
   }
-  const auto sparse = OpenSparse(input);
-  Result<Compression> c = ParseCompression(compression);
-  if (!c.ok()) throw CommandError("--compression: " + std::string(c.status().message()), 2);
-  // Through the sparse store's own dense form (one error per node, as it
-  // keeps them, no compression) in a scratch file beside the output, whose
-  // errors the dense store takes per diamond (the largest of its nodes').
-  if (Status s = PrepareOutput(output); !s.ok()) Fail(s);
-  const TemporaryFile scratch(output, "nodes");
-  DenseBuildOptions nodes;
-  nodes.compression = Compression::kNone;
-  nodes.memory_bytes = memory_mb << 20;
-  ProgressLine line(!quiet);
-  nodes.progress = ProgressTo(line, output);
-  const Result<DenseBuildReport> built = ConvertSparseToDense(*sparse, scratch.path(), nodes);
-  if (!built.ok()) {
-    line.Finish();
-    Fail(built.status());
-  }
-  const auto per_node = OpenDenseStore(scratch.path());
-  HzBuildOptions options;
-  options.quantization = per_node->header().quantization;
-  options.compression = *c;
-  options.memory_bytes = memory_mb << 20;
-  options.progress = nodes.progress;
-  const Result<HzBuildReport> converted = ConvertToHz(*per_node, output, options);
-  line.Finish();
-  if (!converted.ok()) Fail(converted.status());
-  const double seconds = built->seconds + converted->seconds;
-  if (as_json) {
-    json j;
-    SetJsonBytes(j, "store", output);
-    j["kind"] = sparse->dimension() == 3 ? "ht-dense" : "hp-dense";
-    j["nodes"] = built->nodes;
-    j["seconds"] = seconds;
-    j["file_bytes"] = converted->header.file_size;
-    std::cout << j.dump() << "\n";
-  } else if (!quiet) {
-    fmt::print("{}: dense store from {} ({} nodes) in {:.2f} s, {} on disk\n", output, input,
-               built->nodes, seconds, HumanBytes(converted->header.file_size));
-  }
+  ConvertSparseToDense(input, output, compression, memory_mb << 20, as_json, quiet);
 }
 
 }  // namespace
@@ -197,21 +234,22 @@ void RunConvert(const std::string& input, const std::string& output, const std::
 
 void RunSparseInfo(const std::string& path, bool as_json) {
   const auto store = OpenSparse(path);
-  const SparseHeader& h = store->header();
-  const uint64_t points = GridPoints(h.dimension, h.dims);
+  const HzSparseHeader& h = store->header();
+  const uint64_t points = h.points();
   const uint64_t bytes = store->file_bytes();
-  const double complete = CompleteNodes(h.dimension, h.leaf_level());
+  const double domain_vertices = DomainVertices(h);
   if (as_json) {
     json j;
     SetJsonBytes(j, "store", path);
-    j["kind"] = h.dimension == 3 ? "ht-sparse" : "hp-sparse";
+    j["kind"] = SparseKind(h.dimension);
     j["hierarchy"] = h.dimension == 3 ? "ht" : "hp";
     j["format_version"] = h.version;
     j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
+    j["spacing"] = std::vector<double>(h.spacing.begin(), h.spacing.begin() + h.dimension);
     j["grid_points"] = points;
     j["domain_bits"] = h.domain_bits;
-    j["domain_side"] = h.domain_side();
-    j["leaf_level"] = h.leaf_level();
+    j["domain_side"] = (uint64_t{1} << h.domain_bits) + 1;
+    j["leaf_level"] = h.dimension * h.domain_bits;
     j["voxel_type"] = VoxelTypeName(h.voxel_type);
     j["quantization"] = QuantizationName(h.quantization);
     j["quantum"] = h.quantum;
@@ -219,10 +257,10 @@ void RunSparseInfo(const std::string& path, bool as_json) {
     j["field_max"] = h.field_max;
     j["error_max"] = h.error_max;
     j["tolerance"] = h.tolerance;
-    j["nodes"] = h.nodes;
-    j["complete_nodes"] = complete;
-    j["vertices"] = h.vertices;
-    j["content_sum"] = h.content_sum;
+    j["block_bits"] = h.block_bits;
+    j["blocks"] = h.blocks;
+    j["kept"] = h.kept;
+    j["domain_vertices"] = domain_vertices;
     j["file_bytes"] = bytes;
     j["bytes_per_grid_point"] = static_cast<double>(bytes) / static_cast<double>(points);
     SetJsonBytes(j, "source", h.source);
@@ -233,14 +271,15 @@ void RunSparseInfo(const std::string& path, bool as_json) {
              h.version);
   fmt::print("  grid        {} {} ({} points), from {}\n", FormatDims(h.dimension, h.dims),
              VoxelTypeName(h.voxel_type), points, h.source);
-  fmt::print("  domain      side 2^{} + 1 = {}, {} levels ({} roots)\n", h.domain_bits,
-             h.domain_side(), h.leaf_level(), h.dimension == 3 ? 6 : 24);
-  fmt::print("  field       {} .. {}; {} vertices stored\n", h.field_min, h.field_max, h.vertices);
-  fmt::print("  errors      {} (quantum {:.6g}), largest {:.6g}; subtrees within {:.6g} "
+  fmt::print("  domain      side 2^{} + 1 = {}, {} levels\n", h.domain_bits,
+             (uint64_t{1} << h.domain_bits) + 1, h.dimension * h.domain_bits);
+  fmt::print("  field       {} .. {}; the values of {} kept vertices of {:.4g} ({:.3g}%)\n",
+             h.field_min, h.field_max, h.kept, domain_vertices,
+             100.0 * static_cast<double>(h.kept) / domain_vertices);
+  fmt::print("  errors      {} (quantum {:.6g}), largest {:.6g}; diamonds within {:.6g} "
              "dropped\n",
              QuantizationName(h.quantization), h.quantum, h.error_max, h.tolerance);
-  fmt::print("  nodes       {} of {:.4g} ({:.3g}%)\n", h.nodes, complete,
-             100.0 * static_cast<double>(h.nodes) / complete);
+  fmt::print("  blocks      {} of 2^{} positions\n", h.blocks, h.block_bits);
   fmt::print("  size        {} on disk, {:.2f} bytes per grid point\n", HumanBytes(bytes),
              static_cast<double>(bytes) / static_cast<double>(points));
 }
@@ -249,40 +288,40 @@ void RunSparseVerify(const std::string& path, bool quiet) {
   const auto store = OpenSparse(path);
   ProgressLine line(!quiet);
   const Status s = store->Verify([&](uint64_t done, uint64_t total) {
-    line.Update(fmt::format("{}: verifying entry {}/{}", path, done, total));
+    line.Update(fmt::format("{}: verifying block {}/{}", path, done, total));
   });
   line.Finish();
   if (!s.ok()) Fail(s);
   if (!quiet) {
-    fmt::print("{}: ok ({} nodes, {} vertices: keys, values, tree, vertices and checksum)\n",
-               path, store->header().nodes, store->header().vertices);
+    fmt::print("{}: ok ({} blocks, {} kept vertices: pages, checksums, counts and values)\n", path,
+               store->header().blocks, store->header().kept);
   }
 }
 
-void ImportSparse(const VolumeInfo& input, const std::string& output, DenseBuildOptions options,
+void ImportSparse(const VolumeInfo& input, const std::string& output, const DenseBuildOptions& common,
                   const std::string& tolerance, bool as_json, bool quiet) {
-  // The dense store is the sparse one's source: a scratch file of the
-  // output (`<output>.tmp.<pid>.dense`), removed on every path out of this
-  // function, and by the next run of the same output if this one is killed.
-  if (Status s = PrepareOutput(output); !s.ok()) Fail(s);
-  if (Status s = CheckSparseImportMemory(input, options.levels_per_block, options.memory_bytes);
-      !s.ok()) {
-    Fail(s);
+  if (common.mask) {
+    throw CommandError("--mask with --sparse: the sparse store does not take missing values yet; "
+                       "import a dense store",
+                       2);
   }
-  const TemporaryFile temp(output, "dense");
-  ProgressLine line(!quiet);
+  HzSparseBuildOptions options;
+  options.quantization = common.quantization;
+  options.zstd_level = common.zstd_level;
+  options.memory_bytes = common.memory_bytes;
+  options.threads = common.threads;
+  options.tolerance_percent = !tolerance.empty() && tolerance.back() == '%';
+  // "1%" -> 1 (a percentage, applied to the range the builder finds).
+  options.tolerance = ParseAmount(tolerance, "--tolerance", 100.0);
+  ProgressLine line(!quiet && !as_json);
   options.progress = ProgressTo(line, output);
-  const Result<DenseBuildReport> built = BuildDenseStore(input, temp.path(), options);
+  const Result<HzSparseBuildReport> built = BuildHzSparseStore(input, output, options);
   line.Finish();
   if (!built.ok()) Fail(built.status());
-  const auto dense = OpenDenseStore(temp.path());
-  SparseBuildReport report =
-      Convert(*dense, output, tolerance, quiet || as_json, options.memory_bytes);
-  report.seconds += built->seconds;
-  PrintSparseReport(report, output, as_json, quiet);
+  PrintSparseReport(*built, output, as_json, quiet);
   if (input.scaled() && !quiet && !as_json) {
     fmt::print("  scaled: {} -> {}\n", FormatScaling(input),
-               VoxelTypeName(dense->header().voxel_type));
+               VoxelTypeName(built->header.voxel_type));
   }
 }
 
@@ -296,9 +335,9 @@ void RegisterConvertCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "convert",
       "Convert between the dense store and the sparse (LMDB, variable-resolution)\n"
-      "store. --to sparse keeps a node only when some error in its subtree exceeds\n"
-      "--tolerance (0: lossless, only where the field is not linear); --to dense\n"
-      "rebuilds the full grid, interpolating over the dropped subtrees.\n"
+      "store. --to sparse keeps a diamond only when its error or a descendant's exceeds\n"
+      "--tolerance (0: lossless); --to dense checks every block of the sparse store\n"
+      "(a damaged one is refused), then rebuilds the full grid from it.\n"
       "Example: simplexdb convert tooth.sdb --to sparse --tolerance 1% -o tooth.lmdb");
   cmd->add_option("store", a->input, "the store to read")->required();
   cmd->add_option("-o,--output", a->output, "the store to write")->required();
@@ -324,10 +363,15 @@ void RegisterConvertCommand(CLI::App& app) {
 }
 
 void RunUpdate(const std::string& store, const std::string& input, const std::string& box_text,
-               const std::string& mask, bool as_json, bool quiet) {
+               size_t memory_mb, int threads, bool as_json, bool quiet) {
   if (ProbeStoreKind(store) != StoreKind::kSparse) {
     throw CommandError(store + " is not a sparse store: only sparse (LMDB) stores are updated in "
                                    "place; import the volume again for a dense one",
+                       2);
+  }
+  if (memory_mb > (std::numeric_limits<size_t>::max() >> 20)) {
+    throw CommandError(fmt::format("--memory-mb {} is beyond this machine's address space",
+                                   memory_mb),
                        2);
   }
   Result<VolumeInfo> volume = OpenVolume(input);
@@ -345,53 +389,47 @@ void RunUpdate(const std::string& store, const std::string& input, const std::st
     box.hi[c] = static_cast<int64_t>(v[d + c]);
   }
   ProgressLine line(!quiet && !as_json);
-  SparseUpdateOptions options;
+  HzSparseUpdateOptions options;
   options.progress = ProgressTo(line, store);
-  if (!mask.empty()) {
-    Result<VolumeInfo> m = OpenVolume(mask);
-    if (!m.ok()) Fail(m.status());
-    options.mask = *std::move(m);
-  }
-  const Result<SparseUpdateReport> r = UpdateSparseStore(store, *volume, box, options);
+  options.memory_bytes = memory_mb << 20;
+  options.threads = threads;
+  const Result<HzSparseUpdateReport> r = UpdateHzSparseStore(store, *volume, box, options);
   line.Finish();
   if (!r.ok()) Fail(r.status());
   if (as_json) {
     json j;
     SetJsonBytes(j, "store", store);
-    j["nodes_recomputed"] = r->nodes_recomputed;
-    j["nodes_written"] = r->nodes_written;
-    j["nodes_deleted"] = r->nodes_deleted;
-    j["vertices_written"] = r->vertices_written;
-    j["vertices_deleted"] = r->vertices_deleted;
-    j["nodes"] = r->header.nodes;
-    j["vertices"] = r->header.vertices;
-    j["map_growths"] = r->map_growths;
+    j["blocks_written"] = r->blocks_written;
+    j["blocks_deleted"] = r->blocks_deleted;
+    j["blocks_unchanged"] = r->blocks_unchanged;
+    j["blocks"] = r->header.blocks;
+    j["kept"] = r->header.kept;
     j["seconds"] = r->seconds;
     std::cout << j.dump() << "\n";
   } else if (!quiet) {
-    fmt::print("{}: box {} of {} re-imported in one transaction: {} nodes recomputed, {} written, "
-               "{} deleted; {} vertices written, {} deleted; now {} nodes, {} vertices ({:.2f} s)\n",
-               store, box_text, input, r->nodes_recomputed, r->nodes_written, r->nodes_deleted,
-               r->vertices_written, r->vertices_deleted, r->header.nodes, r->header.vertices,
-               r->seconds);
+    fmt::print("{}: box {} of {} re-imported in one transaction: {} blocks written, {} deleted, {} "
+               "unchanged; now {} blocks, {} kept vertices ({:.2f} s)\n",
+               store, box_text, input, r->blocks_written, r->blocks_deleted, r->blocks_unchanged,
+               r->header.blocks, r->header.kept, r->seconds);
   }
 }
 
 void RegisterUpdateCommand(CLI::App& app) {
   struct Args {
-    std::string store, input, box, mask;
+    std::string store, input, box;
+    size_t memory_mb = 8192;
+    int threads = 0;
     bool json = false, quiet = false;
   };
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand(
       "update",
       "Re-import a box of a volume into a sparse store, in one LMDB transaction: readers\n"
-      "see the old store or the new one, never a mix. Every node whose simplex meets the\n"
-      "box is recomputed from VOLUME (a whole simplex, so the top levels read all of it),\n"
-      "nodes appear or vanish by the store's tolerance, vertex values in the box follow.\n"
-      "VOLUME must have the store's grid and voxel type (or, with --mask or NIfTI scaling,\n"
-      "the integer type the store was imported from), and its values in the box must lie\n"
-      "in the store's field range (it fixes the error quantum).\n"
+      "see the old store or the new one, never a mix. The store becomes what importing\n"
+      "VOLUME with its tolerance gives; only the blocks that change are written. VOLUME\n"
+      "must have the store's grid and voxel type, and outside --box the values the store\n"
+      "holds (within its tolerance): a point that differs there is named and nothing is\n"
+      "written. The whole volume is read and rebuilt in memory (as import --sparse).\n"
       "Example: simplexdb update tooth.lmdb tooth-fixed.nrrd --box 10,10,10,40,40,40");
   cmd->add_option("store", a->store, "the sparse store to update")->required();
   cmd->add_option("volume", a->input, "the new volume (NRRD or NIfTI-1)")->required();
@@ -399,12 +437,13 @@ void RegisterUpdateCommand(CLI::App& app) {
                   "the grid points that changed, inclusive: x0,y0,z0,x1,y1,z1 (4D: "
                   "x0,y0,z0,t0,x1,y1,z1,t1)")
       ->required();
-  cmd->add_option("--mask", a->mask,
-                  "the mask the store was imported with, updated: 0 where the field is missing")
-      ->check(CLI::ExistingFile);
+  cmd->add_option("--memory-mb", a->memory_mb, "the rebuild's memory bound")->capture_default_str();
+  cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")->capture_default_str();
   cmd->add_flag("--json", a->json, "print the report as JSON");
   cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
-  cmd->callback([a] { RunUpdate(a->store, a->input, a->box, a->mask, a->json, a->quiet); });
+  cmd->callback([a] {
+    RunUpdate(a->store, a->input, a->box, a->memory_mb, a->threads, a->json, a->quiet);
+  });
 }
 
 }  // namespace simplexdb::tools

@@ -99,6 +99,7 @@ std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h) {
   j["version"] = h.version;
   j["hierarchy"] = h.dimension == 3 ? "ht" : "hp";
   j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
+  j["spacing"] = std::vector<double>(h.spacing.begin(), h.spacing.begin() + h.dimension);
   j["domain_bits"] = h.domain_bits;
   j["voxel_type"] = std::string(VoxelTypeName(h.voxel_type));
   j["quantization"] = std::string(QuantizationName(h.quantization));
@@ -143,6 +144,12 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
     const auto dims = j.at("dims").get<std::vector<uint32_t>>();
     if (static_cast<int>(dims.size()) != h.dimension) return bad("dims do not match the hierarchy");
     for (int a = 0; a < h.dimension; ++a) h.dims[a] = dims[a];
+    const auto spacing = j.at("spacing").get<std::vector<double>>();
+    if (static_cast<int>(spacing.size()) != h.dimension) return bad("spacing does not match the hierarchy");
+    for (int a = 0; a < h.dimension; ++a) {
+      if (!std::isfinite(spacing[a]) || !(spacing[a] > 0)) return bad("spacing must be finite and positive");
+      h.spacing[a] = spacing[a];
+    }
     h.domain_bits = j.at("domain_bits").get<int>();
     const int max_bits = h.dimension == 3 ? SimplexCode<3>::kMaxLevel / 3 : SimplexCode<4>::kMaxLevel / 4;
     if (h.domain_bits < 1 || h.domain_bits > max_bits) return bad("domain_bits out of range");

@@ -71,6 +71,7 @@ struct HzSparseHeader {
   uint32_t version = kHzSparseFormatVersion;
   int dimension = 3;  // 3: HT, 4: HP
   std::array<uint32_t, 4> dims = {1, 1, 1, 1};
+  std::array<double, 4> spacing = {1, 1, 1, 1};  // the input's, per axis (metadata)
   int domain_bits = 1;  // the domain [0, 2^k]^D
   VoxelType voxel_type = VoxelType::kU8;
   Quantization quantization = Quantization::kU16;

@@ -67,7 +67,7 @@ Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& pa
   store->quantizer_ = ErrorQuantizer(h.quantization, h.quantum, h.field_max - h.field_min);
   // Few shards: a decoded block is 12 bytes per position (3 MiB at the HT's
   // default 2^18), and a shard must hold several.
-  store->cache_ = std::make_shared<BlockCache>(options.cache_bytes, 4);
+  store->cache_ = options.cache ? options.cache : std::make_shared<BlockCache>(options.cache_bytes, 4);
   store->cache_id_ = BlockCache::NewStoreId();
   return store;
 }

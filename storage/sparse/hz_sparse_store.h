@@ -51,6 +51,7 @@ class HzSparseStore {
  public:
   struct Options {
     size_t cache_bytes = size_t{256} << 20;  // decoded blocks, for all readers
+    std::shared_ptr<BlockCache> cache;       // or this cache, shared with other stores
   };
 
   static Result<std::unique_ptr<HzSparseStore>> Open(const std::string& path, const Options& options);

@@ -44,18 +44,12 @@
 #include <string>
 
 #include "storage/error/progress.h"
+#include "storage/sparse/hz_sparse_update.h"  // GridBox
 #include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
 #include "util/status.h"
 
 namespace simplexdb {
-
-// Grid points [lo, hi] of the volume, inclusive, in its own coordinates
-// (x, y, z[, t]).
-struct GridBox {
-  std::array<int64_t, 4> lo = {0, 0, 0, 0};
-  std::array<int64_t, 4> hi = {0, 0, 0, 0};
-};
 
 struct SparseUpdateOptions {
   std::function<void(const BuildProgress&)> progress;  // phase "units"
