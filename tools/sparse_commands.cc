@@ -118,9 +118,9 @@ void ConvertDenseToSparse(const std::string& input, const std::string& output,
   ImportSparse(*volume, output, options, tolerance, as_json, quiet);
 }
 
-// The sparse store's rebuilt field (the input's values at t = 0), checked
-// whole first, written to a scratch NRRD beside the output and imported as a
-// dense store.
+// The sparse store's rebuilt field (the input's values at t = 0; within t,
+// or t + 0.5 for an integer type, at a tolerance t), checked whole first,
+// written to a scratch NRRD beside the output and imported as a dense store.
 template <int D>
 void ReadSparseField(const HzSparseStore& store, std::vector<double>& values, ProgressLine& line,
                      const std::string& output) {
@@ -135,7 +135,10 @@ void ReadSparseField(const HzSparseStore& store, std::vector<double>& values, Pr
     }
     Result<double> v = reader.Field(p);
     if (!v.ok()) Fail(v.status());
-    values[i] = *v;
+    // A dropped vertex of an integer field is rebuilt as a mean: rounded to
+    // the type (within t + 0.5 of the input; means of values in the type's
+    // range stay in it).
+    values[i] = IsFloatType(h.voxel_type) ? *v : std::round(*v);
     if ((i & 0xFFFFF) == 0) {
       line.Update(fmt::format("{}: field {}/{}", output, i, values.size()));
     }
@@ -337,7 +340,8 @@ void RegisterConvertCommand(CLI::App& app) {
       "Convert between the dense store and the sparse (LMDB, variable-resolution)\n"
       "store. --to sparse keeps a diamond only when its error or a descendant's exceeds\n"
       "--tolerance (0: lossless); --to dense checks every block of the sparse store\n"
-      "(a damaged one is refused), then rebuilds the full grid from it.\n"
+      "(a damaged one is refused), then rebuilds the full grid from it (at a tolerance,\n"
+      "an integer field's rebuilt values are rounded to its type).\n"
       "Example: simplexdb convert tooth.sdb --to sparse --tolerance 1% -o tooth.lmdb");
   cmd->add_option("store", a->input, "the store to read")->required();
   cmd->add_option("-o,--output", a->output, "the store to write")->required();

@@ -12,6 +12,7 @@
 #include "storage/dense/layout.h"
 #include "storage/dense/parallel_run.h"
 #include "storage/error/diamond_errors.h"
+#include "storage/error/field_values.h"
 #include "storage/error/finest_diamonds.h"
 #include "storage/error/mask.h"
 #include "storage/error/quantize.h"
@@ -135,7 +136,7 @@ class Builder {
     h.tolerance = options_.tolerance_percent ? options_.tolerance / 100 * (fmax_ - fmin_) : options_.tolerance;
     h.block_bits = options_.block_bits > 0 ? options_.block_bits : (D == 3 ? 18 : 20);
     h.spacing = input_.spacing;
-    h.source = input_.description;
+    h.source = DescribeSource(input_);
     h.source.resize(Utf8PrefixLength(h.source, 1000));
     const double range = fmax_ - fmin_;
     h.quantum = ErrorQuantizer::QuantumFor(h.quantization, range);
@@ -289,6 +290,7 @@ class Builder {
     for (uint64_t first = 0; first < field_.size(); first += kChunk) {
       const uint64_t n = std::min<uint64_t>(kChunk, field_.size() - first);
       SDB_RETURN_IF_ERROR(reader->Read(first, n, field_.data() + first));
+      SDB_RETURN_IF_ERROR(CheckStorableValues(input_, first, field_.data() + first, n));
       for (uint64_t i = first; i < first + n; ++i) {
         double& x = field_[i];
         if (std::isnan(x)) {

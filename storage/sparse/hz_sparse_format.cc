@@ -112,7 +112,8 @@ std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h) {
   j["blocks"] = h.blocks;
   j["kept"] = h.kept;
   j["source"] = h.source;
-  const std::string text = j.dump(2);
+  // Bytes that are not UTF-8 (a path's) are stored as U+FFFD.
+  const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
   std::vector<uint8_t> out(text.begin(), text.end());
   Append<uint64_t>(out, Checksum(std::span<const uint8_t>(out.data(), text.size())));
   return out;

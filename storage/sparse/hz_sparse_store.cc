@@ -99,8 +99,7 @@ HzSparseStore::Reader<D>::~Reader() = default;
 template <int D>
 Result<uint64_t> HzSparseStore::Reader<D>::Rebuild(uint64_t b) {
   SDB_ASSIGN_OR_RETURN(const View v, Materialize(b));
-  const uint64_t n = uint64_t{1} << store_.header().block_bits;
-  return static_cast<uint64_t>(n - static_cast<uint64_t>(std::count(v.states, v.states + n, kDropped)));
+  return static_cast<uint64_t>(v.kept);
 }
 
 template <int D>
@@ -120,6 +119,14 @@ Result<const typename HzSparseStore::Reader<D>::View*> HzSparseStore::Reader<D>:
   return &held;
 }
 
+namespace {
+
+// A compact decoded block of `kept` vertices: values, then offsets, then
+// states (doubles first, for their alignment).
+size_t CompactBytes(size_t kept) { return kept * (sizeof(double) + 2 * sizeof(uint32_t)); }
+
+}  // namespace
+
 template <int D>
 Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Fetch(uint64_t b) {
   const BlockCache::Key key{store_.cache_id_, b};
@@ -128,12 +135,34 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Fetch(
     SDB_ASSIGN_OR_RETURN(View made, Materialize(b));
     block = store_.cache_->Insert(key, made.block);
   }
-  const uint64_t n = uint64_t{1} << store_.header().block_bits;
   View v;
   v.b = b;
+  v.kept = block->size() / CompactBytes(1);
   v.values = reinterpret_cast<const double*>(block->data());
-  v.states = reinterpret_cast<const uint32_t*>(block->data() + n * sizeof(double));
+  v.offsets = reinterpret_cast<const uint32_t*>(block->data() + v.kept * sizeof(double));
+  v.states = v.offsets + v.kept;
   v.block = std::move(block);
+  return v;
+}
+
+template <int D>
+template <class ValueOf>
+Result<double> HzSparseStore::Reader<D>::RebuiltValue(const std::array<int64_t, D>& g, uint64_t p,
+                                                      ValueOf&& value) {
+  if (const auto it = rebuilt_values_.find(p); it != rebuilt_values_.end()) return it->second;
+  // The ends are coarser, so the recursion ends within the levels.
+  Status failed = Status::OK();
+  const double v = HzPredict<D>(g, dims_, true, [&](const std::array<int64_t, D>& q) -> double {
+    Result<double> end = value(q);
+    if (!end.ok()) {
+      failed = end.status();
+      return 0.0;
+    }
+    return *end;
+  });
+  SDB_RETURN_IF_ERROR(failed);
+  if (rebuilt_values_.size() >= kRebuiltValuesHeld) rebuilt_values_.clear();
+  rebuilt_values_.emplace(p, v);
   return v;
 }
 
@@ -142,21 +171,6 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
   const HzSparseHeader& h = store_.header();
   const int bb = h.block_bits;
   const uint64_t n = uint64_t{1} << bb, first = b << bb;
-  auto block = std::make_shared<BlockCache::Block>(n * (sizeof(double) + sizeof(uint32_t)));
-  auto* values = reinterpret_cast<double*>(block->data());
-  auto* states = reinterpret_cast<uint32_t*>(block->data() + n * sizeof(double));
-  std::fill(values, values + n, std::numeric_limits<double>::quiet_NaN());
-  std::fill(states, states + n, kDropped);
-  struct Vertex {
-    uint32_t offset;
-    std::array<int64_t, D> g;
-  };
-  std::vector<Vertex> vertices;
-  if (HzBlockMayHoldVertices<D>(bb, b)) {
-    ForEachHzVertex<D>(order_, first, n, [&](uint64_t p, const std::array<int64_t, D>& g) {
-      vertices.push_back(Vertex{static_cast<uint32_t>(p - first), g});
-    });
-  }
   if (txn_ == nullptr) {
     SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*store_.env_, /*read_only=*/true));
     txn_ = std::make_unique<lmdb::Txn>(std::move(txn));
@@ -164,23 +178,68 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
   bool found = false;
   const std::array<uint8_t, 8> key = lmdb::KeyBytes(b);
   SDB_ASSIGN_OR_RETURN(const std::span<const uint8_t> value, txn_->Get(store_.blocks_db_, key, &found));
-  HzSparseBlock decoded;
-  if (found) {
-    SDB_ASSIGN_OR_RETURN(decoded, DecodeHzSparseBlock(b, value, static_cast<uint32_t>(vertices.size()),
-                                                      HzSparseErrorWidth(h.quantization),
-                                                      HzSparseVoxelWidth(h.voxel_type), zstd_, store_.path()));
-    store_.decoded_.fetch_add(1, std::memory_order_relaxed);
-  } else {
+  View out;
+  out.b = b;
+  if (!found) {
     if (b == 0) return Status::Corruption(store_.path() + ": block 0 (the domain's corners) is missing");
     store_.rebuilt_.fetch_add(1, std::memory_order_relaxed);
+    out.block = std::make_shared<BlockCache::Block>();
+    return out;
   }
-  // Values at coarser vertices: this block's (filled in position order, so
-  // coarser first) or another's.
+  // The kept vertices, by the bitmap over the block's domain vertices.
+  struct Vertex {
+    uint32_t offset;
+    std::array<int64_t, D> g;
+  };
+  std::vector<Vertex> kept;
+  uint32_t vertices = 0;
+  std::vector<uint8_t> bitmap;
+  {
+    // Count first (the decoder checks the count against the value), then
+    // decode, then pick the kept ones.
+    if (HzBlockMayHoldVertices<D>(bb, b)) {
+      ForEachHzVertex<D>(order_, first, n, [&](uint64_t, const std::array<int64_t, D>&) { ++vertices; });
+    }
+  }
+  SDB_ASSIGN_OR_RETURN(HzSparseBlock decoded,
+                       DecodeHzSparseBlock(b, value, vertices, HzSparseErrorWidth(h.quantization),
+                                           HzSparseVoxelWidth(h.voxel_type), zstd_, store_.path()));
+  store_.decoded_.fetch_add(1, std::memory_order_relaxed);
+  kept.reserve(decoded.residuals.size());
+  if (vertices != 0) {
+    uint32_t i = 0;
+    ForEachHzVertex<D>(order_, first, n, [&](uint64_t p, const std::array<int64_t, D>& g) {
+      if (decoded.IsKept(i++)) kept.push_back(Vertex{static_cast<uint32_t>(p - first), g});
+    });
+  }
+  if (kept.size() != decoded.residuals.size()) {
+    return Status::Corruption(store_.path() + ": block " + std::to_string(b) + " keeps " +
+                              std::to_string(kept.size()) + " vertices and holds " +
+                              std::to_string(decoded.residuals.size()) + " values");
+  }
+  auto block = std::make_shared<BlockCache::Block>(CompactBytes(kept.size()));
+  auto* values = reinterpret_cast<double*>(block->data());
+  auto* offsets = reinterpret_cast<uint32_t*>(block->data() + kept.size() * sizeof(double));
+  uint32_t* states = offsets + kept.size();
+  for (size_t i = 0; i < kept.size(); ++i) offsets[i] = kept[i].offset;
+  out.kept = kept.size();
+  out.values = values;
+  out.offsets = offsets;
+  out.states = states;
+  // Values at coarser vertices: this block's (kept ones are filled in
+  // position order, so coarser first; dropped ones rebuilt from their ends)
+  // or another's.
   Status failed = Status::OK();
-  const auto value_at = [&](const std::array<int64_t, D>& q) -> double {
+  std::function<Result<double>(const std::array<int64_t, D>&)> value_of;
+  value_of = [&](const std::array<int64_t, D>& q) -> Result<double> {
     const uint64_t p = order_.Position(q);
-    if ((p >> bb) == b) return values[p - first];
-    Result<double> v = Value(q);
+    if ((p >> bb) != b) return Value(q);
+    const size_t i = out.Find(static_cast<uint32_t>(p - first));
+    if (i != out.kept) return values[i];
+    return RebuiltValue(q, p, value_of);
+  };
+  const auto value_at = [&](const std::array<int64_t, D>& q) -> double {
+    Result<double> v = value_of(q);
     if (!v.ok()) {
       failed = v.status();
       return 0.0;
@@ -188,41 +247,39 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
     return *v;
   };
   const int finest_first = D * (h.domain_bits - 1);
-  size_t r = 0, e = 0;
-  for (size_t i = 0; i < vertices.size(); ++i) {
-    const Vertex& v = vertices[i];
+  size_t e = 0;
+  for (size_t i = 0; i < kept.size(); ++i) {
+    const Vertex& v = kept[i];
     const int level = order_.LevelAt(first + v.offset);
-    const bool kept = found && decoded.IsKept(static_cast<uint32_t>(i));
-    if (level < 0) {  // a domain corner: always kept, predicted 0
-      if (!kept) return Status::Corruption(store_.path() + ": block 0 drops a domain corner");
-      values[v.offset] = HzFromResidual(h.voxel_type, decoded.residuals[r++], 0.0);
-      states[v.offset] = 0;
+    if (level < 0) {  // a domain corner: predicted 0
+      values[i] = HzFromResidual(h.voxel_type, decoded.residuals[i], 0.0);
+      states[i] = 0;
       continue;
     }
-    if (kept) {
-      const double p = HzPredict<D>(v.g, dims_, false, value_at);
-      values[v.offset] = HzFromResidual(h.voxel_type, decoded.residuals[r++], p);
-      if (level < finest_first) {
-        if (e >= decoded.errors.size()) {
-          return Status::Corruption(store_.path() + ": block " + std::to_string(b) + " holds too few errors");
-        }
-        states[v.offset] = decoded.errors[e++];
-      } else {
-        states[v.offset] = kFinestKept;
-      }
-    } else {
-      values[v.offset] = HzPredict<D>(v.g, dims_, true, value_at);
-    }
+    const double p = HzPredict<D>(v.g, dims_, false, value_at);
     SDB_RETURN_IF_ERROR(failed);
+    values[i] = HzFromResidual(h.voxel_type, decoded.residuals[i], p);
+    if (level < finest_first) {
+      if (e >= decoded.errors.size()) {
+        return Status::Corruption(store_.path() + ": block " + std::to_string(b) + " holds too few errors");
+      }
+      states[i] = decoded.errors[e++];
+    } else {
+      states[i] = kFinestKept;
+    }
   }
-  if (found && e != decoded.errors.size()) {
+  if (b == 0) {  // every domain corner kept
+    size_t corners = 0;
+    for (size_t i = 0; i < kept.size(); ++i) corners += order_.LevelAt(first + kept[i].offset) < 0;
+    if (corners != (size_t{1} << D)) {
+      return Status::Corruption(store_.path() + ": block 0 drops a domain corner");
+    }
+  }
+  if (e != decoded.errors.size()) {
     return Status::Corruption(store_.path() + ": block " + std::to_string(b) + " holds " +
                               std::to_string(decoded.errors.size()) + " errors; its kept diamonds need " +
                               std::to_string(e));
   }
-  View out;
-  out.values = values;
-  out.states = states;
   out.block = std::move(block);
   return out;
 }
@@ -231,7 +288,9 @@ template <int D>
 Result<double> HzSparseStore::Reader<D>::Value(const std::array<int64_t, D>& g) {
   const uint64_t p = order_.Position(g);
   SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
-  return v->values[p & ((uint64_t{1} << store_.header().block_bits) - 1)];
+  const size_t i = v->Find(static_cast<uint32_t>(p & ((uint64_t{1} << store_.header().block_bits) - 1)));
+  if (i != v->kept) return v->values[i];
+  return RebuiltValue(g, p, [this](const std::array<int64_t, D>& q) { return Value(q); });
 }
 
 template <int D>
@@ -256,9 +315,7 @@ template <int D>
 Result<bool> HzSparseStore::Reader<D>::Kept(const std::array<int64_t, D>& g) {
   const uint64_t p = order_.Position(g);
   SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
-  std::atomic_ref<uint32_t> state(
-      const_cast<uint32_t*>(v->states)[p & ((uint64_t{1} << store_.header().block_bits) - 1)]);
-  return state.load(std::memory_order_relaxed) != kDropped;
+  return v->Find(static_cast<uint32_t>(p & ((uint64_t{1} << store_.header().block_bits) - 1))) != v->kept;
 }
 
 template <int D>
@@ -305,12 +362,12 @@ Result<double> HzSparseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
   const std::array<int64_t, D> g = LatticeToGrid<D>(cursor_.Of(code), k);
   const uint64_t p = order_.PositionAtLevel(g, code.level());
   SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
+  const size_t i = v->Find(static_cast<uint32_t>(p & ((uint64_t{1} << store_.header().block_bits) - 1)));
+  if (i == v->kept) return 0.0;  // dropped
   // The block was made (non-const) by Materialize and published through
   // the cache's lock; finest codes are filled in with atomic stores.
-  std::atomic_ref<uint32_t> state(
-      const_cast<uint32_t*>(v->states)[p & ((uint64_t{1} << store_.header().block_bits) - 1)]);
+  std::atomic_ref<uint32_t> state(const_cast<uint32_t*>(v->states)[i]);
   const uint32_t s = state.load(std::memory_order_relaxed);
-  if (s == kDropped) return 0.0;
   if (s != kFinestKept) return store_.quantizer().Decode(s);
   const std::shared_ptr<const BlockCache::Block> keep = v->block;  // FinestCode may move the held views
   SDB_ASSIGN_OR_RETURN(const uint32_t c, FinestCode(g));

@@ -25,12 +25,14 @@
 // lookups return Corruption for a damaged block.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
+#include <unordered_map>
 
 #include "hierarchy/hz_order.h"
 #include "hierarchy/simplex_code.h"
@@ -71,7 +73,7 @@ class HzSparseStore {
 
   struct Stats {
     uint64_t blocks_decoded = 0;  // entries decoded (cache misses)
-    uint64_t blocks_rebuilt = 0;  // blocks without an entry, rebuilt
+    uint64_t blocks_rebuilt = 0;  // blocks without an entry met
   };
   Stats stats() const;
 
@@ -92,18 +94,29 @@ class HzSparseStore {
     Result<uint64_t> Rebuild(uint64_t b);
 
    private:
+    // A decoded block, compact: its kept vertices only, by offset in the
+    // block (ascending), with their values and states. A block without an
+    // entry has none. Dropped vertices' values are rebuilt as asked.
     struct View {
       uint64_t b = ~uint64_t{0};
       std::shared_ptr<const BlockCache::Block> block;
+      size_t kept = 0;
       const double* values = nullptr;
+      const uint32_t* offsets = nullptr;
       const uint32_t* states = nullptr;
+      // The index of the kept vertex at `offset`, or kept when it is dropped.
+      size_t Find(uint32_t offset) const {
+        const uint32_t* it = std::lower_bound(offsets, offsets + kept, offset);
+        return it != offsets + kept && *it == offset ? static_cast<size_t>(it - offsets) : kept;
+      }
     };
-    // The block holding position p, held per segment (level and odd-axis
-    // pattern, hierarchy/hz_order.h): a walk, and a block's rebuild, read
-    // each segment a region at a time.
     Result<const View*> Get(uint64_t p);
     Result<View> Fetch(uint64_t b);
     Result<View> Materialize(uint64_t b);
+    // The value of dropped vertex g (at position p): the mean of its split
+    // edge's ends (through `value`), remembered.
+    template <class Value>
+    Result<double> RebuiltValue(const std::array<int64_t, D>& g, uint64_t p, Value&& value);
     // The rebuilt value of domain vertex g (at position p).
     Result<double> Value(const std::array<int64_t, D>& g);
     Result<uint32_t> FinestCode(const std::array<int64_t, D>& g);
@@ -117,14 +130,17 @@ class HzSparseStore {
     std::array<View, (kCoordBits<D> + 1) << D> held_;
     DiamondStencils<D> stencils_;
     std::array<double, D == 3 ? 125 : 625> window_{};
+    // Dropped vertices' values rebuilt, by position; cleared when it
+    // reaches kRebuiltValuesHeld (about 64 MiB).
+    static constexpr size_t kRebuiltValuesHeld = size_t{1} << 21;
+    std::unordered_map<uint64_t, double> rebuilt_values_;
   };
 
-  // A position's state in a decoded block: dropped (or not a vertex), kept
-  // in the finest octave with its error not computed yet, or the code. A
+  // A kept vertex's state in a decoded block: kept in the finest octave
+  // with its error not computed yet, or the code. A
   // reader computing a finest code writes it into the cached block (an
   // atomic store of the one value any reader would compute), so the
   // readers of a store compute each once while the block stays cached.
-  static constexpr uint32_t kDropped = 0xFFFFFFFFu;
   static constexpr uint32_t kFinestKept = 0xFFFFFFFEu;
 
  private:

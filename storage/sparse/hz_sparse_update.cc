@@ -14,6 +14,7 @@
 #include "storage/io/file.h"
 #include "storage/io/lmdb.h"
 #include "storage/sparse/hz_sparse_builder.h"
+#include "storage/error/field_values.h"
 #include "storage/error/mask.h"
 #include "storage/sparse/hz_sparse_store.h"
 
@@ -41,6 +42,7 @@ Status CompareOutsideBox(const HzSparseStore& store, const VolumeInfo& volume, c
   for (uint64_t first = 0; first < count; first += kChunk) {
     const uint64_t n = std::min(kChunk, count - first);
     SDB_RETURN_IF_ERROR(in->Read(first, n, values.data()));
+    SDB_RETURN_IF_ERROR(CheckStorableValues(volume, first, values.data(), n));
     for (uint64_t i = 0; i < n; ++i) {
       uint64_t rest = first + i;
       bool inside = true;

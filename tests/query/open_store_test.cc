@@ -12,6 +12,7 @@
 #include "query/refine.h"
 #include "query/source.h"
 #include "storage/dense/hz_builder.h"
+#include "storage/sparse/hz_sparse_builder.h"
 #include "tests/query/query_test_util.h"
 
 namespace simplexdb {
@@ -21,10 +22,10 @@ using testing::TempDir;
 using testing::TestVolume;
 
 // The read interface's concept: the stores' sources and the tests' own model
-// it; only the dense sources answer threshold tests from their indexes.
+// it.
 static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);
 static_assert(ReadSource<HzSource<3>, 3> && ReadSource<HzSource<4>, 4>);
-static_assert(ReadSource<SparseSource<3>, 3> && !ThresholdReadSource<SparseSource<3>, 3>);
+static_assert(ReadSource<HzSparseSource<3>, 3> && ReadSource<HzSparseSource<4>, 4>);
 static_assert(ReadSource<testing::FullSource<3>, 3> && ReadSource<testing::FullSource<4>, 4>);
 static_assert(!ReadSource<DenseSource<3>, 4>);  // a source serves one hierarchy
 static_assert(!ReadSource<int, 3>);
@@ -53,17 +54,31 @@ std::unique_ptr<HzStore> BuildHz(const TestVolume& volume, const std::string& di
   return std::move(store).value();
 }
 
+// The sparse store (format 2) of `volume` at tolerance t, at dir/name.lmdb.
+std::unique_ptr<HzSparseStore> BuildHzSparse(const TestVolume& volume, const std::string& dir,
+                                             const std::string& name, double t) {
+  const std::string nrrd = dir + "/" + name + ".nrrd";
+  EXPECT_TRUE(volume.WriteNrrd(nrrd).ok());
+  const std::string path = dir + "/" + name + ".lmdb";
+  HzSparseBuildOptions options;
+  options.tolerance = t;
+  const auto built = BuildHzSparseStore(*OpenVolume(nrrd), path, options);
+  EXPECT_TRUE(built.ok()) << built.status().message();
+  auto store = HzSparseStore::Open(path, {});
+  EXPECT_TRUE(store.ok()) << store.status().message();
+  return std::move(store).value();
+}
+
 template <int D>
 void CheckVisits(uint32_t side) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(D, {side, side, side, D == 4 ? side : 1}, VoxelType::kU8, 3);
   auto hz = BuildHz(volume, dir.path(), "d");
-  // The sparse store keeps each node's own error: its own mesh.
-  auto per_node = testing::BuildDense(volume, dir.path(), "f1");
-  auto sparse = testing::BuildSparse(*per_node, dir.path() + "/s.lmdb", 0);
+  // At a tolerance the sparse store's mesh is its own.
+  auto sparse = BuildHzSparse(volume, dir.path(), "s", 2.0);
   const double threshold = (hz->header().field_max - hz->header().field_min) * 0.1;
   HzSource<D> hz_direct(*hz);
-  SparseSource<D> sparse_direct = *SparseSource<D>::Create(*sparse);
+  HzSparseSource<D> sparse_direct(*sparse);
   const std::vector<uint64_t> want_dense = DepthFirstLeaves<D>(hz_direct, threshold);
   const std::vector<uint64_t> want_sparse = DepthFirstLeaves<D>(sparse_direct, threshold);
   ASSERT_GT(want_dense.size(), size_t{SimplexCode<D>::kRoots});
@@ -88,7 +103,7 @@ void CheckVisits(uint32_t side) {
       ++calls;
       EXPECT_EQ(E, D);
       EXPECT_EQ((std::is_same_v<Source, HzSource<E>>), kind == StoreKind::kDense);
-      EXPECT_EQ((std::is_same_v<Source, SparseSource<E>>), kind == StoreKind::kSparse);
+      EXPECT_EQ((std::is_same_v<Source, HzSparseSource<E>>), kind == StoreKind::kSparse);
       EXPECT_EQ(source.info().path, path);
       EXPECT_EQ(source.info().domain_bits, store->info().domain_bits);
       if constexpr (E == D) {
@@ -104,7 +119,7 @@ void CheckVisits(uint32_t side) {
     EXPECT_TRUE(store->Visit([]<int E, class Source>(Source&) {}).ok());
     // Moving the handle keeps the stores where they are.
     const HzStore* d = store->hz();
-    const SparseStore* sp = store->sparse();
+    const HzSparseStore* sp = store->sparse();
     AnyStore moved = *std::move(store);
     EXPECT_EQ(moved.hz(), d);
     EXPECT_EQ(moved.sparse(), sp);
@@ -122,8 +137,7 @@ TEST(OpenStore, OptionsReachTheDenseStore) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(3, {9, 9, 9, 1}, VoxelType::kU8, 4);
   BuildHz(volume, dir.path(), "d");
-  auto per_node = testing::BuildDense(volume, dir.path(), "f1");
-  auto sparse = testing::BuildSparse(*per_node, dir.path() + "/s.lmdb", 0);
+  BuildHzSparse(volume, dir.path(), "s", 0);
   StoreOptions options;
   options.cache_bytes = 12345;
   Result<AnyStore> cached = AnyStore::Open(dir.path() + "/d.sdb", options);
@@ -139,7 +153,17 @@ TEST(OpenStore, OptionsReachTheDenseStore) {
   EXPECT_EQ(opened.blocks_decoded + opened.raw_checked,
             in_memory->hz()->stored_blocks() + in_memory->hz()->bricks());
   EXPECT_GT(in_memory->hz()->cache()->capacity(), options.cache_bytes);
-  // The LMDB store is read in place: in_memory is a mistake, said so.
+  // A shared cache is the sparse store's too.
+  StoreOptions shared;
+  shared.cache = std::make_shared<BlockCache>(size_t{1} << 20);
+  Result<AnyStore> sparse = AnyStore::Open(dir.path() + "/s.lmdb", shared);
+  ASSERT_TRUE(sparse.ok()) << sparse.status().ToString();
+  EXPECT_TRUE(sparse->Visit([]<int E, class Source>(Source& source) -> Status {
+                      return source.Error(SimplexCode<E>::Root(0)).status();
+                    })
+                  .ok());
+  EXPECT_GT(shared.cache->charge(), 0u);
+  // The sparse store decodes blocks as read: in_memory is a mistake, said so.
   Result<AnyStore> lmdb = AnyStore::Open(dir.path() + "/s.lmdb", options);
   ASSERT_FALSE(lmdb.ok());
   EXPECT_TRUE(lmdb.status().IsInvalidArgument());
@@ -161,8 +185,9 @@ TEST(OpenStore, SaysWhyAPathIsNotAStore) {
   EXPECT_EQ(calls, 0);
 }
 
-// A dense store of format 1 (one error per simplex: what the engine still
-// writes as scratch) is refused, saying to import again.
+// A store of format 1 (dense: one error per simplex, what the engine still
+// writes as scratch; sparse: one LMDB entry per node) is refused, saying to
+// import again.
 TEST(OpenStore, RefusesFormatOneSayingToImportAgain) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(3, {9, 9, 9, 1}, VoxelType::kU8, 5);
@@ -173,6 +198,14 @@ TEST(OpenStore, RefusesFormatOneSayingToImportAgain) {
   EXPECT_NE(store.status().message().find("f1.sdb"), std::string_view::npos);
   EXPECT_NE(store.status().message().find("format-1"), std::string_view::npos);
   EXPECT_NE(store.status().message().find("import the volume again"), std::string_view::npos);
+  auto per_node = testing::BuildDense(volume, dir.path(), "f1");
+  testing::BuildSparse(*per_node, dir.path() + "/s1.lmdb", 0);
+  EXPECT_EQ(ProbeStoreKind(dir.path() + "/s1.lmdb"), StoreKind::kSparse);
+  const Result<AnyStore> sparse = AnyStore::Open(dir.path() + "/s1.lmdb");
+  ASSERT_FALSE(sparse.ok());
+  EXPECT_TRUE(sparse.status().IsNotSupported()) << sparse.status().ToString();
+  EXPECT_NE(sparse.status().message().find("s1.lmdb"), std::string_view::npos);
+  EXPECT_NE(sparse.status().message().find("import the volume again"), std::string_view::npos);
 }
 
 }  // namespace
