@@ -15,7 +15,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 sides=("$@")
 [[ ${#sides[@]} -gt 0 ]] || sides=(257 513)
-printf "%-6s %14s %14s %8s %10s\n" side dense_bytes sparse_bytes ratio nodes
+printf "%-6s %14s %14s %8s %10s\n" side dense_bytes sparse_bytes ratio kept
 for n in "${sides[@]}"; do
   python3 - "$n" "$work/u.nrrd" <<'PY'
 import random, sys
@@ -41,7 +41,7 @@ PY
   "$simplexdb" import "$work/u.nrrd" --sparse -o "$work/u.lmdb" -q
   dense=$(stat -c %s "$work/u.sdb")
   sparse=$(stat -c %s "$work/u.lmdb")
-  nodes=$("$simplexdb" info "$work/u.lmdb" --json | python3 -c 'import json,sys; print(json.load(sys.stdin)["nodes"])')
+  nodes=$("$simplexdb" info "$work/u.lmdb" --json | python3 -c 'import json,sys; print(json.load(sys.stdin)["kept"])')
   printf "%-6s %14d %14d %8.2f %10d\n" "$n" "$dense" "$sparse" "$(python3 -c "print($dense / $sparse)")" "$nodes"
   rm -f "$work/u.nrrd" "$work/u.sdb" "$work/u.lmdb" "$work/u.lmdb-lock"
 done

@@ -1,4 +1,4 @@
-// Sparse store format 2 (docs/format/sparse-store-2.md): the header and the
+// Sparse store format 2 (docs/format/sparse-store.md): the header and the
 // one LMDB value per block of the hierarchical Z-order.
 //
 // The store keeps the diamonds (hierarchy/hz_order.h) that matter at its

@@ -1,5 +1,5 @@
 // SparseStore: the variable-resolution store of the seed's conclusions, in
-// LMDB (docs/format/sparse-store.md). Only the part of the hierarchy that
+// LMDB (docs/format/sparse-store-1.md). Only the part of the hierarchy that
 // carries information is stored:
 //
 //   "errors"  packed location code (8 bytes, big-endian: LMDB's key order is
