@@ -31,10 +31,8 @@
 #include "query/open_store.h"
 #include "query/refine.h"
 #include "query/source.h"
-#include "storage/dense/dense_builder.h"
-#include "storage/dense/dense_store.h"
 #include "storage/dense/hz_builder.h"
-#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/hz_sparse_builder.h"
 #include "storage/volume/volume.h"
 
 namespace simplexdb {
@@ -74,10 +72,8 @@ QueryStores MakeStores(int dimension, uint32_t side) {
   s.open.emplace_back("raw", OpenOrDie(base + "_raw.sdb", raw));
   s.open.emplace_back("zstd-warm", OpenOrDie(s.zstd_path, warm));
   s.open.emplace_back("zstd-nocache", OpenOrDie(s.zstd_path, nocache));
-  // The sparse store from the per-node engine's store, as import --sparse.
-  if (!BuildDenseStore(in, base + "_nodes.sdb", DenseBuildOptions{}).ok()) std::abort();
-  const std::unique_ptr<DenseStore> nodes = *DenseStore::Open(base + "_nodes.sdb");
-  if (!ConvertDenseToSparse(*nodes, base + ".lmdb", SparseBuildOptions{}).ok()) std::abort();
+  // The lossless sparse store, as import --sparse.
+  if (!BuildHzSparseStore(in, base + ".lmdb", HzSparseBuildOptions{}).ok()) std::abort();
   s.open.emplace_back("lmdb", OpenOrDie(base + ".lmdb", StoreOptions{}));
   return s;
 }

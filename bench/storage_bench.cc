@@ -231,9 +231,9 @@ void RegisterSizes() {
             const nlohmann::json& info = j["info"];
             const double points = info.value("grid_points", 1.0);
             state.counters["bytes_per_point"] = info.value("bytes_per_grid_point", 0.0);
-            if (c == "sparse") {  // the lossless sparse store: nodes kept
-              state.counters["nodes"] = info.value("nodes", 0.0);
-              state.counters["complete_nodes"] = info.value("complete_nodes", 0.0);
+            if (c == "sparse") {  // the lossless sparse store: vertices kept
+              state.counters["kept"] = info.value("kept", 0.0);
+              state.counters["domain_vertices"] = info.value("domain_vertices", 0.0);
               return;
             }
             state.counters["error_bytes_per_point"] = info.value("stored_error_bytes", 0.0) / points;
