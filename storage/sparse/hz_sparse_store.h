@@ -33,6 +33,7 @@
 #include <memory>
 #include <string>
 #include <unordered_map>
+#include <vector>
 
 #include "hierarchy/hz_order.h"
 #include "hierarchy/simplex_code.h"
@@ -130,6 +131,13 @@ class HzSparseStore {
     std::array<View, (kCoordBits<D> + 1) << D> held_;
     DiamondStencils<D> stencils_;
     std::array<double, D == 3 ? 125 : 625> window_{};
+    // Rebuilt values of recent windows' points, direct-mapped by grid point.
+    struct WindowMemo {
+      uint64_t key = ~uint64_t{0};
+      double value = 0;
+    };
+    static constexpr int kWindowMemoBits = 16;
+    std::vector<WindowMemo> window_memo_;
     // Dropped vertices' values rebuilt, by position; cleared when it
     // reaches kRebuiltValuesHeld (about 64 MiB).
     static constexpr size_t kRebuiltValuesHeld = size_t{1} << 21;
