@@ -312,7 +312,7 @@ void RegisterExtractCommand(CLI::App& app) {
   cmd->add_flag("--in-memory", args->in_memory,
                 "Decode the whole dense store and compute its finest errors at open (in-core: "
                 "slower to open, for comparing with out-of-core)");
-  cmd->add_option("--cache-mb", args->cache_mb, "Block cache budget of a dense store, MiB (out-of-core)")
+  cmd->add_option("--cache-mb", args->cache_mb, "Block cache budget, MiB (out-of-core)")
       ->capture_default_str();
   cmd->add_flag("--check", args->check, "Check the result's conformity from geometry (exit 3 if not)");
   AddForceOption(cmd, &args->force);

@@ -65,8 +65,8 @@ Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& pa
   SDB_RETURN_IF_ERROR(txn.Commit());
   const HzSparseHeader& h = store->header_;
   store->quantizer_ = ErrorQuantizer(h.quantization, h.quantum, h.field_max - h.field_min);
-  // Few shards: a decoded block is 12 bytes per position (3 MiB at the HT's
-  // default 2^18), and a shard must hold several.
+  // Few shards: a decoded block is 16 bytes per kept vertex (up to 4 MiB at
+  // the HT's default 2^18 positions), and a shard must hold several.
   store->cache_ = options.cache ? options.cache : std::make_shared<BlockCache>(options.cache_bytes, 4);
   store->cache_id_ = BlockCache::NewStoreId();
   return store;
@@ -193,14 +193,11 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
     std::array<int64_t, D> g;
   };
   std::vector<Vertex> kept;
+  // Count first (the decoder checks the count against the value), then
+  // decode, then pick the kept ones.
   uint32_t vertices = 0;
-  std::vector<uint8_t> bitmap;
-  {
-    // Count first (the decoder checks the count against the value), then
-    // decode, then pick the kept ones.
-    if (HzBlockMayHoldVertices<D>(bb, b)) {
-      ForEachHzVertex<D>(order_, first, n, [&](uint64_t, const std::array<int64_t, D>&) { ++vertices; });
-    }
+  if (HzBlockMayHoldVertices<D>(bb, b)) {
+    ForEachHzVertex<D>(order_, first, n, [&](uint64_t, const std::array<int64_t, D>&) { ++vertices; });
   }
   SDB_ASSIGN_OR_RETURN(HzSparseBlock decoded,
                        DecodeHzSparseBlock(b, value, vertices, HzSparseErrorWidth(h.quantization),
