@@ -402,8 +402,7 @@ Result<HzSparseBuildReport> BuildHzSparseStore(const VolumeInfo& input, const st
       SDB_RETURN_IF_ERROR(b.Run(*env, blocks, &report));
     }
     lmdb::BatchWriter meta_writer(*env);
-    static constexpr uint8_t kHeaderKey[] = {'h', 'e', 'a', 'd', 'e', 'r'};
-    SDB_RETURN_IF_ERROR(meta_writer.Put(meta, kHeaderKey, EncodeHzSparseHeader(report.header), false));
+    SDB_RETURN_IF_ERROR(meta_writer.Put(meta, kHzSparseHeaderKey, EncodeHzSparseHeader(report.header), false));
     SDB_RETURN_IF_ERROR(meta_writer.Flush());
     SDB_RETURN_IF_ERROR(env->Sync());
   }

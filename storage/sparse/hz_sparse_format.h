@@ -91,6 +91,9 @@ struct HzSparseHeader {
   }
 };
 
+// The header's key in the "meta" database (the blocks are in "blocks").
+inline constexpr uint8_t kHzSparseHeaderKey[] = {'h', 'e', 'a', 'd', 'e', 'r'};
+
 // The header's LMDB value: its JSON text and an XXH3-64 of the text.
 std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h);
 // Checks the checksum, the fields and their ranges. Errors: Corruption

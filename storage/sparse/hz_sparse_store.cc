@@ -17,8 +17,6 @@
 namespace simplexdb {
 namespace {
 
-constexpr uint8_t kHeaderKey[] = {'h', 'e', 'a', 'd', 'e', 'r'};
-
 template <int D>
 std::array<int64_t, D> WindowStrides() {
   std::array<int64_t, D> s{};
@@ -58,7 +56,7 @@ Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& pa
   }
   store->blocks_db_ = *blocks;
   bool found = false;
-  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn.Get(*meta, kHeaderKey, &found));
+  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn.Get(*meta, kHzSparseHeaderKey, &found));
   if (!found) return Status::Corruption(path + ": sparse store without a header");
   SDB_ASSIGN_OR_RETURN(store->header_, DecodeHzSparseHeader(value, path));
   // Committing a read-only transaction keeps its database handles open.

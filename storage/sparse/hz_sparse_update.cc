@@ -184,8 +184,7 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
     return txn.Put(blocks, key, value);
   };
   SDB_RETURN_IF_ERROR(ForEachEntry(in, in_blocks, put_changed));
-  static constexpr uint8_t kHeaderKey[] = {'h', 'e', 'a', 'd', 'e', 'r'};
-  SDB_RETURN_IF_ERROR(txn.Put(meta, kHeaderKey, EncodeHzSparseHeader(built.header)));
+  SDB_RETURN_IF_ERROR(txn.Put(meta, kHzSparseHeaderKey, EncodeHzSparseHeader(built.header)));
   in.Abort();
   SDB_RETURN_IF_ERROR(txn.Commit());
   if (options.progress) {
