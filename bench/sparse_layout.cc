@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::vector<double> percents;
-  int block_bits = 0, level = 3;
+  int block_bits = 0, level = 0;  // 0: the builder's default
   std::string dims_text, type_text;
   for (int i = 3; i + 1 < argc; i += 2) {
     if (std::strcmp(argv[i], "--block-bits") == 0) block_bits = std::atoi(argv[i + 1]);
@@ -51,7 +51,7 @@ int main(int argc, char** argv) {
   for (const double percent : percents) {
     HzSparseBuildOptions o;
     o.block_bits = block_bits;
-    o.zstd_level = level;
+    if (level > 0) o.zstd_level = level;
     o.tolerance = percent;
     o.tolerance_percent = true;
     const Result<HzSparseBuildReport> built = BuildHzSparseStore(*info, out, o);

@@ -115,6 +115,7 @@ void ConvertDenseToSparse(const std::string& input, const std::string& output,
   DenseBuildOptions options;
   options.memory_bytes = memory_bytes;
   options.quantization = h.quantization;
+  options.zstd_level = 0;  // the sparse store's default
   ImportSparse(*volume, output, options, tolerance, as_json, quiet);
 }
 
@@ -260,6 +261,7 @@ void RunSparseInfo(const std::string& path, bool as_json) {
     j["field_max"] = h.field_max;
     j["error_max"] = h.error_max;
     j["tolerance"] = h.tolerance;
+    j["value_step"] = h.value_step;
     j["block_bits"] = h.block_bits;
     j["blocks"] = h.blocks;
     j["kept"] = h.kept;
@@ -276,9 +278,10 @@ void RunSparseInfo(const std::string& path, bool as_json) {
              VoxelTypeName(h.voxel_type), points, h.source);
   fmt::print("  domain      side 2^{} + 1 = {}, {} levels\n", h.domain_bits,
              (uint64_t{1} << h.domain_bits) + 1, h.dimension * h.domain_bits);
-  fmt::print("  field       {} .. {}; the values of {} kept vertices of {:.4g} ({:.3g}%)\n",
+  fmt::print("  field       {} .. {}; the values of {} kept vertices of {:.4g} ({:.3g}%), {}\n",
              h.field_min, h.field_max, h.kept, domain_vertices,
-             100.0 * static_cast<double>(h.kept) / domain_vertices);
+             100.0 * static_cast<double>(h.kept) / domain_vertices,
+             h.value_step > 0 ? fmt::format("to within {:.6g}", h.value_step / 2) : "exact");
   fmt::print("  errors      {} (quantum {:.6g}), largest {:.6g}; diamonds within {:.6g} "
              "dropped\n",
              QuantizationName(h.quantization), h.quantum, h.error_max, h.tolerance);
@@ -310,7 +313,7 @@ void ImportSparse(const VolumeInfo& input, const std::string& output, const Dens
   }
   HzSparseBuildOptions options;
   options.quantization = common.quantization;
-  options.zstd_level = common.zstd_level;
+  if (common.zstd_level > 0) options.zstd_level = common.zstd_level;
   options.memory_bytes = common.memory_bytes;
   options.threads = common.threads;
   options.tolerance_percent = !tolerance.empty() && tolerance.back() == '%';

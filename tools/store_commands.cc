@@ -47,8 +47,7 @@ struct ImportArgs {
   std::string mask;
   size_t memory_mb = 1024;
   int threads = 0;
-  int levels_per_block = 14;
-  int zstd_level = 3;
+  int zstd_level = 0;  // 0: the store's default
   bool json = false;
   bool quiet = false;
   bool force = false;
@@ -60,7 +59,7 @@ void ImportDense(const VolumeInfo& input, const ImportArgs& a, const DenseBuildO
   HzBuildOptions options;
   options.quantization = common.quantization;
   options.compression = common.compression;
-  options.zstd_level = common.zstd_level;
+  if (common.zstd_level > 0) options.zstd_level = common.zstd_level;
   options.memory_bytes = common.memory_bytes;
   options.threads = common.threads;
   options.mask = common.mask;
@@ -134,7 +133,6 @@ void RunImport(ImportArgs a) {
   }
   options.memory_bytes = a.memory_mb << 20;
   options.threads = a.threads;
-  options.levels_per_block = a.levels_per_block;
   options.zstd_level = a.zstd_level;
   if (!a.mask.empty()) {
     Result<VolumeInfo> mask = OpenVolume(a.mask);
@@ -383,10 +381,11 @@ void RegisterStoreCommands(CLI::App& app) {
     cmd->add_option("--compression", a->compression, "blocks as zstd frames or none (raw)")
         ->capture_default_str();
     cmd->add_flag("--sparse", a->sparse,
-                  "build the variable-resolution LMDB store (through a temporary dense one)");
+                  "build the variable-resolution LMDB store instead (in memory: about 8 bytes "
+                  "per grid point and 30 per vertex near the grid)");
     cmd->add_option("--tolerance", a->tolerance,
-                    "--sparse: drop subtrees whose errors are all within this (7.3, or 1% of the "
-                    "field range; 0: lossless)")
+                    "--sparse: drop the diamonds whose errors are within this, and keep the "
+                    "rest's values to within it (7.3, or 1% of the field range; 0: lossless)")
         ->capture_default_str();
     cmd->add_option("--mask", a->mask,
                     "a volume of the same grid, 0 where the field is not available: those points "
@@ -398,12 +397,10 @@ void RegisterStoreCommands(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")
         ->capture_default_str();
-    cmd->add_option("--levels-per-block", a->levels_per_block,
-                    "--sparse: levels of the hierarchy per error block of the dense store it is "
-                    "made through")
-        ->capture_default_str()
-        ->check(CLI::Range(1, 24));
-    cmd->add_option("--zstd-level", a->zstd_level, "zstd compression level")->capture_default_str();
+    cmd->add_option("--zstd-level", a->zstd_level,
+                    "zstd compression level (default 3; 19 with --sparse, whose blocks are few "
+                    "and built for size)")
+        ->check(CLI::Range(1, 22));
     cmd->add_flag("--json", a->json, "print the build report as JSON");
     cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
     AddForceOption(cmd, &a->force);

@@ -140,12 +140,18 @@ class Builder {
     h.source.resize(Utf8PrefixLength(h.source, 1000));
     const double range = fmax_ - fmin_;
     h.quantum = ErrorQuantizer::QuantumFor(h.quantization, range);
+    // At a tolerance t, errors go up to the next multiple of t (u16, u8):
+    // smaller codes, and a query at a multiple of t refines as with exact
+    // errors (a code above its threshold is an error above it).
+    if (h.tolerance > 0 && h.quantization != Quantization::kF32) h.quantum = std::max(h.quantum, h.tolerance);
     const ErrorQuantizer quantizer(h.quantization, h.quantum, range);
 
     // 0. Every near vertex's diamond error: its code as the dense store
     // stores it (the same double, the same quantizer: lossless stores answer
     // alike) and whether it exceeds t.
     const double t = h.tolerance;
+    h.value_step = HzSparseValueStep(type_, t, fmin_, fmax_);
+    const double step = h.value_step;
     std::vector<uint32_t> code(near.size(), 0);
     std::vector<uint8_t> above(near.size(), 0);
     {
@@ -210,18 +216,25 @@ class Builder {
       }
       SDB_RETURN_IF_ERROR(far);
       uint64_t failed = 0;
+      // A kept value as a reader reads it back: exactly, or within s / 2.
+      const auto keep = [&](uint64_t i, const std::array<int64_t, D>& g, double p) {
+        if (step == 0) {
+          value[i] = FieldAt(g);
+          residual[i] = HzResidual(type_, value[i], p);
+        } else {
+          residual[i] = HzStepResidual(FieldAt(g), p, step, &value[i]);
+        }
+      };
       for (const auto& corner : Corners()) {
         const uint64_t i = near.Index(corner);
         kept[i] = 1;
-        value[i] = FieldAt(corner);
-        residual[i] = HzResidual(type_, value[i], 0.0);
+        keep(i, corner, 0.0);
       }
       for (int c = 0; c < levels; ++c) {
         near.ForEachAtLevel(c, [&](const std::array<int64_t, D>& g) {
           const uint64_t i = near.Index(g);
           if (kept[i]) {
-            value[i] = FieldAt(g);
-            residual[i] = HzResidual(type_, value[i], HzPredict<D>(g, dims_, false, at));
+            keep(i, g, HzPredict<D>(g, dims_, false, at));
             return;
           }
           value[i] = HzPredict<D>(g, dims_, true, at);
@@ -241,7 +254,7 @@ class Builder {
     const HzOrder<D> order(k_);
     const int bb = h.block_bits;
     const uint64_t nblocks = (order.size() + (uint64_t{1} << bb) - 1) >> bb;
-    const size_t ew = HzSparseErrorWidth(h.quantization), vw = HzSparseVoxelWidth(type_);
+    const size_t ew = HzSparseErrorWidth(h.quantization), vw = HzSparseResidualWidth(h);
     const int finest_first = D * (k_ - 1);
     ZstdCompressor zstd(options_.zstd_level);
     lmdb::BatchWriter writer(env);

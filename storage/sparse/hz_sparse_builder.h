@@ -38,7 +38,7 @@ struct HzSparseBuildOptions {
   bool tolerance_percent = false;  // tolerance is a percentage of the field's range
   Quantization quantization = Quantization::kU16;
   int block_bits = 0;  // 0: 18 for the HT, 20 for the HP
-  int zstd_level = 3;
+  int zstd_level = 19;  // blocks are written once and read often: for size (bench/README.md)
   uint64_t memory_bytes = uint64_t{8} << 30;
   int threads = 0;  // 0: one per core
   std::function<void(const BuildProgress&)> progress;  // "field", "errors", "keep", "blocks"

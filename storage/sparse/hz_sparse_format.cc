@@ -90,8 +90,41 @@ double HzFromResidual(VoxelType type, uint64_t residual, double p) {
   }
 }
 
+uint64_t HzStepResidual(double value, double p, double step, double* read_back) {
+  int64_t k = std::llround((value - p) / step);
+  double back = p + step * static_cast<double>(k);
+  // Rounding in (value - p) / s can land a hair past s / 2: one step back.
+  if (std::abs(value - back) > step / 2) {
+    k += value > back ? 1 : -1;
+    back = p + step * static_cast<double>(k);
+  }
+  *read_back = back;
+  const auto u = static_cast<uint32_t>(static_cast<int32_t>(k));
+  return static_cast<uint32_t>(u << 1) ^ static_cast<uint32_t>(static_cast<int32_t>(k) >> 31);
+}
+
+double HzFromStepResidual(uint64_t residual, double p, double step) {
+  const auto u = static_cast<uint32_t>(residual);
+  const int64_t k = static_cast<int32_t>(u >> 1) ^ -static_cast<int32_t>(u & 1);
+  return p + step * static_cast<double>(k);
+}
+
+double HzSparseValueStep(VoxelType type, double tolerance, double field_min, double field_max) {
+  const double step = 2 * tolerance;
+  if (!(step > 0) || !std::isfinite(step)) return 0;
+  if (!IsFloatType(type) && step < 1) return 0;
+  // A residual's magnitude is below (|value| + 2 (range + s)) / s: a
+  // prediction is a mix of values within s / 2 of the field's range, with
+  // weights summing to 1 whose negative ones sum to 1/8 (the corners are
+  // predicted 0).
+  const double largest = std::max(std::abs(field_min), std::abs(field_max)) + 2 * (field_max - field_min + step);
+  return largest / step < 0x1p29 ? step : 0;
+}
+
 size_t HzSparseErrorWidth(Quantization q) { return QuantizedSize(q); }
-size_t HzSparseVoxelWidth(VoxelType type) { return VoxelSize(type); }
+size_t HzSparseResidualWidth(const HzSparseHeader& h) {
+  return h.value_step > 0 ? sizeof(uint32_t) : VoxelSize(h.voxel_type);
+}
 
 std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h) {
   nlohmann::json j;
@@ -108,6 +141,7 @@ std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h) {
   j["field_max"] = h.field_max;
   j["error_max"] = h.error_max;
   j["tolerance"] = h.tolerance;
+  j["value_step"] = h.value_step;
   j["block_bits"] = h.block_bits;
   j["blocks"] = h.blocks;
   j["kept"] = h.kept;
@@ -168,6 +202,8 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
     h.field_max = j.at("field_max").get<double>();
     h.error_max = j.at("error_max").get<double>();
     h.tolerance = j.at("tolerance").get<double>();
+    // Stores written before kept values could be stepped hold them exactly.
+    h.value_step = j.value("value_step", 0.0);
     h.block_bits = j.at("block_bits").get<int>();
     h.blocks = j.at("blocks").get<uint64_t>();
     h.kept = j.at("kept").get<uint64_t>();
@@ -181,6 +217,10 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
   if (!(std::isfinite(h.error_max) && h.error_max >= 0 && std::isfinite(h.tolerance) && h.tolerance >= 0 &&
         std::isfinite(h.quantum) && h.quantum >= 0)) {
     return bad("error range, tolerance or quantum");
+  }
+  if (h.value_step != HzSparseValueStep(h.voxel_type, h.tolerance, h.field_min, h.field_max) &&
+      h.value_step != 0) {
+    return bad("value_step " + std::to_string(h.value_step) + " for tolerance " + std::to_string(h.tolerance));
   }
   // Blocks hold at most 2^24 positions (a decoded block's arrays), at
   // least 2^D (the corners share block 0).

@@ -29,11 +29,15 @@
 //                           order: kept
 //   errors                  `errors` error codes of the header's
 //                           quantization (1, 2 or 4 bytes), byte planes
-//   residuals               `kept` values of the voxel type's width, byte
-//                           planes: a kept vertex's value minus its
-//                           prediction (below), modulo 2^width for integer
-//                           types, the difference of the order-preserving
-//                           integer images for float types
+//   residuals               `kept` values, byte planes: lossless
+//                           (value_step 0), of the voxel type's width, a
+//                           kept vertex's value minus its prediction
+//                           (below), modulo 2^width for integer types, the
+//                           difference of the order-preserving integer
+//                           images for float types; at a value step s > 0,
+//                           4 bytes, the zigzagged round((value - P) / s)
+//                           (the value read back is P + s times it, within
+//                           s / 2 of the input's)
 //
 // Prediction of a vertex v from coarser ones (its split edge's ends v -/+ d
 // and the points v -/+ 3d lie on the coarser octaves' lattice): cubic,
@@ -79,6 +83,8 @@ struct HzSparseHeader {
   double field_min = 0, field_max = 0;
   double error_max = 0;  // the largest diamond error of the input
   double tolerance = 0;  // t, in the field's units
+  // s: kept values are stored to within s / 2 (0: exactly, as the voxel type)
+  double value_step = 0;
   int block_bits = 18;
   uint64_t blocks = 0;  // entries in "blocks"
   uint64_t kept = 0;    // kept vertices, the domain's corners included
@@ -110,9 +116,19 @@ struct HzSparseBlock {
   bool IsKept(uint32_t i) const { return (kept[i >> 3] >> (i & 7) & 1) != 0; }
 };
 
-// Byte widths: of an error code of `q` and of a voxel of `type`.
+// Byte widths: of an error code of `q` and of a kept value's residual.
 size_t HzSparseErrorWidth(Quantization q);
-size_t HzSparseVoxelWidth(VoxelType type);
+size_t HzSparseResidualWidth(const HzSparseHeader& h);
+
+// The step at which a store of tolerance t keeps its values: 2t (a kept
+// value within t of the input, as a dropped one's), or 0 (exact) when t is
+// 0, when the step is below an integer type's own step of 1, or when the
+// field's magnitude over the step would not fit the 4-byte residual.
+double HzSparseValueStep(VoxelType type, double tolerance, double field_min, double field_max);
+
+// The largest difference between a value the store gives at a real grid
+// point and the input's: t (a dropped vertex) or s / 2 (a kept one).
+inline double HzSparseValueBound(const HzSparseHeader& h) { return std::max(h.tolerance, h.value_step / 2); }
 
 // The value of block `block`. REQUIRES: the counts agree with the bitmap.
 Result<std::vector<uint8_t>> EncodeHzSparseBlock(uint64_t block, const HzSparseBlock& b,
@@ -165,6 +181,11 @@ double HzPredict(const std::array<int64_t, D>& g, const std::array<int64_t, D>& 
 // types); the residual keeps the width's low bits.
 uint64_t HzResidual(VoxelType type, double value, double p);
 double HzFromResidual(VoxelType type, uint64_t residual, double p);
+// At a value step s > 0: the residual of `value` against `p` and, in
+// `*read_back`, the value a reader gets from it (within s / 2 of `value`).
+// REQUIRES: |value - p| / s below 2^30 (HzSparseValueStep's bound).
+uint64_t HzStepResidual(double value, double p, double step, double* read_back);
+double HzFromStepResidual(uint64_t residual, double p, double step);
 
 // Calls f(position, g) for every domain vertex among positions [first,
 // first + count) of `order`, in position order.

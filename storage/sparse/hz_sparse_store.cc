@@ -199,7 +199,7 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
   }
   SDB_ASSIGN_OR_RETURN(HzSparseBlock decoded,
                        DecodeHzSparseBlock(b, value, vertices, HzSparseErrorWidth(h.quantization),
-                                           HzSparseVoxelWidth(h.voxel_type), zstd_, store_.path()));
+                                           HzSparseResidualWidth(h), zstd_, store_.path()));
   store_.decoded_.fetch_add(1, std::memory_order_relaxed);
   kept.reserve(decoded.residuals.size());
   if (vertices != 0) {
@@ -248,13 +248,13 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
     const Vertex& v = kept[i];
     const int level = order_.LevelAt(first + v.offset);
     if (level < 0) {  // a domain corner: predicted 0
-      values[i] = HzFromResidual(h.voxel_type, decoded.residuals[i], 0.0);
+      values[i] = KeptValue(decoded.residuals[i], 0.0);
       states[i] = 0;
       continue;
     }
     const double p = HzPredict<D>(v.g, dims_, false, value_at);
     SDB_RETURN_IF_ERROR(failed);
-    values[i] = HzFromResidual(h.voxel_type, decoded.residuals[i], p);
+    values[i] = KeptValue(decoded.residuals[i], p);
     if (level < finest_first) {
       if (e >= decoded.errors.size()) {
         return Status::Corruption(store_.path() + ": block " + std::to_string(b) + " holds too few errors");
@@ -357,7 +357,11 @@ Result<uint32_t> HzSparseStore::Reader<D>::FinestCode(const std::array<int64_t, 
   };
   const double e = FinestDiamondError<D>(stencils_, window_.data() + center, g, store_.header().domain_bits,
                                          dims_, field);
-  return store_.quantizer().Encode(e + store_.header().tolerance);
+  // The input differs from the rebuilt field by at most the value bound at
+  // any point, and its interpolant between the diamond's (kept) vertices by
+  // at most s / 2.
+  const HzSparseHeader& h = store_.header();
+  return store_.quantizer().Encode(e + HzSparseValueBound(h) + h.value_step / 2);
 }
 
 template <int D>

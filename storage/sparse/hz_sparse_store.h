@@ -7,12 +7,12 @@
 //     every descendant's is within t: a query never refines it); for a kept
 //     diamond below the finest octave, its stored error (the dense store's
 //     quantization, rounded up); for a kept finest diamond, its error over
-//     the rebuilt field plus t (the rebuilt values at the points inside are
-//     within t of the input), rounded up. At t = 0 every answer is the dense
-//     store's.
-//   - Field(p): the rebuilt value at p clamped to the real grid: the input's
-//     value at a kept vertex, within t of it at a dropped one (equal at
-//     t = 0).
+//     the rebuilt field plus t + s / 2 (the rebuilt values at the points
+//     inside are within t of the input, those at its vertices within s / 2,
+//     s the header's value step, 2t or 0), rounded up. At t = 0 every answer
+//     is the dense store's.
+//   - Field(p): the rebuilt value at p clamped to the real grid: within t of
+//     the input's (equal at t = 0); at a kept vertex within s / 2.
 //
 // Thread safety: a store may be shared by threads; a Reader is one thread's.
 // Decoded blocks go to the store's cache (storage/dense/block_cache.h),
@@ -120,6 +120,12 @@ class HzSparseStore {
     Result<double> RebuiltValue(const std::array<int64_t, D>& g, uint64_t p, Value&& value);
     // The rebuilt value of domain vertex g (at position p).
     Result<double> Value(const std::array<int64_t, D>& g);
+    // A kept vertex's value from its residual and prediction p.
+    double KeptValue(uint64_t residual, double p) const {
+      const HzSparseHeader& h = store_.header();
+      return h.value_step > 0 ? HzFromStepResidual(residual, p, h.value_step)
+                              : HzFromResidual(h.voxel_type, residual, p);
+    }
     Result<uint32_t> FinestCode(const std::array<int64_t, D>& g);
 
     const HzSparseStore& store_;

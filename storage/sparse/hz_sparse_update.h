@@ -7,7 +7,7 @@
 // value differs is written, blocks that no longer hold a kept vertex are
 // deleted, the header is replaced; blocks that come out the same are not
 // touched. Outside the box the new volume must be what the store holds
-// (within its tolerance: the store's value at a dropped vertex is within t
+// (within its tolerance: the store's value at any grid point is within t
 // of what it was built from), so a volume that differs elsewhere is refused
 // naming the first such point: the box says what changed.
 //

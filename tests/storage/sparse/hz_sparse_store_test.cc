@@ -20,6 +20,7 @@
 #include "hierarchy/hz_order.h"
 #include "storage/dense/hz_builder.h"
 #include "storage/dense/hz_store.h"
+#include "storage/io/checksum.h"
 #include "storage/io/lmdb.h"
 #include "storage/sparse/hz_sparse_builder.h"
 #include "storage/sparse/hz_sparse_store.h"
@@ -151,6 +152,11 @@ void ExpectWithinTolerance(const TestVolume& volume, double tolerance, int block
   ASSERT_NE(s.sparse, nullptr);
   EXPECT_TRUE(s.sparse->Verify().ok());
   const int k = s.sparse->header().domain_bits;
+  // Kept values are stepped (the lossy path is the one under test): read
+  // back within s / 2 = t of the input, as the dropped ones are rebuilt.
+  const HzSparseHeader& h = s.sparse->header();
+  EXPECT_EQ(h.value_step, 2 * tolerance);
+  EXPECT_GE(h.quantum, tolerance);
   HzSparseStore::Reader<D> sparse(*s.sparse);
   ForEachPoint<D>(volume, [&](const std::array<int64_t, D>& p) {
     std::array<int64_t, 4> q{};
@@ -188,6 +194,70 @@ TEST(HzSparseStore, WithinToleranceHt) {
 }
 TEST(HzSparseStore, WithinToleranceHp) {
   ExpectWithinTolerance<4>(TestVolume::Random(4, {5, 6, 4, 5}, VoxelType::kU8, 8), 60, 0);
+}
+
+// A kept value at step s: read back within s / 2, the residual zigzagged
+// into 4 bytes, both signs, up to the magnitudes HzSparseValueStep allows.
+TEST(HzSparseStore, StepResidualsReadBackWithinHalfAStep) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  for (const double step : {0.1, 1.0, 5.1, 1e-6, 3e5}) {
+    for (const double reach : {0.0, 0.5, 3.0, 1e3, 0x1p28}) {
+      for (int i = 0; i < 200; ++i) {
+        const double p = unit(rng) * 1e3 * step;
+        const double value = p + unit(rng) * reach * step;
+        double back = 0;
+        const uint64_t r = HzStepResidual(value, p, step, &back);
+        ASSERT_LT(r, uint64_t{1} << 32);
+        ASSERT_LE(std::abs(back - value), step / 2) << value << " " << p << " " << step;
+        ASSERT_EQ(HzFromStepResidual(r, p, step), back);
+        // Zigzag: a residual of k steps is 2k or -2k - 1.
+        const double k = std::round((back - p) / step);
+        ASSERT_EQ(static_cast<double>(r), k >= 0 ? 2 * k : -2 * k - 1);
+      }
+    }
+  }
+  // Steps: 2t, but exact at t = 0, below an integer type's step of 1, and
+  // where the field's magnitude over the step passes 2^29.
+  EXPECT_EQ(HzSparseValueStep(VoxelType::kU8, 2.5, 0, 255), 5.0);
+  EXPECT_EQ(HzSparseValueStep(VoxelType::kU8, 0, 0, 255), 0.0);
+  EXPECT_EQ(HzSparseValueStep(VoxelType::kU16, 0.4, 0, 65535), 0.0);
+  EXPECT_EQ(HzSparseValueStep(VoxelType::kF32, 0.4, 0, 1), 0.8);
+  EXPECT_EQ(HzSparseValueStep(VoxelType::kF32, 1e-9, 0, 1), 0.0);
+  EXPECT_EQ(HzSparseValueStep(VoxelType::kF64, 1.0, 1e12, 1e12 + 10), 0.0);
+}
+
+// A header written before kept values could be stepped (no value_step)
+// reads as exact values; a value_step that is not the tolerance's is
+// refused.
+TEST(HzSparseStore, HeaderValueStep) {
+  HzSparseHeader h;
+  h.dims = {5, 5, 5, 1};
+  h.domain_bits = 2;
+  h.field_max = 255;
+  h.quantum = 1;
+  h.tolerance = 2;
+  h.value_step = 4;
+  std::vector<uint8_t> value = EncodeHzSparseHeader(h);
+  Result<HzSparseHeader> back = DecodeHzSparseHeader(value, "h");
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->value_step, 4.0);
+  const auto rewritten = [&](const std::string& from, const std::string& to) {
+    std::string text(value.begin(), value.end() - 8);
+    const size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    std::vector<uint8_t> out(text.begin(), text.end());
+    const uint64_t sum = Checksum(std::span<const uint8_t>(out.data(), out.size()));
+    for (int i = 0; i < 8; ++i) out.push_back(static_cast<uint8_t>(sum >> (8 * i)));
+    return out;
+  };
+  back = DecodeHzSparseHeader(rewritten("\"value_step\": 4.0,", ""), "h");
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->value_step, 0.0);
+  EXPECT_TRUE(DecodeHzSparseHeader(rewritten("\"value_step\": 4.0", "\"value_step\": 3.0"), "h")
+                  .status()
+                  .IsCorruption());
 }
 
 TEST(HzSparseStore, RefusesBadInput) {
