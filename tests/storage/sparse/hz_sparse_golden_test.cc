@@ -1,0 +1,167 @@
+// Stored reference files of the sparse store, format 2 (tests/storage/
+// sparse/golden/*.sdb), so a change of its layout is a decision, not an
+// accident:
+//
+// - a reference store keeps opening, verifying, and answering within its
+//   tolerance of the brute force over the volume it was built from;
+// - building that volume again writes the same entries: the same block
+//   keys, each block's content the same bytes once its zstd frame is
+//   decoded (the frame itself may change with the zstd version), and the
+//   same header but for its source name.
+//
+// To change the layout on purpose, regenerate and say so in
+// docs/format/sparse-store.md (a reader must tell the old files apart):
+//   SIMPLEXDB_REGENERATE_GOLDEN=1 build/release/tests/storage/sparse_tests --gtest_filter='HzSparseGolden*'
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <vector>
+
+#include "storage/io/codec.h"
+#include "storage/io/lmdb.h"
+#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/sparse/hz_sparse_store.h"
+#include "storage/volume/volume.h"
+#include "tests/storage/store_test_util.h"
+#include "util/little_endian.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::TempDir;
+using testing::TestVolume;
+
+struct Golden {
+  const char* file;
+  int dimension;
+  std::array<uint32_t, 4> dims;
+  VoxelType type;
+  Quantization quantization;
+  double tolerance;  // in the field's units; > 0: values in steps of 2t
+  uint64_t seed;
+};
+
+// Grids that do not fill their domains, both hierarchies, a lossless store
+// and one whose values are stepped.
+const Golden kGolden[] = {
+    {"hz_sparse_ht_7x6x5_u8_t40.sdb", 3, {7, 6, 5, 1}, VoxelType::kU8, Quantization::kU16, 40, 301},
+    {"hz_sparse_hp_3x3x3x3_i16_lossless.sdb", 4, {3, 3, 3, 3}, VoxelType::kI16, Quantization::kU8, 0, 302},
+};
+
+std::string GoldenPath(const Golden& g) { return std::string(SIMPLEXDB_SPARSE_GOLDEN_DIR) + "/" + g.file; }
+
+Status Build(const Golden& g, const std::string& dir, const std::string& out) {
+  const TestVolume volume = TestVolume::Random(g.dimension, g.dims, g.type, g.seed);
+  SDB_RETURN_IF_ERROR(volume.WriteNrrd(dir + "/in.nrrd"));
+  HzSparseBuildOptions options;
+  options.quantization = g.quantization;
+  options.tolerance = g.tolerance;
+  options.block_bits = g.dimension + 2;  // several blocks on a small grid
+  options.threads = 1;
+  SDB_ASSIGN_OR_RETURN(const VolumeInfo input, OpenVolume(dir + "/in.nrrd"));
+  return BuildHzSparseStore(input, out, options).status();
+}
+
+// The header (source cleared) and every block's decoded content, by key.
+struct Entries {
+  std::vector<uint8_t> header;
+  std::map<uint64_t, std::vector<uint8_t>> blocks;
+};
+
+Entries ReadEntries(const std::string& path) {
+  Entries out;
+  auto store = HzSparseStore::Open(path, {});
+  EXPECT_TRUE(store.ok()) << store.status().ToString();
+  if (!store.ok()) return out;
+  HzSparseHeader h = (*store)->header();
+  h.source.clear();
+  out.header = EncodeHzSparseHeader(h);
+  auto env = lmdb::Env::Open(path, {});
+  EXPECT_TRUE(env.ok()) << env.status().ToString();
+  auto txn = lmdb::Txn::Begin(**env, /*read_only=*/true);
+  auto dbi = txn->OpenDb("blocks", false);
+  auto cursor = lmdb::Cursor::Open(*txn, *dbi);
+  ZstdDecompressor zstd;
+  MDB_val k, v;
+  for (int rc = mdb_cursor_get(cursor->get(), &k, &v, MDB_FIRST); rc == MDB_SUCCESS;
+       rc = mdb_cursor_get(cursor->get(), &k, &v, MDB_NEXT)) {
+    const std::span<const uint8_t> value(static_cast<const uint8_t*>(v.mv_data), v.mv_size);
+    std::vector<uint8_t> content(LoadLittle<uint32_t>(value.data()));
+    EXPECT_TRUE(zstd.Decompress(value.subspan(4, value.size() - 12), content, path).ok());
+    out.blocks[lmdb::KeyValue(k)] = std::move(content);
+  }
+  return out;
+}
+
+// Every value within the tolerance of the volume; every node's bound 0
+// (dropped: its brute-force error within t) or at least its brute-force
+// error.
+template <int D>
+void CheckAnswers(const HzSparseStore& store, const TestVolume& volume, double t) {
+  HzSparseStore::Reader<D> reader(store);
+  const int k = store.header().domain_bits;
+  for (uint64_t i = 0; i < volume.values.size(); ++i) {
+    std::array<int64_t, D> p{};
+    uint64_t rest = i;
+    for (int a = 0; a < D; ++a) {
+      p[a] = static_cast<int64_t>(rest % volume.dims[a]);
+      rest /= volume.dims[a];
+    }
+    const Result<double> v = reader.Field(p);
+    ASSERT_TRUE(v.ok()) << v.status().ToString();
+    ASSERT_LE(std::abs(*v - volume.values[i]), t) << i;
+  }
+  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
+    for (int l = 0; l < D * k; ++l) {
+      for (uint64_t p = 0; p < (uint64_t{1} << l); ++p) {
+        const SimplexCode<D> c = SimplexCode<D>::FromPath(top, p, l);
+        const Result<double> bound = reader.ErrorBound(c);
+        ASSERT_TRUE(bound.ok()) << bound.status().ToString();
+        const double exact = static_cast<double>(testing::BruteForceError<D>(c, k, volume));
+        ASSERT_LE(exact, *bound == 0 ? t + 1e-9 : *bound + 1e-9) << c.ToString();
+      }
+    }
+  }
+}
+
+TEST(HzSparseGolden, ReferenceStoresStillReadAndRebuildIdentically) {
+  const bool regenerate = std::getenv("SIMPLEXDB_REGENERATE_GOLDEN") != nullptr;
+  for (const Golden& g : kGolden) {
+    SCOPED_TRACE(g.file);
+    const TempDir dir;
+    const std::string fresh = dir / "fresh.sdb";
+    const Status built = Build(g, dir.path(), fresh);
+    ASSERT_TRUE(built.ok()) << built.ToString();
+    if (regenerate) {
+      std::filesystem::copy_file(fresh, GoldenPath(g), std::filesystem::copy_options::overwrite_existing);
+    }
+    ASSERT_TRUE(std::filesystem::exists(GoldenPath(g))) << "missing reference file";
+    // Read a copy: LMDB writes its lock file beside the store.
+    const std::string reference = dir / "reference.sdb";
+    std::filesystem::copy_file(GoldenPath(g), reference);
+    auto store = HzSparseStore::Open(reference, {});
+    ASSERT_TRUE(store.ok()) << store.status().ToString();
+    ASSERT_TRUE((*store)->Verify().ok());
+    EXPECT_EQ((*store)->header().value_step, 2 * g.tolerance);
+    const TestVolume volume = TestVolume::Random(g.dimension, g.dims, g.type, g.seed);
+    if (g.dimension == 3) {
+      CheckAnswers<3>(**store, volume, g.tolerance);
+    } else {
+      CheckAnswers<4>(**store, volume, g.tolerance);
+    }
+    const Entries want = ReadEntries(reference), got = ReadEntries(fresh);
+    EXPECT_EQ(got.header, want.header) << "the header changed";
+    EXPECT_GT(want.blocks.size(), 1u);
+    ASSERT_EQ(got.blocks.size(), want.blocks.size()) << "other blocks: a layout change";
+    for (const auto& [key, content] : want.blocks) {
+      const auto it = got.blocks.find(key);
+      ASSERT_NE(it, got.blocks.end()) << "block " << key << " is gone: a layout change";
+      EXPECT_TRUE(it->second == content) << "block " << key << " changed: a layout change";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace simplexdb
