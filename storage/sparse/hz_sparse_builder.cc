@@ -282,8 +282,11 @@ class Builder {
       });
       if (block.residuals.empty()) continue;
       SDB_ASSIGN_OR_RETURN(const std::vector<uint8_t> v, EncodeHzSparseBlock(b, block, ew, vw, zstd));
-      const std::array<uint8_t, 8> key = lmdb::KeyBytes(b);
-      SDB_RETURN_IF_ERROR(writer.Put(blocks, key, v, /*append=*/true));
+      for (size_t from = 0, part = 0; from < v.size(); from += kHzSparsePartBytes, ++part) {
+        const auto key = HzSparseKey(b, static_cast<uint32_t>(part));
+        const std::span<const uint8_t> piece(v.data() + from, std::min(kHzSparsePartBytes, v.size() - from));
+        SDB_RETURN_IF_ERROR(writer.Put(blocks, key, piece, /*append=*/true));
+      }
       ++h.blocks;
       h.kept += block.residuals.size();
     }

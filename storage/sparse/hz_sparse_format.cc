@@ -202,8 +202,7 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
     h.field_max = j.at("field_max").get<double>();
     h.error_max = j.at("error_max").get<double>();
     h.tolerance = j.at("tolerance").get<double>();
-    // Stores written before kept values could be stepped hold them exactly.
-    h.value_step = j.value("value_step", 0.0);
+    h.value_step = j.at("value_step").get<double>();
     h.block_bits = j.at("block_bits").get<int>();
     h.blocks = j.at("blocks").get<uint64_t>();
     h.kept = j.at("kept").get<uint64_t>();
@@ -218,8 +217,7 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
         std::isfinite(h.quantum) && h.quantum >= 0)) {
     return bad("error range, tolerance or quantum");
   }
-  if (h.value_step != HzSparseValueStep(h.voxel_type, h.tolerance, h.field_min, h.field_max) &&
-      h.value_step != 0) {
+  if (h.value_step != HzSparseValueStep(h.voxel_type, h.tolerance, h.field_min, h.field_max)) {
     return bad("value_step " + std::to_string(h.value_step) + " for tolerance " + std::to_string(h.tolerance));
   }
   // Blocks hold at most 2^24 positions (a decoded block's arrays), at

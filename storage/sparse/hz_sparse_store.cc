@@ -83,6 +83,39 @@ HzSparseStore::Stats HzSparseStore::stats() const {
   return Stats{decoded_.load(std::memory_order_relaxed), rebuilt_.load(std::memory_order_relaxed)};
 }
 
+namespace {
+
+// Block b's value: its parts (keys (b, 0), (b, 1), ...) joined. False when
+// the block has no entry. Errors: Corruption for parts out of sequence.
+Result<bool> ReadBlockValue(lmdb::Txn& txn, MDB_dbi dbi, uint64_t b, const std::string& path,
+                            std::vector<uint8_t>* out) {
+  out->clear();
+  SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, dbi));
+  auto first = HzSparseKey(b, 0);
+  MDB_val k = lmdb::Val(first.data(), first.size()), v;
+  uint32_t next = 0;
+  for (int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_SET_RANGE);; rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT)) {
+    if (rc == MDB_NOTFOUND) break;
+    if (rc != MDB_SUCCESS) return lmdb::FromCode(rc, path, "read block " + std::to_string(b));
+    uint64_t block = 0;
+    uint32_t part = 0;
+    if (!ParseHzSparseKey({static_cast<const uint8_t*>(k.mv_data), k.mv_size}, &block, &part)) {
+      return Status::Corruption(path + ": a block key of " + std::to_string(k.mv_size) + " bytes");
+    }
+    if (block != b) break;
+    if (part != next) {
+      return Status::Corruption(path + ": block " + std::to_string(b) + " has part " + std::to_string(part) +
+                                " where part " + std::to_string(next) + " belongs");
+    }
+    ++next;
+    const auto* data = static_cast<const uint8_t*>(v.mv_data);
+    out->insert(out->end(), data, data + v.mv_size);
+  }
+  return next > 0;
+}
+
+}  // namespace
+
 template <int D>
 HzSparseStore::Reader<D>::Reader(const HzSparseStore& store)
     : store_(store),
@@ -174,9 +207,8 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
     SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*store_.env_, /*read_only=*/true));
     txn_ = std::make_unique<lmdb::Txn>(std::move(txn));
   }
-  bool found = false;
-  const std::array<uint8_t, 8> key = lmdb::KeyBytes(b);
-  SDB_ASSIGN_OR_RETURN(const std::span<const uint8_t> value, txn_->Get(store_.blocks_db_, key, &found));
+  std::vector<uint8_t> value;
+  SDB_ASSIGN_OR_RETURN(const bool found, ReadBlockValue(*txn_, store_.blocks_db_, b, store_.path(), &value));
   View out;
   out.b = b;
   if (!found) {
@@ -398,14 +430,21 @@ Status VerifyTyped(const HzSparseStore& store, lmdb::Env& env, unsigned int dbi,
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(env, /*read_only=*/true));
   SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, dbi));
   MDB_val k, v;
-  uint64_t entries = 0, kept = 0;
+  uint64_t entries = 0, kept = 0, last = 0;
   int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_FIRST);
   for (; rc == MDB_SUCCESS; rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT)) {
-    if (k.mv_size != 8) return Status::Corruption(path + ": a block key of " + std::to_string(k.mv_size) + " bytes");
-    const uint64_t b = lmdb::KeyValue(k);
+    uint64_t b = 0;
+    uint32_t part = 0;
+    if (!ParseHzSparseKey({static_cast<const uint8_t*>(k.mv_data), k.mv_size}, &b, &part)) {
+      return Status::Corruption(path + ": a block key of " + std::to_string(k.mv_size) + " bytes");
+    }
     if (b >= nblocks || !HzBlockMayHoldVertices<D>(bb, b)) {
       return Status::Corruption(path + ": block " + std::to_string(b) + " lies past the domain");
     }
+    // A block's later parts: read with its first (ReadBlockValue checks
+    // their sequence); a later part without a first is refused there too.
+    if (part != 0 && entries > 0 && b == last) continue;
+    last = b;
     SDB_ASSIGN_OR_RETURN(const uint64_t block_kept, reader.Rebuild(b));
     kept += block_kept;
     ++entries;

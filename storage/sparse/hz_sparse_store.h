@@ -1,5 +1,5 @@
 // HzSparseStore: the sparse store of format 2 (storage/sparse/
-// hz_sparse_format.h), read-only: one LMDB entry per block of the
+// hz_sparse_format.h), read-only: one LMDB value (in parts) per block of the
 // hierarchical Z-order holding the diamonds kept at the store's tolerance t.
 //
 // What a reader answers, for a store built at tolerance t:

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <set>
 #include <span>
 #include <vector>
 
@@ -153,15 +154,24 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*env, /*read_only=*/false));
   SDB_ASSIGN_OR_RETURN(const MDB_dbi blocks, txn.OpenDb("blocks", false));
   SDB_ASSIGN_OR_RETURN(const MDB_dbi meta, txn.OpenDb("meta", false));
-  // Old keys the new store lacks.
-  std::vector<std::array<uint8_t, 8>> gone;
+  // Entries are blocks' parts (hz_sparse_format.h); the report counts
+  // blocks: written when any part is written or removed, deleted when all
+  // are gone. First the old parts the new store lacks.
+  std::vector<std::array<uint8_t, kHzSparseKeyBytes>> gone;
+  std::set<uint64_t> written, had;
   const auto note_gone = [&](std::span<const uint8_t> key, std::span<const uint8_t>) -> Status {
+    uint64_t b = 0;
+    uint32_t part = 0;
+    if (!ParseHzSparseKey(key, &b, &part)) {
+      return Status::Corruption(path + ": a block key of " + std::to_string(key.size()) + " bytes");
+    }
+    had.insert(b);
     bool found = false;
     SDB_RETURN_IF_ERROR(in.Get(in_blocks, key, &found).status());
-    if (!found && key.size() == 8) {
-      std::array<uint8_t, 8> k{};
-      std::copy(key.begin(), key.end(), k.begin());
-      gone.push_back(k);
+    if (!found) {
+      gone.emplace_back();
+      std::copy(key.begin(), key.end(), gone.back().begin());
+      written.insert(b);
     }
     return Status::OK();
   };
@@ -171,19 +181,23 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
     if (const int rc = mdb_del(txn.get(), blocks, &key, nullptr); rc != MDB_SUCCESS) {
       return env->FromCode(rc, "deleting a block");
     }
-    ++report.blocks_deleted;
   }
+  std::set<uint64_t> now;
   const auto put_changed = [&](std::span<const uint8_t> key, std::span<const uint8_t> value) -> Status {
+    uint64_t b = 0;
+    uint32_t part = 0;
+    if (!ParseHzSparseKey(key, &b, &part)) return Status::Corruption(scratch.path() + ": a block key");
+    now.insert(b);
     bool found = false;
     SDB_ASSIGN_OR_RETURN(const std::span<const uint8_t> old, txn.Get(blocks, key, &found));
-    if (found && std::equal(old.begin(), old.end(), value.begin(), value.end())) {
-      ++report.blocks_unchanged;
-      return Status::OK();
-    }
-    ++report.blocks_written;
+    if (found && std::equal(old.begin(), old.end(), value.begin(), value.end())) return Status::OK();
+    written.insert(b);
     return txn.Put(blocks, key, value);
   };
   SDB_RETURN_IF_ERROR(ForEachEntry(in, in_blocks, put_changed));
+  for (const uint64_t b : had) report.blocks_deleted += now.count(b) == 0;
+  for (const uint64_t b : written) report.blocks_written += now.count(b) != 0;
+  report.blocks_unchanged = now.size() - report.blocks_written;
   SDB_RETURN_IF_ERROR(txn.Put(meta, kHzSparseHeaderKey, EncodeHzSparseHeader(built.header)));
   in.Abort();
   SDB_RETURN_IF_ERROR(txn.Commit());

@@ -8,7 +8,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <random>
@@ -26,6 +28,7 @@
 #include "storage/sparse/hz_sparse_store.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
+#include "util/little_endian.h"
 
 namespace simplexdb {
 namespace {
@@ -227,15 +230,14 @@ TEST(HzSparseStore, StepResidualsReadBackWithinHalfAStep) {
   EXPECT_EQ(HzSparseValueStep(VoxelType::kF64, 1.0, 1e12, 1e12 + 10), 0.0);
 }
 
-// A header written before kept values could be stepped (no value_step)
-// reads as exact values; a value_step that is not the tolerance's is
-// refused.
+// The header's value step is the tolerance's (HzSparseValueStep): one that
+// is missing or another is damage.
 TEST(HzSparseStore, HeaderValueStep) {
   HzSparseHeader h;
   h.dims = {5, 5, 5, 1};
   h.domain_bits = 2;
   h.field_max = 255;
-  h.quantum = 1;
+  h.quantum = 2;
   h.tolerance = 2;
   h.value_step = 4;
   std::vector<uint8_t> value = EncodeHzSparseHeader(h);
@@ -252,10 +254,11 @@ TEST(HzSparseStore, HeaderValueStep) {
     for (int i = 0; i < 8; ++i) out.push_back(static_cast<uint8_t>(sum >> (8 * i)));
     return out;
   };
-  back = DecodeHzSparseHeader(rewritten("\"value_step\": 4.0,", ""), "h");
-  ASSERT_TRUE(back.ok()) << back.status().ToString();
-  EXPECT_EQ(back->value_step, 0.0);
+  EXPECT_TRUE(DecodeHzSparseHeader(rewritten("\"value_step\": 4.0,", ""), "h").status().IsCorruption());
   EXPECT_TRUE(DecodeHzSparseHeader(rewritten("\"value_step\": 4.0", "\"value_step\": 3.0"), "h")
+                  .status()
+                  .IsCorruption());
+  EXPECT_TRUE(DecodeHzSparseHeader(rewritten("\"value_step\": 4.0", "\"value_step\": 0.0"), "h")
                   .status()
                   .IsCorruption());
 }
@@ -280,76 +283,128 @@ TEST(HzSparseStore, RefusesBadInput) {
   EXPECT_FALSE(HzSparseStore::Open(dir / "junk.sdb", {}).ok());
 }
 
-// Random damage to a built store's file (bit flips, byte runs overwritten,
-// truncation, anywhere: meta, branch, leaf and overflow pages by their
-// share of the file): Open or Verify reports it, or every answer is the
-// undamaged store's. (The LMDB layer's own damage tests, storage/io/
-// lmdb_check_test.cc, run the cases in child processes; these run in
-// process: a crash fails the whole test.) The count is
+// LMDB's page kinds, from each page's header (flags at byte 10; pages 0
+// and 1 are the metas; an overflow run's later pages have no header): the
+// test aims its damage at each kind by what the file says, not by what
+// the code under test reads.
+enum PageKind { kMetaPage, kBranchPage, kLeafPage, kOverflowPage, kPageKinds };
+const char* const kPageKindNames[] = {"meta", "branch", "leaf", "overflow"};
+
+std::array<std::vector<size_t>, kPageKinds> PagesByKind(const std::vector<uint8_t>& file) {
+  std::array<std::vector<size_t>, kPageKinds> out;
+  const size_t page = LoadLittle<uint32_t>(file.data() + 40);  // the free database's md_pad
+  EXPECT_TRUE(page >= 4096 && page <= 32768 && std::has_single_bit(page)) << page;
+  for (size_t p = 0; (p + 1) * page <= file.size();) {
+    const uint16_t flags = LoadLittle<uint16_t>(file.data() + p * page + 10);
+    if (flags & 0x08) out[kMetaPage].push_back(p);
+    if (flags & 0x01) out[kBranchPage].push_back(p);
+    if (flags & 0x02) out[kLeafPage].push_back(p);
+    size_t run = 1;
+    if (flags & 0x04) {
+      run = std::max<size_t>(1, LoadLittle<uint32_t>(file.data() + p * page + 12));
+      for (size_t q = p; q < p + run; ++q) out[kOverflowPage].push_back(q);
+    }
+    p += run;
+  }
+  return out;
+}
+
+// Damage to built stores' files: bit flips, byte runs overwritten and
+// truncations, aimed in turn at meta, branch and leaf pages (two stores:
+// small blocks, many entries, and large ones, each value in several parts;
+// parts keep every value inside leaf pages, so the files have no overflow
+// pages, which is checked). Open or Verify reports it, or
+// every answer is the undamaged store's. (The LMDB layer's own damage
+// tests, storage/io/lmdb_check_test.cc, run the cases in child processes;
+// these run in process: a crash fails the whole test.) The count is
 // SIMPLEXDB_DAMAGE_CASES (default 150; the `long` test HzSparseDamageLong
 // runs 1000: `ctest --preset asan -R HzSparseDamageLong`).
 TEST(HzSparseStore, DamageIsReportedOrHarmless) {
-  TempDir dir;
-  const TestVolume v = BoxInRamp(3, {13, 9, 17, 1}, VoxelType::kU8, 10);
-  const Stores s = Build(v, dir, 0, 6);
-  ASSERT_NE(s.sparse, nullptr);
-  const int k = s.sparse->header().domain_bits;
-  std::vector<double> want;
-  {
-    HzSparseStore::Reader<3> r(*s.sparse);
-    ForEachNode<3>(k, [&](SimplexCode<3> c) { want.push_back(*r.ErrorBound(c)); });
-    ForEachPoint<3>(v, [&](const std::array<int64_t, 3>& p) { want.push_back(*r.Field(p)); });
-  }
-  const std::vector<uint8_t> good = testing::ReadFileBytes(dir / "sparse.sdb");
-  ASSERT_FALSE(good.empty());
-  std::mt19937_64 rng(11);
-  int reported = 0, harmless = 0;
   const char* env_cases = std::getenv("SIMPLEXDB_DAMAGE_CASES");
   const int cases = env_cases != nullptr ? std::atoi(env_cases) : 150;
-  for (int trial = 0; trial < cases; ++trial) {
-    std::vector<uint8_t> bad = good;
-    const int kind = trial % 3;
-    if (kind == 0) {  // one bit
-      const size_t at = rng() % bad.size();
-      bad[at] ^= static_cast<uint8_t>(1u << (rng() % 8));
-    } else if (kind == 1) {  // a run of bytes
-      const size_t at = rng() % bad.size();
-      for (size_t i = at; i < std::min(bad.size(), at + 1 + rng() % 64); ++i) bad[i] = static_cast<uint8_t>(rng());
-    } else {  // cut short
-      bad.resize(rng() % bad.size());
-    }
-    const std::string path = dir / ("bad" + std::to_string(trial) + ".sdb");
-    std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bad.data()),
-                                                 static_cast<std::streamsize>(bad.size()));
-    auto store = HzSparseStore::Open(path, {});
-    if (!store.ok() || !(*store)->Verify().ok()) {
-      ++reported;
-      std::filesystem::remove(path);
-      continue;
-    }
-    bool same = true;
+  struct Target {
+    TestVolume volume;
+    int block_bits;
+  };
+  const Target targets[] = {{BoxInRamp(3, {13, 9, 17, 1}, VoxelType::kU8, 10), 5},
+                            {TestVolume::Random(3, {20, 17, 19, 1}, VoxelType::kF32, 13), 12}};
+  std::array<int, kPageKinds> aimed{};
+  int reported = 0, harmless = 0, trial = 0;
+  std::mt19937_64 rng(11);
+  for (const Target& target : targets) {
+    TempDir dir;
+    const TestVolume& v = target.volume;
+    const Stores s = Build(v, dir, 0, target.block_bits);
+    ASSERT_NE(s.sparse, nullptr);
+    const int k = s.sparse->header().domain_bits;
+    std::vector<double> want;
     {
-      HzSparseStore::Reader<3> r(**store);
-      size_t i = 0;
-      ForEachNode<3>(k, [&](SimplexCode<3> c) {
-        const Result<double> e = r.ErrorBound(c);
-        same = same && e.ok() && *e == want[i];
-        ++i;
-      });
-      ForEachPoint<3>(v, [&](const std::array<int64_t, 3>& p) {
-        const Result<double> f = r.Field(p);
-        same = same && f.ok() && *f == want[i];
-        ++i;
-      });
+      HzSparseStore::Reader<3> r(*s.sparse);
+      ForEachNode<3>(k, [&](SimplexCode<3> c) { want.push_back(*r.ErrorBound(c)); });
+      ForEachPoint<3>(v, [&](const std::array<int64_t, 3>& p) { want.push_back(*r.Field(p)); });
     }
-    EXPECT_TRUE(same) << "trial " << trial << ": verify passed but the answers changed";
-    ++harmless;
-    store->reset();
-    std::filesystem::remove(path);
-    std::filesystem::remove(path + "-lock");
+    const std::vector<uint8_t> good = testing::ReadFileBytes(dir / "sparse.sdb");
+    ASSERT_FALSE(good.empty());
+    const auto pages = PagesByKind(good);
+    EXPECT_TRUE(pages[kOverflowPage].empty()) << "a block's part in overflow pages";
+    const size_t page_bytes = LoadLittle<uint32_t>(good.data() + 40);
+    for (int n = 0; n < cases / 2; ++n, ++trial) {
+      // The next page kind this store has, a page of it, a byte in it.
+      int kind = trial % kPageKinds;
+      while (pages[kind].empty()) kind = static_cast<int>(rng() % kOverflowPage);
+      ++aimed[kind];
+      const size_t page = pages[kind][rng() % pages[kind].size()];
+      const size_t at = page * page_bytes + rng() % page_bytes;
+      std::vector<uint8_t> bad = good;
+      const int how = (trial / kPageKinds) % 3;
+      if (how == 0) {  // one bit
+        bad[at] ^= static_cast<uint8_t>(1u << (rng() % 8));
+      } else if (how == 1) {  // a run of bytes
+        for (size_t i = at; i < std::min(bad.size(), at + 1 + rng() % 64); ++i) bad[i] = static_cast<uint8_t>(rng());
+      } else {  // cut short
+        bad.resize(at);
+      }
+      const std::string path = dir / ("bad" + std::to_string(trial) + ".sdb");
+      std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bad.data()),
+                                                   static_cast<std::streamsize>(bad.size()));
+      auto store = HzSparseStore::Open(path, {});
+      if (!store.ok() || !(*store)->Verify().ok()) {
+        ++reported;
+        if (store.ok()) store->reset();
+        std::filesystem::remove(path);
+        std::filesystem::remove(path + "-lock");
+        continue;
+      }
+      bool same = true;
+      {
+        HzSparseStore::Reader<3> r(**store);
+        size_t i = 0;
+        ForEachNode<3>(k, [&](SimplexCode<3> c) {
+          const Result<double> e = r.ErrorBound(c);
+          same = same && e.ok() && *e == want[i];
+          ++i;
+        });
+        ForEachPoint<3>(v, [&](const std::array<int64_t, 3>& p) {
+          const Result<double> f = r.Field(p);
+          same = same && f.ok() && *f == want[i];
+          ++i;
+        });
+      }
+      EXPECT_TRUE(same) << "trial " << trial << " (" << kPageKindNames[kind]
+                        << " page): verify passed but the answers changed";
+      ++harmless;
+      store->reset();
+      std::filesystem::remove(path);
+      std::filesystem::remove(path + "-lock");
+    }
+  }
+  for (int kind = 0; kind < kOverflowPage; ++kind) {
+    EXPECT_GT(aimed[kind], cases / 10) << kPageKindNames[kind] << " pages: too few cases";
   }
   EXPECT_GT(reported, cases / 3);
   EXPECT_GT(harmless, 0);
+  std::printf("damage: %d reported, %d harmless; meta %d, branch %d, leaf %d, overflow %d cases\n", reported,
+              harmless, aimed[kMetaPage], aimed[kBranchPage], aimed[kLeafPage], aimed[kOverflowPage]);
 }
 
 // Readers of one store share its cache and fill the finest codes into the
@@ -398,6 +453,30 @@ TEST(HzSparseStore, AFormatOneStoreIsRefused) {
   const Status s = HzSparseStore::Open(dir / "old.sdb", {}).status();
   EXPECT_TRUE(s.IsNotSupported()) << s.ToString();
   EXPECT_NE(s.message().find("import"), std::string_view::npos) << s.ToString();
+}
+
+// Header version 2 (one LMDB entry per block, before values were cut into
+// parts): refused, with the same advice.
+TEST(HzSparseStore, AVersionTwoStoreIsRefused) {
+  TempDir dir;
+  Stores s = Build(BoxInRamp(3, {6, 5, 7, 1}, VoxelType::kU8, 14), dir, 0, 6);
+  ASSERT_NE(s.sparse, nullptr);
+  HzSparseHeader h = s.sparse->header();
+  h.version = 2;
+  s.sparse.reset();  // one environment per file and process (LMDB)
+  {
+    lmdb::Env::Options o;
+    o.read_only = false;
+    auto env = *lmdb::Env::Open(dir / "sparse.sdb", o);
+    auto txn = *lmdb::Txn::Begin(*env, false);
+    const MDB_dbi meta = *txn.OpenDb("meta", false);
+    ASSERT_TRUE(txn.Put(meta, kHzSparseHeaderKey, EncodeHzSparseHeader(h)).ok());
+    ASSERT_TRUE(txn.Commit().ok());
+  }
+  const Status opened = HzSparseStore::Open(dir / "sparse.sdb", {}).status();
+  EXPECT_TRUE(opened.IsNotSupported()) << opened.ToString();
+  EXPECT_NE(opened.message().find("version 2"), std::string_view::npos) << opened.ToString();
+  EXPECT_NE(opened.message().find("import the volume again"), std::string_view::npos) << opened.ToString();
 }
 
 }  // namespace
