@@ -381,8 +381,8 @@ void RegisterStoreCommands(CLI::App& app) {
     cmd->add_option("--compression", a->compression, "blocks as zstd frames or none (raw)")
         ->capture_default_str();
     cmd->add_flag("--sparse", a->sparse,
-                  "build the variable-resolution LMDB store instead (in memory: about 8 bytes "
-                  "per grid point and 30 per vertex near the grid)");
+                  "build the variable-resolution LMDB store instead (in memory: 8 bytes "
+                  "per grid point and 23 per vertex near the grid)");
     cmd->add_option("--tolerance", a->tolerance,
                     "--sparse: drop the diamonds whose errors are within this, and keep the "
                     "rest's values to within it (7.3, or 1% of the field range; 0: lossless)")

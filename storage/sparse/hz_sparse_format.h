@@ -79,8 +79,8 @@ inline constexpr uint32_t kHzSparseFormatVersion = 3;
 // A block's value in parts: four of the largest, with their keys and LMDB's
 // node headers and slots (22 bytes each), fill a 4 KiB page's 4080 bytes;
 // a block's last, shorter part leaves on average half a part unused (parts
-// of 2000 bytes and 488 made the real volumes' stores 0-12% larger,
-// bench/README.md).
+// of 2000 bytes made the real volumes' stores up to 12% larger; of 488, up
+// to 4% larger in 3D and 2-6% smaller on the fMRI: bench/README.md).
 inline constexpr size_t kHzSparsePartBytes = 998;
 inline constexpr size_t kHzSparseKeyBytes = 12;
 inline std::array<uint8_t, kHzSparseKeyBytes> HzSparseKey(uint64_t block, uint32_t part) {
