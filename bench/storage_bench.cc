@@ -6,8 +6,8 @@
 //                                 random codes or a depth-first walk.
 //   Build/<volume>                build throughput (grid points/s) and peak
 //                                 memory of `simplexdb import` (a child process).
-//   ErrorLookup/sparse-<how>      the same codes on the lossless sparse store
-//                                 (LMDB B-tree lookups, or prefetched subtrees).
+//   ErrorLookup/sparse-<order>    the same codes on the lossless sparse store
+//                                 of format 2 (decoded blocks in its cache).
 //   Size/<volume>/<mode>          bytes per grid point on disk for each
 //                                 quantization and compression (and the
 //                                 lossless sparse store), against the
@@ -37,8 +37,8 @@
 #include "storage/error/finest_diamonds.h"
 #include "storage/volume/generate.h"
 #include "storage/volume/nrrd_writer.h"
-#include "storage/sparse/sparse_builder.h"
-#include "storage/sparse/sparse_store.h"
+#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/sparse/hz_sparse_store.h"
 #include "storage/volume/volume.h"
 #include "bench/bench_util.h"
 
@@ -51,7 +51,7 @@ namespace fs = std::filesystem;
 
 struct LookupStores {
   std::unique_ptr<DenseStore> in_memory, raw, zstd_warm, zstd_cold;
-  std::unique_ptr<SparseStore> sparse;  // lossless, from the zstd store
+  std::unique_ptr<HzSparseStore> sparse;  // lossless, from the same volume
   std::vector<TetCode> random, depth_first;
 };
 
@@ -74,8 +74,8 @@ LookupStores& Stores() {
     o.in_memory = true;
     l.in_memory = *DenseStore::Open(zstd, o);
     const std::string sparse = WorkDir() + "/lookup.lmdb";
-    if (!ConvertDenseToSparse(*l.zstd_warm, sparse, SparseBuildOptions{}).ok()) std::abort();
-    l.sparse = *SparseStore::Open(sparse);
+    if (!BuildHzSparseStore(in, sparse, HzSparseBuildOptions{}).ok()) std::abort();
+    l.sparse = *HzSparseStore::Open(sparse, HzSparseStore::Options{});
     const int leaf = l.raw->header().leaf_level();
     std::mt19937_64 rng(1);
     for (int i = 0; i < (1 << 16); ++i) {
@@ -125,28 +125,26 @@ void RegisterLookups() {
   }
 }
 
-// The sparse store, lossless (Perlin noise keeps almost every node): LMDB
-// B-tree lookups, and a walk that prefetches each 14-level subtree it enters
-// (at most 2^15 entries) with one cursor scan, the scan's cost included.
+// The sparse store of format 2, lossless: the lookups of the dense ones, a
+// finest diamond's error computed from rebuilt values (remembered in its
+// decoded block after the first time).
 void RegisterSparseLookups() {
-  for (const char* mode : {"btree/random", "btree/depth-first", "prefetch/depth-first"}) {
-    const std::string m = mode;
-    benchmark::RegisterBenchmark(("ErrorLookup/sparse-" + m).c_str(), [m](benchmark::State& state) {
+  for (const bool random : {true, false}) {
+    const std::string label = std::string("ErrorLookup/sparse") + (random ? "/random" : "/depth-first");
+    benchmark::RegisterBenchmark(label.c_str(), [random](benchmark::State& state) {
       LookupStores& s = Stores();
-      const bool random = m == "btree/random", prefetch = m == "prefetch/depth-first";
       const std::vector<TetCode>& codes = random ? s.random : s.depth_first;
-      auto reader = *SparseStore::Reader<3>::Create(*s.sparse);
+      HzSparseStore::Reader<3> reader(*s.sparse);
+      const uint64_t decoded_before = s.sparse->stats().blocks_decoded;
       size_t i = 0;
       for (auto _ : state) {
-        if (prefetch && codes[i].level() % 14 == 0) {
-          if (!reader.Prefetch(codes[i], size_t{1} << 15).ok()) std::abort();
-        }
         benchmark::DoNotOptimize(reader.ErrorBound(codes[i]));
         if (++i == codes.size()) i = 0;
       }
       state.SetItemsProcessed(state.iterations());
-      state.counters["btree_lookups"] = benchmark::Counter(
-          static_cast<double>(reader.stats().btree_lookups), benchmark::Counter::kAvgIterations);
+      state.counters["blocks_decoded"] = benchmark::Counter(
+          static_cast<double>(s.sparse->stats().blocks_decoded - decoded_before),
+          benchmark::Counter::kAvgIterations);
     });
   }
 }

@@ -1,5 +1,7 @@
 #include "query/open_store.h"
 
+#include "storage/io/lmdb.h"
+
 namespace simplexdb {
 
 const char* StoreKindName(StoreKind kind) {
@@ -13,7 +15,7 @@ const char* StoreKindName(StoreKind kind) {
 }
 
 StoreKind ProbeStoreKind(const std::string& path) {
-  return LooksLikeLmdb(path) ? StoreKind::kSparse : StoreKind::kDense;
+  return lmdb::LooksLikeLmdb(path) ? StoreKind::kSparse : StoreKind::kDense;
 }
 
 Result<AnyStore> AnyStore::Open(const std::string& path, const StoreOptions& options) {

@@ -1,9 +1,9 @@
 // Sources: the one read interface the query layer sees, over every store,
 // written as the concept ReadSource<S, D> below with its contract. The
 // refinement templates (query/refine.h, mesh_io.h, slice.h) take any type
-// that models it; DenseSource<D> (a dense store, mapped or in memory),
-// HzSource<D> (a format-2 store) and SparseSource<D> (the LMDB store) are
-// the ones over stores, and
+// that models it; DenseSource<D> (a dense store of format 1, mapped or in
+// memory), HzSource<D> (a dense store of format 2) and HzSparseSource<D>
+// (the LMDB store) are the ones over stores, and
 // query/open_store.h makes the right one for a store path.
 //
 // Refinement is a template over the source (static dispatch): an error lookup
@@ -14,8 +14,8 @@
 //
 // Thread safety: a source is one thread's at a time (no locks inside; it
 // keeps the blocks, snapshot and counters of one walk). Make one source per
-// thread over a shared store: DenseStore and SparseStore may be shared by
-// any number of threads, each with its own sources. A source may move to
+// thread over a shared store: every store may be shared by any number of
+// threads, each with its own sources. A source may move to
 // another thread between calls (the LMDB environment is opened with
 // MDB_NOTLS).
 //
@@ -23,8 +23,8 @@
 // reference to it). Everything a source hands back is a value (Result<double>,
 // SourceStats, ...) except info(), a reference that lives as long as the
 // source; no span or pointer into a block or the LMDB map escapes a source.
-// A SparseSource reads one LMDB snapshot for its whole life (a read
-// transaction): it sees no commit made after it was created, and while it
+// An HzSparseSource reads one LMDB snapshot for its whole life (a read
+// transaction, begun at its first lookup): it sees no commit made after it was created, and while it
 // lives LMDB keeps that snapshot's pages from reuse, so a writer's file can
 // grow; make a source per query rather than one for the program's life.
 // A Refiner (query/refine.h) holds a reference to its source: the source
@@ -32,8 +32,8 @@
 //
 // Errors: lookups return the store reader's Status (Corruption naming the
 // file and block for damaged data, IOError for a failed read: the contract
-// below); making a DenseSource cannot fail; SparseSource::Create returns
-// ResourceExhausted or IOError (below).
+// below); making a source cannot fail (an HzSparseSource's first lookup
+// reports a read transaction that cannot begin).
 #pragma once
 
 #include <array>
@@ -47,7 +47,6 @@
 #include "storage/dense/dense_store.h"
 #include "storage/dense/hz_store.h"
 #include "storage/sparse/hz_sparse_store.h"
-#include "storage/sparse/sparse_store.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -68,7 +67,7 @@ struct SourceInfo {
 };
 
 // The SourceInfo of a store whose header has the usual fields (DenseHeader,
-// SparseHeader).
+// HzHeader, HzSparseHeader).
 template <class Header>
 SourceInfo InfoFromHeader(const Header& h, const std::string& path) {
   SourceInfo info;
@@ -145,8 +144,7 @@ struct SourceStats {
 //       values for the source's life; the reference lives as long as s.
 //   SourceStats s.stats() const           the work done so far, by value.
 //
-// The query layer takes sources by reference and never copies or moves one;
-// SparseSource::Create returns one by value, so it is move-constructible.
+// The query layer takes sources by reference and never copies or moves one.
 template <class S, int D>
 concept ReadSource =
     (D == 3 || D == 4) &&
@@ -314,64 +312,7 @@ class HzSparseSource {
   SourceStats stats_;
 };
 
-// An LMDB store's source: one read transaction (a consistent snapshot) and
-// the prefetched subtree. Models ReadSource<SparseSource<D>, D>.
-template <int D>
-class SparseSource {
- public:
-  static constexpr bool kFieldComplete = false;
-  // Descend() prefetches subtrees rooted every kPrefetchLevels levels, at
-  // most kPrefetchEntries errors each: a depth-first walk then reads a subtree
-  // with one cursor scan instead of a B-tree search per node, and a walk that
-  // only touches a subtree's top reads a bounded amount.
-  static constexpr int kPrefetchLevels = 8;
-  static constexpr size_t kPrefetchEntries = 4096;
-
-  // REQUIRES: store.dimension() == D; the store outlives the source.
-  // Errors: those of beginning an LMDB read transaction
-  // (SparseStore::Reader::Create): ResourceExhausted when every reader slot
-  // of the store is taken (lmdb::Env::Options::max_readers, across
-  // processes), IOError otherwise.
-  static Result<SparseSource> Create(const SparseStore& store) {
-    SDB_ASSIGN_OR_RETURN(auto reader, SparseStore::Reader<D>::Create(store));
-    return SparseSource(store, std::move(reader));
-  }
-
-  const SourceInfo& info() const { return info_; }
-  SourceStats stats() const {
-    SourceStats s = stats_;
-    s.blocks_read = reader_.stats().btree_lookups + prefetches_;
-    return s;
-  }
-
-  Result<double> Error(SimplexCode<D> code) {
-    ++stats_.error_lookups;
-    return reader_.ErrorBound(code);
-  }
-  Result<std::optional<double>> Field(const std::array<int64_t, D>& p) {
-    ++stats_.field_lookups;
-    return reader_.Field(p);
-  }
-  // A prefetch that fails is only a lost optimization: lookups fall back to
-  // B-tree searches, which report the failure themselves.
-  void Descend(SimplexCode<D> code) {
-    if (code.level() % kPrefetchLevels != 0) return;
-    ++prefetches_;
-    (void)reader_.Prefetch(code, kPrefetchEntries);
-  }
-
- private:
-  SparseSource(const SparseStore& store, typename SparseStore::Reader<D> reader)
-      : reader_(std::move(reader)), info_(InfoFromHeader(store.header(), store.path())) {}
-
-  typename SparseStore::Reader<D> reader_;
-  SourceInfo info_;
-  SourceStats stats_;
-  uint64_t prefetches_ = 0;
-};
-
 static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);
 static_assert(ThresholdReadSource<HzSource<3>, 3> && ThresholdReadSource<HzSource<4>, 4>);
-static_assert(ReadSource<SparseSource<3>, 3> && ReadSource<SparseSource<4>, 4>);
 
 }  // namespace simplexdb

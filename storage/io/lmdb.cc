@@ -11,8 +11,21 @@
 
 #include "storage/io/file.h"
 #include "storage/io/lmdb_check.h"
+#include "storage/io/read_only_file.h"
+#include "util/little_endian.h"
 
 namespace simplexdb::lmdb {
+
+bool LooksLikeLmdb(const std::string& path) {
+  // LMDB's first page is a meta page: a 16-byte page header, then the meta
+  // record, whose first field is the magic 0xBEEFC0DE (native order).
+  Result<ReadOnlyFile> file = ReadOnlyFile::Open(path);
+  if (!file.ok()) return false;
+  uint8_t head[20] = {};
+  const Result<size_t> got = file->ReadUpTo(0, sizeof head, reinterpret_cast<std::byte*>(head));
+  if (!got.ok() || *got != sizeof head) return false;
+  return LoadLittle<uint32_t>(head + 16) == 0xBEEFC0DEu;
+}
 
 namespace {
 

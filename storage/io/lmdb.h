@@ -44,6 +44,11 @@
 
 namespace simplexdb::lmdb {
 
+// True when `path` begins like an LMDB data file: a meta page whose magic
+// is LMDB's (a sparse store, or another program's LMDB file). A FIFO or a
+// device is refused at once, not waited on.
+bool LooksLikeLmdb(const std::string& path);
+
 // The Status for LMDB return code `rc` (not MDB_SUCCESS) from `action` (a
 // verb phrase: "open", "read the field") on the environment at `path`:
 // "<path>: cannot <action>: <reason>". Codes that are errno values go

@@ -12,7 +12,6 @@
 #include "storage/error/finest_box_errors.h"
 #include "storage/io/file.h"
 #include "storage/io/lmdb.h"
-#include "storage/sparse/sparse_store.h"
 
 namespace simplexdb {
 namespace {
@@ -34,7 +33,7 @@ Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& pa
   struct stat st;
   if (stat(path.c_str(), &st) != 0) return StatusFromErrno(errno, path, "open");
   if (!S_ISREG(st.st_mode)) return Status::InvalidArgument(path + ": not a regular file");
-  if (!LooksLikeLmdb(path)) return Status::InvalidArgument(path + ": not a sparse store (not an LMDB file)");
+  if (!lmdb::LooksLikeLmdb(path)) return Status::InvalidArgument(path + ": not a sparse store (not an LMDB file)");
   std::unique_ptr<HzSparseStore> store(new HzSparseStore());
   store->path_ = path;
   lmdb::Env::Options env_options;

@@ -11,6 +11,7 @@
 
 #include "query/refine.h"
 #include "query/source.h"
+#include "storage/io/lmdb.h"
 #include "storage/dense/hz_builder.h"
 #include "storage/sparse/hz_sparse_builder.h"
 #include "tests/query/query_test_util.h"
@@ -198,8 +199,17 @@ TEST(OpenStore, RefusesFormatOneSayingToImportAgain) {
   EXPECT_NE(store.status().message().find("f1.sdb"), std::string_view::npos);
   EXPECT_NE(store.status().message().find("format-1"), std::string_view::npos);
   EXPECT_NE(store.status().message().find("import the volume again"), std::string_view::npos);
-  auto per_node = testing::BuildDense(volume, dir.path(), "f1");
-  testing::BuildSparse(*per_node, dir.path() + "/s1.lmdb", 0);
+  {  // An LMDB file with format 1's databases.
+    lmdb::Env::Options o;
+    o.read_only = false;
+    o.map_bytes = 1 << 20;
+    auto env = *lmdb::Env::Open(dir.path() + "/s1.lmdb", o);
+    auto txn = *lmdb::Txn::Begin(*env, false);
+    ASSERT_TRUE(txn.OpenDb("meta", true).ok());
+    ASSERT_TRUE(txn.OpenDb("errors", true).ok());
+    ASSERT_TRUE(txn.OpenDb("field", true).ok());
+    ASSERT_TRUE(txn.Commit().ok());
+  }
   EXPECT_EQ(ProbeStoreKind(dir.path() + "/s1.lmdb"), StoreKind::kSparse);
   const Result<AnyStore> sparse = AnyStore::Open(dir.path() + "/s1.lmdb");
   ASSERT_FALSE(sparse.ok());

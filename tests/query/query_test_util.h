@@ -16,8 +16,6 @@
 #include "query/refine.h"
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
-#include "storage/sparse/sparse_builder.h"
-#include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 
@@ -38,17 +36,6 @@ inline std::unique_ptr<DenseStore> BuildDense(const TestVolume& volume, const st
   DenseStore::Options open;
   open.in_memory = in_memory;
   auto store = DenseStore::Open(path, open);
-  EXPECT_TRUE(store.ok()) << store.status().message();
-  return std::move(store).value();
-}
-
-inline std::unique_ptr<SparseStore> BuildSparse(const DenseStore& dense, const std::string& path,
-                                                double tolerance) {
-  SparseBuildOptions options;
-  options.tolerance = tolerance;
-  auto report = ConvertDenseToSparse(dense, path, options);
-  EXPECT_TRUE(report.ok()) << report.status().message();
-  auto store = SparseStore::Open(path);
   EXPECT_TRUE(store.ok()) << store.status().message();
   return std::move(store).value();
 }

@@ -1,6 +1,7 @@
-// The same query over every store: in-memory, mapped raw, zstd blocks and a
-// lossless LMDB store give the same mesh, vertex values and errors; a lossy
-// LMDB store stays within its tolerance.
+// The same query over every layout of format 1's dense store: in-memory,
+// mapped raw and zstd blocks give the same mesh, vertex values and errors.
+// (The sparse store of format 2 against the dense one of format 2:
+// tests/query/sparse2_refine_test.cc.)
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -63,8 +64,8 @@ Extracted<D> Run(Source& source, const Criteria<D>& c, Algorithm a) {
   return out;
 }
 
-// A field with structure at every scale and flat regions (a lossless LMDB
-// store then drops whole subtrees): a ramp plus a few bumps, clamped.
+// A field with structure at every scale and flat regions: a ramp plus a
+// few bumps, clamped.
 TestVolume Structured(int dimension, uint32_t side) {
   std::array<uint32_t, 4> dims = {side, side, side, dimension == 4 ? side : 1};
   TestVolume v = TestVolume::Random(dimension, dims, VoxelType::kU8, 5);
@@ -91,11 +92,7 @@ void CheckStoresAgree(uint32_t side) {
   auto zstd = testing::BuildDense(volume, dir.path(), "z");
   auto raw = testing::BuildDense(volume, dir.path(), "r", /*raw=*/true);
   auto in_memory = testing::BuildDense(volume, dir.path(), "m", false, /*in_memory=*/true);
-  auto lossless = testing::BuildSparse(*zstd, dir.path() + "/s.lmdb", 0);
-  ASSERT_LT(lossless->header().nodes, (uint64_t{SimplexCode<D>::kRoots} << zstd->header().leaf_level()) / 2)
-      << "the LMDB store should drop the flat regions";
   DenseSource<D> z(*zstd), r(*raw), m(*in_memory);
-  auto s = *SparseSource<D>::Create(*lossless);
   const SourceInfo& info = z.info();
   for (const auto& [name, c] : Queries<D>(info.domain_bits, info.field_min, info.field_range())) {
     for (Algorithm a : {Algorithm::kDepthFirst, Algorithm::kPriority, Algorithm::kSaturated,
@@ -103,7 +100,7 @@ void CheckStoresAgree(uint32_t side) {
       SCOPED_TRACE(name + " " + std::to_string(c.threshold) + " " + AlgorithmName(a));
       const Extracted<D> want = Run<D>(m, c, a);
       const std::vector<std::pair<std::string, Extracted<D>>> others = {
-          {"zstd", Run<D>(z, c, a)}, {"raw", Run<D>(r, c, a)}, {"lmdb", Run<D>(s, c, a)}};
+          {"zstd", Run<D>(z, c, a)}, {"raw", Run<D>(r, c, a)}};
       for (const auto& [store, got] : others) {
         SCOPED_TRACE(store);
         EXPECT_EQ(testing::Keys(got.leaves), testing::Keys(want.leaves));
@@ -144,46 +141,6 @@ TEST(Stores, BlockMaximaSkipBlocksAndChangeNothing) {
     }
   }
   EXPECT_GT(skipped, 0u);
-}
-
-// A lossy LMDB store (tolerance t) drops subtrees whose errors are all
-// within t: a query at threshold e then leaves simplices whose true error
-// bound (the dense store's) is at most max(e, t), and vertex values within
-// t of the true field.
-TEST(Stores, LossyStoreStaysWithinItsTolerance) {
-  TempDir dir;
-  const TestVolume volume = Structured(3, 33);
-  auto dense = testing::BuildDense(volume, dir.path(), "d");
-  const double range = dense->header().field_max - dense->header().field_min;
-  for (double tolerance_pct : {2.0, 10.0, 30.0}) {
-    const double t = range * tolerance_pct / 100;
-    auto lossy = testing::BuildSparse(*dense, dir.path() + "/t" + std::to_string(tolerance_pct) + ".lmdb", t);
-    auto source = *SparseSource<3>::Create(*lossy);
-    DenseSource<3> truth(*dense);
-    for (double e_pct : {0.0, 1.0, 5.0, 20.0}) {
-      SCOPED_TRACE(std::to_string(tolerance_pct) + "% tolerance, threshold " + std::to_string(e_pct) + "%");
-      Criteria<3> c;
-      c.threshold = range * e_pct / 100;
-      Refiner<3, SparseSource<3>> refiner(source, c);
-      Mesh<3> mesh;
-      QueryStats stats;
-      ASSERT_TRUE(refiner.Run({Algorithm::kDepthFirst}, mesh, stats).ok());
-      EXPECT_TRUE(CheckConformity<3>(mesh.Leaves()).ok);
-      double worst_value = 0;
-      ASSERT_TRUE(ForEachLeaf<3>(mesh, source,
-                                 [&](SimplexCode<3> code, const SimplexVertices<3>& v,
-                                     const std::array<double, 4>& f) -> Status {
-                                   EXPECT_LE(*truth.Error(code), std::max(c.threshold, t)) << code.ToString();
-                                   for (int i = 0; i < 4; ++i) {
-                                     const double want = **truth.Field(LatticeToGrid<3>(v[i], 5));
-                                     worst_value = std::max(worst_value, std::abs(f[i] - want));
-                                   }
-                                   return Status::OK();
-                                 })
-                      .ok());
-      EXPECT_LE(worst_value, t);
-    }
-  }
 }
 
 }  // namespace

@@ -20,10 +20,9 @@
 
 #include "query/mesh_io.h"
 #include "storage/dense/dense_builder.h"
-#include "storage/dense/dense_store.h"
 #include "storage/io/file.h"
 #include "storage/io/lmdb.h"
-#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/hz_sparse_builder.h"
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
@@ -89,10 +88,6 @@ class ErrnoFromWriters : public ::testing::Test {
     auto volume = OpenVolume(nrrd);
     ASSERT_TRUE(volume.ok()) << volume.status().ToString();
     volume_ = *volume;
-    ASSERT_TRUE(BuildDenseStore(volume_, dir_.path() + "/in.sdb", {}).ok());
-    auto dense = DenseStore::Open(dir_.path() + "/in.sdb");
-    ASSERT_TRUE(dense.ok()) << dense.status().ToString();
-    dense_ = std::move(*dense);
     // One tetrahedron 300 times: more than 4 KiB of arrays.
     mesh_.points = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
     mesh_.field = {0, 1, 2, 3};
@@ -107,7 +102,7 @@ class ErrnoFromWriters : public ::testing::Test {
         {"dense store",
          [&](const std::string& p) { return BuildDenseStore(volume_, p, {}).status(); }},
         {"sparse store",
-         [&](const std::string& p) { return ConvertDenseToSparse(*dense_, p, {}).status(); }},
+         [&](const std::string& p) { return BuildHzSparseStore(volume_, p, {}).status(); }},
         {"volume (NRRD)",
          [&](const std::string& p) {
            return WriteNrrd(p, 3, {17, 17, 17, 1}, VoxelType::kU8, values_());
@@ -157,7 +152,6 @@ class ErrnoFromWriters : public ::testing::Test {
 
   TempDir dir_;
   VolumeInfo volume_;
-  std::unique_ptr<DenseStore> dense_;
   TetMeshData mesh_;
   std::vector<SimplexCode<3>> codes_;
   std::vector<Writer> writers_;
