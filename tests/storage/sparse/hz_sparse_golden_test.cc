@@ -64,7 +64,8 @@ Status Build(const Golden& g, const std::string& dir, const std::string& out) {
   return BuildHzSparseStore(input, out, options).status();
 }
 
-// The header (source cleared) and every block's decoded content, by key.
+// The header (source cleared) and every block's decoded content, by block:
+// its parts (keys in order) joined, then the zstd frame decoded.
 struct Entries {
   std::vector<uint8_t> header;
   std::map<uint64_t, std::vector<uint8_t>> blocks;
@@ -72,25 +73,34 @@ struct Entries {
 
 Entries ReadEntries(const std::string& path) {
   Entries out;
-  auto store = HzSparseStore::Open(path, {});
-  EXPECT_TRUE(store.ok()) << store.status().ToString();
-  if (!store.ok()) return out;
-  HzSparseHeader h = (*store)->header();
-  h.source.clear();
-  out.header = EncodeHzSparseHeader(h);
+  {  // Closed before the file is opened again (one LMDB environment per file and process).
+    auto store = HzSparseStore::Open(path, {});
+    EXPECT_TRUE(store.ok()) << store.status().ToString();
+    if (!store.ok()) return out;
+    HzSparseHeader h = (*store)->header();
+    h.source.clear();
+    out.header = EncodeHzSparseHeader(h);
+  }
   auto env = lmdb::Env::Open(path, {});
   EXPECT_TRUE(env.ok()) << env.status().ToString();
   auto txn = lmdb::Txn::Begin(**env, /*read_only=*/true);
   auto dbi = txn->OpenDb("blocks", false);
   auto cursor = lmdb::Cursor::Open(*txn, *dbi);
-  ZstdDecompressor zstd;
+  std::map<uint64_t, std::vector<uint8_t>> values;
   MDB_val k, v;
   for (int rc = mdb_cursor_get(cursor->get(), &k, &v, MDB_FIRST); rc == MDB_SUCCESS;
        rc = mdb_cursor_get(cursor->get(), &k, &v, MDB_NEXT)) {
-    const std::span<const uint8_t> value(static_cast<const uint8_t*>(v.mv_data), v.mv_size);
+    uint64_t block = 0;
+    uint32_t part = 0;
+    EXPECT_TRUE(ParseHzSparseKey({static_cast<const uint8_t*>(k.mv_data), k.mv_size}, &block, &part));
+    const auto* bytes = static_cast<const uint8_t*>(v.mv_data);
+    values[block].insert(values[block].end(), bytes, bytes + v.mv_size);
+  }
+  ZstdDecompressor zstd;
+  for (const auto& [block, value] : values) {
     std::vector<uint8_t> content(LoadLittle<uint32_t>(value.data()));
-    EXPECT_TRUE(zstd.Decompress(value.subspan(4, value.size() - 12), content, path).ok());
-    out.blocks[lmdb::KeyValue(k)] = std::move(content);
+    EXPECT_TRUE(zstd.Decompress(std::span(value).subspan(4, value.size() - 12), content, path).ok());
+    out.blocks[block] = std::move(content);
   }
   return out;
 }
@@ -151,6 +161,7 @@ TEST(HzSparseGolden, ReferenceStoresStillReadAndRebuildIdentically) {
     } else {
       CheckAnswers<4>(**store, volume, g.tolerance);
     }
+    store->reset();
     const Entries want = ReadEntries(reference), got = ReadEntries(fresh);
     EXPECT_EQ(got.header, want.header) << "the header changed";
     EXPECT_GT(want.blocks.size(), 1u);
