@@ -95,6 +95,22 @@ LookupStores& Stores() {
   return s;
 }
 
+// Error lookups of `codes`, round and round, through one reader of
+// `store`; blocks decoded per lookup as a counter.
+template <class Store>
+void MeasureLookups(benchmark::State& state, const Store& store, const std::vector<TetCode>& codes) {
+  typename Store::template Reader<3> reader(store);
+  const uint64_t decoded_before = store.stats().blocks_decoded;
+  size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(reader.ErrorBound(codes[i]));
+    if (++i == codes.size()) i = 0;
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["blocks_decoded"] = benchmark::Counter(
+      static_cast<double>(store.stats().blocks_decoded - decoded_before), benchmark::Counter::kAvgIterations);
+}
+
 void RegisterLookups() {
   const std::pair<const char*, std::unique_ptr<DenseStore> LookupStores::*> stores[] = {
       {"in-memory", &LookupStores::in_memory},
@@ -107,19 +123,7 @@ void RegisterLookups() {
           std::string("ErrorLookup/") + name + (random ? "/random" : "/depth-first");
       benchmark::RegisterBenchmark(label.c_str(), [member = member, random](benchmark::State& state) {
         LookupStores& s = Stores();
-        const DenseStore& store = *(s.*member);
-        const std::vector<TetCode>& codes = random ? s.random : s.depth_first;
-        DenseStore::Reader<3> reader(store);
-        const uint64_t decoded_before = store.stats().blocks_decoded;
-        size_t i = 0;
-        for (auto _ : state) {
-          benchmark::DoNotOptimize(reader.ErrorBound(codes[i]));
-          if (++i == codes.size()) i = 0;
-        }
-        state.SetItemsProcessed(state.iterations());
-        state.counters["blocks_decoded"] = benchmark::Counter(
-            static_cast<double>(store.stats().blocks_decoded - decoded_before),
-            benchmark::Counter::kAvgIterations);
+        MeasureLookups(state, *(s.*member), random ? s.random : s.depth_first);
       });
     }
   }
@@ -133,18 +137,7 @@ void RegisterSparseLookups() {
     const std::string label = std::string("ErrorLookup/sparse") + (random ? "/random" : "/depth-first");
     benchmark::RegisterBenchmark(label.c_str(), [random](benchmark::State& state) {
       LookupStores& s = Stores();
-      const std::vector<TetCode>& codes = random ? s.random : s.depth_first;
-      HzSparseStore::Reader<3> reader(*s.sparse);
-      const uint64_t decoded_before = s.sparse->stats().blocks_decoded;
-      size_t i = 0;
-      for (auto _ : state) {
-        benchmark::DoNotOptimize(reader.ErrorBound(codes[i]));
-        if (++i == codes.size()) i = 0;
-      }
-      state.SetItemsProcessed(state.iterations());
-      state.counters["blocks_decoded"] = benchmark::Counter(
-          static_cast<double>(s.sparse->stats().blocks_decoded - decoded_before),
-          benchmark::Counter::kAvgIterations);
+      MeasureLookups(state, *s.sparse, random ? s.random : s.depth_first);
     });
   }
 }
