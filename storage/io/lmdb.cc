@@ -166,6 +166,12 @@ Result<std::unique_ptr<Env>> Env::Open(const std::string& path, const Options& o
 
 Env::~Env() { mdb_env_close(env_); }
 
+size_t Env::page_bytes() const {
+  MDB_stat stat_info;
+  mdb_env_stat(env_, &stat_info);
+  return stat_info.ms_psize;
+}
+
 uint64_t Env::map_bytes() const {
   MDB_envinfo info;
   mdb_env_info(env_, &info);
@@ -242,12 +248,11 @@ void Txn::Abort() {
 Result<MDB_dbi> Txn::OpenDb(const char* name, bool create) {
   MDB_dbi dbi = 0;
   const int rc = mdb_dbi_open(txn_, name, create ? MDB_CREATE : 0, &dbi);
+  const std::string what = name ? std::string("database '") + name + "'" : "the unnamed database";
   if (rc == MDB_NOTFOUND) {
-    return Status::InvalidArgument(env_->name() + ": no database '" + name + "' in this LMDB file");
+    return Status::InvalidArgument(env_->name() + ": no " + what + " in this LMDB file");
   }
-  if (rc != MDB_SUCCESS) {
-    return env_->FromCode(rc, std::string("open database '") + name + "'");
-  }
+  if (rc != MDB_SUCCESS) return env_->FromCode(rc, "open " + what);
   return dbi;
 }
 

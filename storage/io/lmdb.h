@@ -116,6 +116,8 @@ class Env {
   // The file errors name: Options::name, or path().
   const std::string& name() const { return name_; }
   uint64_t map_bytes() const;
+  // The size of its pages (the system's page size when it was created).
+  size_t page_bytes() const;
   // Sets the map size (no transaction of this process may be open).
   Status SetMapBytes(uint64_t bytes);
   // Flushes to disk (a no-op unless the environment was opened without
@@ -150,8 +152,9 @@ class Txn {
   int CommitCode();  // Commit's LMDB return code, for callers that retry
   void Abort();
 
-  // The named database `name`; `create` in a write transaction.
-  // InvalidArgument when it does not exist and `create` is false.
+  // The named database `name` (nullptr: the unnamed one, which always
+  // exists); `create` in a write transaction. InvalidArgument when it does
+  // not exist and `create` is false.
   Result<MDB_dbi> OpenDb(const char* name, bool create);
 
   // The value of `key` in `dbi`: the bytes (valid until the transaction

@@ -226,23 +226,53 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
   return h;
 }
 
+HzSparseErrorCoder::HzSparseErrorCoder(const HzSparseHeader& h)
+    : quantizer_(h.quantization, h.quantum, h.field_max - h.field_min) {
+  if (!(h.tolerance > 0) || h.quantization == Quantization::kF32 || !(h.quantum > 0)) return;
+  // Up to the linear codes' largest value, so that every one has a step
+  // at or above it.
+  const uint32_t max_code = ErrorQuantizer::MaxCode(h.quantization);
+  const double largest = quantizer_.Decode(max_code);
+  steps_.push_back(kLinearCodes * h.quantum);
+  while (steps_.back() < largest && kLinearCodes + steps_.size() <= max_code) {
+    steps_.push_back(steps_.back() * 1.25);
+  }
+}
+
+uint32_t HzSparseErrorCoder::Encode(double e) const {
+  const uint32_t linear = quantizer_.Encode(e);
+  if (linear <= kLinearCodes || steps_.empty()) return linear;
+  // The least step not below the linear code's value (itself not below e).
+  const double v = quantizer_.Decode(linear);
+  const auto it = std::lower_bound(steps_.begin(), steps_.end(), v);
+  const size_t j = it == steps_.end() ? steps_.size() - 1 : static_cast<size_t>(it - steps_.begin());
+  return kLinearCodes + static_cast<uint32_t>(j);
+}
+
 Result<std::vector<uint8_t>> EncodeHzSparseBlock(uint64_t block, const HzSparseBlock& b,
                                                  size_t error_width, size_t voxel_width,
                                                  ZstdCompressor& zstd) {
-  std::vector<uint8_t> raw;
-  raw.reserve(12 + b.kept.size() + b.errors.size() * error_width + b.residuals.size() * voxel_width);
-  Append<uint32_t>(raw, b.vertices);
-  Append<uint32_t>(raw, static_cast<uint32_t>(b.residuals.size()));
-  Append<uint32_t>(raw, static_cast<uint32_t>(b.errors.size()));
-  raw.insert(raw.end(), b.kept.begin(), b.kept.end());
+  std::vector<uint8_t> errors, residuals;
   std::vector<uint64_t> wide(b.errors.begin(), b.errors.end());
-  PutPlanes(raw, wide, error_width);
-  PutPlanes(raw, b.residuals, voxel_width);
-  SDB_ASSIGN_OR_RETURN(std::vector<uint8_t> frame, zstd.Compress(raw));
+  PutPlanes(errors, wide, error_width);
+  PutPlanes(residuals, b.residuals, voxel_width);
+  SDB_ASSIGN_OR_RETURN(const std::vector<uint8_t> bitmap_frame, zstd.Compress(b.kept));
+  std::vector<uint8_t> errors_frame;
+  if (!errors.empty()) {
+    SDB_ASSIGN_OR_RETURN(errors_frame, zstd.Compress(errors));
+  }
+  SDB_ASSIGN_OR_RETURN(const std::vector<uint8_t> residuals_frame, zstd.Compress(residuals));
   std::vector<uint8_t> value;
-  value.reserve(4 + frame.size() + 8);
-  Append<uint32_t>(value, static_cast<uint32_t>(raw.size()));
-  value.insert(value.end(), frame.begin(), frame.end());
+  value.reserve(kHzSparseBlockPrefix + bitmap_frame.size() + errors_frame.size() + residuals_frame.size() + 8);
+  Append<uint32_t>(value, b.vertices);
+  Append<uint32_t>(value, b.candidates);
+  Append<uint32_t>(value, static_cast<uint32_t>(b.residuals.size()));
+  Append<uint32_t>(value, static_cast<uint32_t>(b.errors.size()));
+  Append<uint32_t>(value, static_cast<uint32_t>(bitmap_frame.size()));
+  Append<uint32_t>(value, static_cast<uint32_t>(errors_frame.size()));
+  for (const std::vector<uint8_t>* frame : {&bitmap_frame, &std::as_const(errors_frame), &residuals_frame}) {
+    value.insert(value.end(), frame->begin(), frame->end());
+  }
   Append<uint64_t>(value, Checksum(value, block));
   return value;
 }
@@ -251,40 +281,44 @@ Result<HzSparseBlock> DecodeHzSparseBlock(uint64_t block, std::span<const uint8_
                                           uint32_t vertices, size_t error_width,
                                           size_t voxel_width, ZstdDecompressor& zstd,
                                           const std::string& file) {
-  const auto bad = [&](const std::string& why) {
-    return Status::Corruption(file + ": block " + std::to_string(block) + ": " + why);
-  };
-  if (value.size() < 12) return bad("value of " + std::to_string(value.size()) + " bytes");
+  const std::string what = file + ": block " + std::to_string(block);
+  const auto bad = [&](const std::string& why) { return Status::Corruption(what + ": " + why); };
+  if (value.size() < kHzSparseBlockPrefix + 8) return bad("value of " + std::to_string(value.size()) + " bytes");
   const std::span<const uint8_t> summed = value.first(value.size() - 8);
   if (Checksum(summed, block) != LoadLittle<uint64_t>(value.data() + summed.size())) return bad("checksum mismatch");
-  const uint32_t raw_size = LoadLittle<uint32_t>(value.data());
-  const size_t bitmap = (size_t{vertices} + 7) / 8;
-  const uint64_t largest = 12 + bitmap + uint64_t{vertices} * (error_width + voxel_width);
-  if (raw_size < 12 + bitmap || raw_size > largest) {
-    return bad("content of " + std::to_string(raw_size) + " bytes");
-  }
-  std::vector<uint8_t> raw(raw_size);
-  SDB_RETURN_IF_ERROR(zstd.Decompress(summed.subspan(4), raw, file + ": block " + std::to_string(block)));
   HzSparseBlock b;
-  b.vertices = LoadLittle<uint32_t>(raw.data());
-  const uint32_t kept = LoadLittle<uint32_t>(raw.data() + 4), errors = LoadLittle<uint32_t>(raw.data() + 8);
+  b.vertices = LoadLittle<uint32_t>(value.data());
+  b.candidates = LoadLittle<uint32_t>(value.data() + 4);
+  const uint32_t kept = LoadLittle<uint32_t>(value.data() + 8), errors = LoadLittle<uint32_t>(value.data() + 12);
+  const uint64_t bitmap_frame = LoadLittle<uint32_t>(value.data() + 16);
+  const uint64_t errors_frame = LoadLittle<uint32_t>(value.data() + 20);
   if (b.vertices != vertices) {
     return bad("holds " + std::to_string(b.vertices) + " vertices; the block has " + std::to_string(vertices));
   }
-  if (kept > vertices || errors > kept ||
-      raw_size != 12 + bitmap + uint64_t{errors} * error_width + uint64_t{kept} * voxel_width) {
-    return bad("counts do not match its size");
+  const uint64_t frames = summed.size() - kHzSparseBlockPrefix;
+  if (b.candidates > vertices || kept == 0 || kept > b.candidates || errors > kept ||
+      (errors == 0) != (errors_frame == 0) || bitmap_frame + errors_frame >= frames) {
+    return bad("counts or sizes out of range");
   }
-  b.kept.assign(raw.begin() + 12, raw.begin() + 12 + static_cast<std::ptrdiff_t>(bitmap));
+  const std::span<const uint8_t> all = summed.subspan(kHzSparseBlockPrefix);
+  b.kept.resize((size_t{b.candidates} + 7) / 8);
+  SDB_RETURN_IF_ERROR(zstd.Decompress(all.first(bitmap_frame), b.kept, what));
   uint64_t ones = 0;
   for (uint8_t byte : b.kept) ones += static_cast<uint64_t>(std::popcount(byte));
-  if ((vertices & 7) != 0 && (b.kept.back() >> (vertices & 7)) != 0) return bad("bits past its vertices");
+  if ((b.candidates & 7) != 0 && (b.kept.back() >> (b.candidates & 7)) != 0) return bad("bits past its candidates");
   if (ones != kept) return bad("bitmap of " + std::to_string(ones) + " kept, counted " + std::to_string(kept));
+  std::vector<uint8_t> planes(size_t{kept} * std::max(error_width, voxel_width));
   std::vector<uint64_t> wide(errors);
-  GetPlanes(raw.data() + 12 + bitmap, errors, error_width, wide.data());
+  if (errors > 0) {
+    const std::span<uint8_t> dst(planes.data(), size_t{errors} * error_width);
+    SDB_RETURN_IF_ERROR(zstd.Decompress(all.subspan(bitmap_frame, errors_frame), dst, what));
+    GetPlanes(planes.data(), errors, error_width, wide.data());
+  }
   b.errors.assign(wide.begin(), wide.end());
+  const std::span<uint8_t> dst(planes.data(), size_t{kept} * voxel_width);
+  SDB_RETURN_IF_ERROR(zstd.Decompress(all.subspan(bitmap_frame + errors_frame), dst, what));
   b.residuals.resize(kept);
-  GetPlanes(raw.data() + 12 + bitmap + errors * error_width, kept, voxel_width, b.residuals.data());
+  GetPlanes(planes.data(), kept, voxel_width, b.residuals.data());
   return b;
 }
 

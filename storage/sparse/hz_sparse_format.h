@@ -11,26 +11,29 @@
 //
 // Blocks are runs of 2^block_bits positions of the HZ order over the whole
 // domain, the finest octave included. A block with no kept vertex has no
-// entry. A block's value is stored in parts of at most kHzSparsePartBytes,
-// under 12-byte keys: the block number, 8 bytes big-endian, then the part's
-// number from 0, 4 bytes big-endian (parts that small lie inside LMDB's leaf
-// pages, packed; a value of more than half a page would take whole overflow
-// pages of its own). The value, its parts joined:
+// entry. A block's value is stored in parts (HzSparsePartCutter) under
+// 12-byte keys: the block number, 8 bytes big-endian, then the part's number
+// from 0, 4 bytes big-endian; the header under the key "header", in the same
+// (unnamed) LMDB database. The value, its parts joined:
 //
-//   u32  raw_size           bytes of the frame's content
-//   ...  zstd frame         the content below
-//   u64  checksum           XXH3-64 of raw_size and the frame, seeded with
+//   u32  vertices           domain vertices among the block's positions
+//   u32  candidates         those that may be kept (HzSparseMayBeKept);
+//                           equal to `vertices`: a bit for every vertex
+//   u32  kept               kept ones (at least 1)
+//   u32  errors             kept ones below the finest octave
+//   u32  bitmap frame bytes
+//   u32  errors frame bytes (0 when `errors` is 0)
+//   ...  three zstd frames, one per section below (each compresses better
+//        alone: 1 to 6% smaller on the real volumes than one frame)
+//   u64  checksum           XXH3-64 of everything before it, seeded with
 //                           the block number (a value moved to another key
 //                           fails it)
 //
-// The content, little-endian:
+// The sections, decoded, little-endian:
 //
-//   u32  vertices           domain vertices among the block's positions
-//   u32  kept               kept ones
-//   u32  errors             kept ones below the finest octave
-//   bitmap                  ceil(vertices / 8) bytes: bit i of byte i / 8
-//                           for the block's i-th domain vertex in position
-//                           order: kept
+//   bitmap                  ceil(candidates / 8) bytes: bit i of byte
+//                           i / 8 for the block's i-th candidate in
+//                           position order: kept
 //   errors                  `errors` error codes of the header's
 //                           quantization (1, 2 or 4 bytes), byte planes
 //   residuals               `kept` values, byte planes: lossless
@@ -67,22 +70,49 @@
 #include "hierarchy/hz_order.h"
 #include "storage/error/finest_diamonds.h"
 #include "storage/error/quantization.h"
+#include "storage/error/quantize.h"
 #include "storage/io/codec.h"
 #include "storage/volume/voxel_type.h"
 #include "util/status.h"
 
 namespace simplexdb {
 
-// The header's version: 2 was one LMDB value per block, refused.
-inline constexpr uint32_t kHzSparseFormatVersion = 3;
+// The header's version: 2 was one LMDB value per block; 3 kept the blocks
+// and the header in two named databases, in parts of a fixed size. Both
+// refused.
+inline constexpr uint32_t kHzSparseFormatVersion = 4;
 
-// A block's value in parts: four of the largest, with their keys and LMDB's
-// node headers and slots (22 bytes each), fill a 4 KiB page's 4080 bytes;
-// a block's last, shorter part leaves on average half a part unused (parts
-// of 2000 bytes made the real volumes' stores up to 12% larger; of 488, up
-// to 4% larger in 3D and 2-6% smaller on the fMRI: bench/README.md).
-inline constexpr size_t kHzSparsePartBytes = 998;
+// Cuts the blocks' values into parts that fill LMDB's leaf pages when they
+// are appended in key order. A leaf node takes 8 bytes, its key and its
+// value, rounded up to even, plus a 2-byte slot, out of the page's room (its
+// size less a 16-byte header); a value of more than about half the room
+// goes to overflow pages of its own instead. Parts are therefore at most
+// half the room less a node's overhead (2018 bytes in a 4 KiB page), and a
+// block's first part takes what is left of the page its predecessor's last
+// part ended in: no page is left part empty (fixed parts of 998 bytes left
+// 1 to 8% of the real volumes' stores unused; bench/README.md). A reader
+// takes parts of any size.
+class HzSparsePartCutter {
+ public:
+  explicit HzSparsePartCutter(size_t page_bytes)
+      : room_(page_bytes - 16), free_(room_), largest_(room_ / 2 - kNodeBytes) {}
+  // The size of the next part of a value with `left` (> 0) bytes to go.
+  size_t Next(size_t left) {
+    // A part of under 32 bytes would cost more in its node than it fills.
+    if (free_ < kNodeBytes + 32) free_ = room_;
+    const size_t n = std::min({left, largest_, free_ - kNodeBytes});
+    free_ -= ((20 + n + 1) & ~size_t{1}) + 2;
+    return n;
+  }
+
+ private:
+  static constexpr size_t kNodeBytes = 8 + 12 + 2;  // node header, key, slot
+  size_t room_, free_, largest_;
+};
+
 inline constexpr size_t kHzSparseKeyBytes = 12;
+// A block value's bytes before its frames: four counts, two frame sizes.
+inline constexpr size_t kHzSparseBlockPrefix = 24;
 inline std::array<uint8_t, kHzSparseKeyBytes> HzSparseKey(uint64_t block, uint32_t part) {
   std::array<uint8_t, kHzSparseKeyBytes> k{};
   for (int i = 0; i < 8; ++i) k[i] = static_cast<uint8_t>(block >> (56 - 8 * i));
@@ -114,7 +144,7 @@ struct HzSparseHeader {
   // s: kept values are stored to within s / 2 (0: exactly, as the voxel type)
   double value_step = 0;
   int block_bits = 18;
-  uint64_t blocks = 0;  // entries in "blocks"
+  uint64_t blocks = 0;  // blocks stored (not parts)
   uint64_t kept = 0;    // kept vertices, the domain's corners included
   std::string source;
 
@@ -125,8 +155,12 @@ struct HzSparseHeader {
   }
 };
 
-// The header's key in the "meta" database (the blocks are in "blocks").
+// The header's key, after every block's in LMDB's order (a block key's
+// first byte is 0 below 2^56 blocks).
 inline constexpr uint8_t kHzSparseHeaderKey[] = {'h', 'e', 'a', 'd', 'e', 'r'};
+inline bool IsHzSparseHeaderKey(std::span<const uint8_t> key) {
+  return std::equal(key.begin(), key.end(), std::begin(kHzSparseHeaderKey), std::end(kHzSparseHeaderKey));
+}
 
 // The header's LMDB value: its JSON text and an XXH3-64 of the text.
 std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h);
@@ -134,15 +168,51 @@ std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h);
 // naming `file`; NotSupported for another version.
 Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, const std::string& file);
 
-// A block's content (the frame's, decoded).
+// A block's content (its frames, decoded).
 struct HzSparseBlock {
   uint32_t vertices = 0;
-  std::vector<uint8_t> kept;        // bitmap, (vertices + 7) / 8 bytes
+  uint32_t candidates = 0;          // vertices HzSparseMayBeKept
+  std::vector<uint8_t> kept;        // bitmap over the candidates, (candidates + 7) / 8 bytes
   std::vector<uint32_t> errors;     // codes, in position order
   std::vector<uint64_t> residuals;  // the width's low bits, in position order
 
   bool IsKept(uint32_t i) const { return (kept[i >> 3] >> (i & 7) & 1) != 0; }
 };
+
+// Whether vertex g of a store over [0, 2^k]^D may be kept, given
+// `kept_at(q)` for the vertices it stands on: the domain's corners may (they
+// are always kept); another vertex when every vertex of its diamond's
+// simplices (FinestDiamonds::VertexOffsets, inside the domain; coarser
+// than g) is kept, since the kept set is closed under them. The bitmap may
+// have a bit for these candidates only: a vertex whose ancestor is dropped
+// is dropped, and coding it anyway took 2.5 times the bytes. `kept_at` is
+// asked in a fixed order and not after its first false: the split edge's
+// ends first (among those vertices, and the likeliest to be dropped).
+template <int D, class KeptAt>
+bool HzSparseMayBeKept(const std::array<int64_t, D>& g, int k, KeptAt&& kept_at) {
+  const int64_t side = int64_t{1} << k;
+  bool corner = true;
+  for (int a = 0; a < D; ++a) corner = corner && (g[a] == 0 || g[a] == side);
+  if (corner) return true;
+  const DiamondShape sh = ShapeOfVertex<D>(g);
+  const auto& o = FinestDiamonds<D>::Get().SplitOffset(sh.odd, sh.parity);
+  std::array<int64_t, D> lo{}, hi{};
+  for (int a = 0; a < D; ++a) {
+    lo[a] = g[a] - (int64_t{o[a]} << sh.scale_bits);
+    hi[a] = g[a] + (int64_t{o[a]} << sh.scale_bits);
+  }
+  if (!kept_at(lo) || !kept_at(hi)) return false;
+  for (const auto& w : FinestDiamonds<D>::Get().VertexOffsets(sh.odd, sh.parity)) {
+    std::array<int64_t, D> q{};
+    bool inside = true;
+    for (int a = 0; a < D; ++a) {
+      q[a] = g[a] + (int64_t{w[a]} << sh.scale_bits);
+      inside = inside && q[a] >= 0 && q[a] <= side;
+    }
+    if (inside && !kept_at(q)) return false;
+  }
+  return true;
+}
 
 // Byte widths: of an error code of `q` and of a kept value's residual.
 size_t HzSparseErrorWidth(Quantization q);
@@ -158,13 +228,41 @@ double HzSparseValueStep(VoxelType type, double tolerance, double field_min, dou
 // point and the input's: t (a dropped vertex) or s / 2 (a kept one).
 inline double HzSparseValueBound(const HzSparseHeader& h) { return std::max(h.tolerance, h.value_step / 2); }
 
+// The store's error codes. Lossless (t = 0) and with f32 errors: the
+// quantizer's (storage/error/quantize.h), as the dense store's. At t > 0
+// with u16 or u8 codes (quantum q >= t): codes 0 to 8 stand for 0, q, ...
+// 8q; code 8 + j (j >= 1) for 8q 1.25^j, so errors above 8q are rounded up
+// by at most 25%. A query at a multiple of q up to 8q refines as with exact
+// errors, above it a little more; large codes, the ones that spread, are
+// fewer (lidc2 at 1%: errors 218 against 276 KB, bench/README.md). Every
+// code stands for at least the error it was made from.
+class HzSparseErrorCoder {
+ public:
+  static constexpr uint32_t kLinearCodes = 8;
+  explicit HzSparseErrorCoder(const HzSparseHeader& h);
+  uint32_t Encode(double e) const;
+  double Decode(uint32_t code) const {
+    if (code <= kLinearCodes || steps_.empty()) return quantizer_.Decode(code);
+    return code - kLinearCodes < steps_.size() ? steps_[code - kLinearCodes] : steps_.back();
+  }
+  const ErrorQuantizer& quantizer() const { return quantizer_; }
+
+ private:
+  ErrorQuantizer quantizer_;
+  // steps_[j]: the value of code 8 + j (steps_[0] = 8q), by repeated
+  // multiplication up to the first at or above the largest linear code's
+  // value, within the quantization's largest code. Empty: linear codes
+  // only.
+  std::vector<double> steps_;
+};
+
 // The value of block `block`. REQUIRES: the counts agree with the bitmap.
 Result<std::vector<uint8_t>> EncodeHzSparseBlock(uint64_t block, const HzSparseBlock& b,
                                                  size_t error_width, size_t voxel_width,
                                                  ZstdCompressor& zstd);
 // Checks the checksum, sizes and counts; `vertices` is what the block must
-// hold (from the geometry). The caller checks the count of errors against
-// the kept vertices' levels.
+// hold (from the geometry). The caller checks the count of candidates
+// against the bitmap's walk and of errors against the kept vertices' levels.
 Result<HzSparseBlock> DecodeHzSparseBlock(uint64_t block, std::span<const uint8_t> value,
                                           uint32_t vertices, size_t error_width,
                                           size_t voxel_width, ZstdDecompressor& zstd,

@@ -40,30 +40,30 @@ Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& pa
   env_options.read_only = true;
   SDB_ASSIGN_OR_RETURN(store->env_, lmdb::Env::Open(path, env_options));
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*store->env_, /*read_only=*/true));
-  Result<MDB_dbi> meta = txn.OpenDb("meta", false);
-  if (!meta.ok()) {
-    return Status::InvalidArgument(path + ": an LMDB file, but not a SimplexDB sparse store (" +
-                                   std::string(meta.status().message()) + ")");
-  }
-  Result<MDB_dbi> blocks = txn.OpenDb("blocks", false);
-  if (!blocks.ok()) {
+  SDB_ASSIGN_OR_RETURN(store->db_, txn.OpenDb(nullptr, false));
+  bool found = false;
+  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn.Get(store->db_, kHzSparseHeaderKey, &found));
+  if (!found) {
+    // Earlier layouts kept named databases.
     if (txn.OpenDb("errors", false).ok()) {
       return Status::NotSupported(path + ": a sparse store of format 1; this build reads format 2 "
                                          "(import the volume again)");
     }
-    return Status::InvalidArgument(path + ": an LMDB file, but not a SimplexDB sparse store (no blocks)");
+    if (txn.OpenDb("meta", false).ok()) {
+      return Status::NotSupported(path + ": a sparse store of format 2 with header version 2 or 3; this build "
+                                         "reads version " + std::to_string(kHzSparseFormatVersion) +
+                                  " (import the volume again)");
+    }
+    return Status::InvalidArgument(path + ": an LMDB file, but not a SimplexDB sparse store (no header)");
   }
-  store->blocks_db_ = *blocks;
-  bool found = false;
-  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn.Get(*meta, kHzSparseHeaderKey, &found));
-  if (!found) return Status::Corruption(path + ": sparse store without a header");
   SDB_ASSIGN_OR_RETURN(store->header_, DecodeHzSparseHeader(value, path));
   // Committing a read-only transaction keeps its database handles open.
   SDB_RETURN_IF_ERROR(txn.Commit());
   const HzSparseHeader& h = store->header_;
-  store->quantizer_ = ErrorQuantizer(h.quantization, h.quantum, h.field_max - h.field_min);
-  // Few shards: a decoded block is 16 bytes per kept vertex (up to 4 MiB at
-  // the HT's default 2^18 positions), and a shard must hold several.
+  store->errors_ = std::make_unique<HzSparseErrorCoder>(h);
+  // Few shards: a decoded block is 16 bytes per kept vertex and a bit per
+  // position (up to 4.03 MiB at the HT's default 2^18 positions), and a
+  // shard must hold several.
   store->cache_ = options.cache ? options.cache : std::make_shared<BlockCache>(options.cache_bytes, 4);
   store->cache_id_ = BlockCache::NewStoreId();
   return store;
@@ -82,12 +82,8 @@ HzSparseStore::Stats HzSparseStore::stats() const {
   return Stats{decoded_.load(std::memory_order_relaxed), rebuilt_.load(std::memory_order_relaxed)};
 }
 
-namespace {
-
-// Block b's value: its parts (keys (b, 0), (b, 1), ...) joined. False when
-// the block has no entry. Errors: Corruption for parts out of sequence.
-Result<bool> ReadBlockValue(lmdb::Txn& txn, MDB_dbi dbi, uint64_t b, const std::string& path,
-                            std::vector<uint8_t>* out) {
+Result<bool> ReadHzSparseBlockValue(lmdb::Txn& txn, MDB_dbi dbi, uint64_t b, const std::string& path,
+                                    std::vector<uint8_t>* out) {
   out->clear();
   SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, dbi));
   auto first = HzSparseKey(b, 0);
@@ -96,9 +92,11 @@ Result<bool> ReadBlockValue(lmdb::Txn& txn, MDB_dbi dbi, uint64_t b, const std::
   for (int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_SET_RANGE);; rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT)) {
     if (rc == MDB_NOTFOUND) break;
     if (rc != MDB_SUCCESS) return lmdb::FromCode(rc, path, "read block " + std::to_string(b));
+    const std::span<const uint8_t> key(static_cast<const uint8_t*>(k.mv_data), k.mv_size);
+    if (IsHzSparseHeaderKey(key)) break;
     uint64_t block = 0;
     uint32_t part = 0;
-    if (!ParseHzSparseKey({static_cast<const uint8_t*>(k.mv_data), k.mv_size}, &block, &part)) {
+    if (!ParseHzSparseKey(key, &block, &part)) {
       return Status::Corruption(path + ": a block key of " + std::to_string(k.mv_size) + " bytes");
     }
     if (block != b) break;
@@ -112,8 +110,6 @@ Result<bool> ReadBlockValue(lmdb::Txn& txn, MDB_dbi dbi, uint64_t b, const std::
   }
   return next > 0;
 }
-
-}  // namespace
 
 template <int D>
 HzSparseStore::Reader<D>::Reader(const HzSparseStore& store)
@@ -152,9 +148,14 @@ Result<const typename HzSparseStore::Reader<D>::View*> HzSparseStore::Reader<D>:
 
 namespace {
 
-// A compact decoded block of `kept` vertices: values, then offsets, then
-// states (doubles first, for their alignment).
-size_t CompactBytes(size_t kept) { return kept * (sizeof(double) + 2 * sizeof(uint32_t)); }
+// A compact decoded block of `kept` vertices of a block of 2^block_bits
+// positions: values, then offsets, then states, then a bit per position,
+// set when kept (doubles first, for their alignment). A block without an
+// entry: no bytes.
+size_t BitWords(int block_bits) { return ((size_t{1} << block_bits) + 63) / 64; }
+size_t CompactBytes(size_t kept, int block_bits) {
+  return kept * (sizeof(double) + 2 * sizeof(uint32_t)) + BitWords(block_bits) * sizeof(uint64_t);
+}
 
 }  // namespace
 
@@ -163,15 +164,24 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Fetch(
   const BlockCache::Key key{store_.cache_id_, b};
   std::shared_ptr<const BlockCache::Block> block = store_.cache_->Lookup(key);
   if (block == nullptr) {
-    SDB_ASSIGN_OR_RETURN(View made, Materialize(b));
-    block = store_.cache_->Insert(key, made.block);
+    if (const auto it = failed_.find(b); it != failed_.end()) return it->second;
+    Result<View> made = Materialize(b);
+    if (!made.ok()) {
+      failed_.emplace(b, made.status());
+      return made.status();
+    }
+    block = store_.cache_->Insert(key, made->block);
   }
   View v;
   v.b = b;
-  v.kept = block->size() / CompactBytes(1);
-  v.values = reinterpret_cast<const double*>(block->data());
-  v.offsets = reinterpret_cast<const uint32_t*>(block->data() + v.kept * sizeof(double));
-  v.states = v.offsets + v.kept;
+  if (!block->empty()) {
+    const int bb = store_.header().block_bits;
+    v.kept = (block->size() - CompactBytes(0, bb)) / (CompactBytes(1, bb) - CompactBytes(0, bb));
+    v.values = reinterpret_cast<const double*>(block->data());
+    v.offsets = reinterpret_cast<const uint32_t*>(block->data() + v.kept * sizeof(double));
+    v.states = v.offsets + v.kept;
+    v.bits = reinterpret_cast<const uint64_t*>(v.states + v.kept);
+  }
   v.block = std::move(block);
   return v;
 }
@@ -207,7 +217,7 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
     txn_ = std::make_unique<lmdb::Txn>(std::move(txn));
   }
   std::vector<uint8_t> value;
-  SDB_ASSIGN_OR_RETURN(const bool found, ReadBlockValue(*txn_, store_.blocks_db_, b, store_.path(), &value));
+  SDB_ASSIGN_OR_RETURN(const bool found, ReadHzSparseBlockValue(*txn_, store_.db_, b, store_.path(), &value));
   View out;
   out.b = b;
   if (!found) {
@@ -234,25 +244,56 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
   store_.decoded_.fetch_add(1, std::memory_order_relaxed);
   kept.reserve(decoded.residuals.size());
   if (vertices != 0) {
-    uint32_t i = 0;
+    // The bitmap has a bit per candidate (HzSparseMayBeKept): a vertex
+    // whose ancestors are kept, in this block (earlier positions: coarser)
+    // or in others (read through the cache).
+    std::vector<uint64_t> here((n + 63) / 64, 0);
+    Status failed = Status::OK();
+    const auto kept_at = [&](const std::array<int64_t, D>& q) {
+      const uint64_t p = order_.Position(q);
+      if ((p >> bb) == b) return (here[(p - first) >> 6] >> ((p - first) & 63) & 1) != 0;
+      Result<bool> k = Kept(q);
+      if (!k.ok()) failed = k.status();
+      return k.ok() && *k;
+    };
+    // A bit for every vertex: no candidate to find.
+    const bool every = decoded.candidates == vertices;
+    uint32_t c = 0;
     ForEachHzVertex<D>(order_, first, n, [&](uint64_t p, const std::array<int64_t, D>& g) {
-      if (decoded.IsKept(i++)) kept.push_back(Vertex{static_cast<uint32_t>(p - first), g});
+      if (!every && (!failed.ok() || !HzSparseMayBeKept<D>(g, h.domain_bits, kept_at))) return;
+      if (c < decoded.candidates && decoded.IsKept(c)) {
+        kept.push_back(Vertex{static_cast<uint32_t>(p - first), g});
+        here[(p - first) >> 6] |= uint64_t{1} << ((p - first) & 63);
+      }
+      ++c;
     });
+    SDB_RETURN_IF_ERROR(failed);
+    if (c != decoded.candidates) {
+      return Status::Corruption(store_.path() + ": block " + std::to_string(b) + " has " + std::to_string(c) +
+                                " vertices that may be kept; its bitmap codes " +
+                                std::to_string(decoded.candidates));
+    }
   }
   if (kept.size() != decoded.residuals.size()) {
     return Status::Corruption(store_.path() + ": block " + std::to_string(b) + " keeps " +
                               std::to_string(kept.size()) + " vertices and holds " +
                               std::to_string(decoded.residuals.size()) + " values");
   }
-  auto block = std::make_shared<BlockCache::Block>(CompactBytes(kept.size()));
+  auto block = std::make_shared<BlockCache::Block>(CompactBytes(kept.size(), bb));
   auto* values = reinterpret_cast<double*>(block->data());
   auto* offsets = reinterpret_cast<uint32_t*>(block->data() + kept.size() * sizeof(double));
   uint32_t* states = offsets + kept.size();
-  for (size_t i = 0; i < kept.size(); ++i) offsets[i] = kept[i].offset;
+  auto* bits = reinterpret_cast<uint64_t*>(states + kept.size());
+  std::fill(bits, bits + BitWords(bb), 0);
+  for (size_t i = 0; i < kept.size(); ++i) {
+    offsets[i] = kept[i].offset;
+    bits[kept[i].offset >> 6] |= uint64_t{1} << (kept[i].offset & 63);
+  }
   out.kept = kept.size();
   out.values = values;
   out.offsets = offsets;
   out.states = states;
+  out.bits = bits;
   // Values at coarser vertices: this block's (kept ones are filled in
   // position order, so coarser first; dropped ones rebuilt from their ends)
   // or another's.
@@ -342,7 +383,7 @@ template <int D>
 Result<bool> HzSparseStore::Reader<D>::Kept(const std::array<int64_t, D>& g) {
   const uint64_t p = order_.Position(g);
   SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
-  return v->Find(static_cast<uint32_t>(p & ((uint64_t{1} << store_.header().block_bits) - 1))) != v->kept;
+  return v->Has(static_cast<uint32_t>(p & ((uint64_t{1} << store_.header().block_bits) - 1)));
 }
 
 template <int D>
@@ -392,7 +433,7 @@ Result<uint32_t> HzSparseStore::Reader<D>::FinestCode(const std::array<int64_t, 
   // any point, and its interpolant between the diamond's (kept) vertices by
   // at most s / 2.
   const HzSparseHeader& h = store_.header();
-  return store_.quantizer().Encode(e + HzSparseValueBound(h) + h.value_step / 2);
+  return store_.errors().Encode(e + HzSparseValueBound(h) + h.value_step / 2);
 }
 
 template <int D>
@@ -408,11 +449,11 @@ Result<double> HzSparseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
   // the cache's lock; finest codes are filled in with atomic stores.
   std::atomic_ref<uint32_t> state(const_cast<uint32_t*>(v->states)[i]);
   const uint32_t s = state.load(std::memory_order_relaxed);
-  if (s != kFinestKept) return store_.quantizer().Decode(s);
+  if (s != kFinestKept) return store_.errors().Decode(s);
   const std::shared_ptr<const BlockCache::Block> keep = v->block;  // FinestCode may move the held views
   SDB_ASSIGN_OR_RETURN(const uint32_t c, FinestCode(g));
   state.store(c, std::memory_order_relaxed);
-  return store_.quantizer().Decode(c);
+  return store_.errors().Decode(c);
 }
 
 namespace {
@@ -432,10 +473,12 @@ Status VerifyTyped(const HzSparseStore& store, lmdb::Env& env, unsigned int dbi,
   uint64_t entries = 0, kept = 0, last = 0;
   int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_FIRST);
   for (; rc == MDB_SUCCESS; rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT)) {
+    const std::span<const uint8_t> key(static_cast<const uint8_t*>(k.mv_data), k.mv_size);
     uint64_t b = 0;
     uint32_t part = 0;
-    if (!ParseHzSparseKey({static_cast<const uint8_t*>(k.mv_data), k.mv_size}, &b, &part)) {
-      return Status::Corruption(path + ": a block key of " + std::to_string(k.mv_size) + " bytes");
+    if (IsHzSparseHeaderKey(key)) continue;  // read at the open
+    if (!ParseHzSparseKey(key, &b, &part)) {
+      return Status::Corruption(path + ": a key of " + std::to_string(k.mv_size) + " bytes");
     }
     if (b >= nblocks || !HzBlockMayHoldVertices<D>(bb, b)) {
       return Status::Corruption(path + ": block " + std::to_string(b) + " lies past the domain");
@@ -461,8 +504,8 @@ Status VerifyTyped(const HzSparseStore& store, lmdb::Env& env, unsigned int dbi,
 }  // namespace
 
 Status HzSparseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) const {
-  return header_.dimension == 3 ? VerifyTyped<3>(*this, *env_, blocks_db_, progress)
-                                : VerifyTyped<4>(*this, *env_, blocks_db_, progress);
+  return header_.dimension == 3 ? VerifyTyped<3>(*this, *env_, db_, progress)
+                                : VerifyTyped<4>(*this, *env_, db_, progress);
 }
 
 template class HzSparseStore::Reader<3>;

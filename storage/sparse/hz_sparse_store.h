@@ -63,7 +63,8 @@ class HzSparseStore {
   const HzSparseHeader& header() const { return header_; }
   int dimension() const { return header_.dimension; }
   const std::string& path() const { return path_; }
-  const ErrorQuantizer& quantizer() const { return quantizer_; }
+  // Its error codes (stored and computed) and their values.
+  const HzSparseErrorCoder& errors() const { return *errors_; }
   uint64_t file_bytes() const;
 
   // Reads every block once (checksum, sizes, counts, the kept values rebuilt),
@@ -105,8 +106,11 @@ class HzSparseStore {
       const double* values = nullptr;
       const uint32_t* offsets = nullptr;
       const uint32_t* states = nullptr;
+      const uint64_t* bits = nullptr;  // bit `offset` set when kept (null: none kept)
+      bool Has(uint32_t offset) const { return bits != nullptr && (bits[offset >> 6] >> (offset & 63) & 1) != 0; }
       // The index of the kept vertex at `offset`, or kept when it is dropped.
       size_t Find(uint32_t offset) const {
+        if (!Has(offset)) return kept;
         const uint32_t* it = std::lower_bound(offsets, offsets + kept, offset);
         return it != offsets + kept && *it == offset ? static_cast<size_t>(it - offsets) : kept;
       }
@@ -148,6 +152,9 @@ class HzSparseStore {
     // reaches kRebuiltValuesHeld (about 64 MiB).
     static constexpr size_t kRebuiltValuesHeld = size_t{1} << 21;
     std::unordered_map<uint64_t, double> rebuilt_values_;
+    // Blocks that failed to decode, with why: damage does not change
+    // within the reader's snapshot, so it is not decoded again.
+    std::unordered_map<uint64_t, Status> failed_;
   };
 
   // A kept vertex's state in a decoded block: kept in the finest octave
@@ -162,12 +169,19 @@ class HzSparseStore {
 
   std::string path_;
   HzSparseHeader header_;
-  ErrorQuantizer quantizer_{Quantization::kU16, 1, 0};
+  std::unique_ptr<HzSparseErrorCoder> errors_;
   std::unique_ptr<lmdb::Env> env_;
-  unsigned int blocks_db_ = 0;
+  unsigned int db_ = 0;  // blocks and header
   std::shared_ptr<BlockCache> cache_;
   uint64_t cache_id_ = 0;
   mutable std::atomic<uint64_t> decoded_{0}, rebuilt_{0};
 };
+
+// Block b's value in the store's database `dbi`: its parts (keys (b, 0),
+// (b, 1), ...) joined into `out`. False when the block has no entry.
+// Errors: Corruption naming `path` for parts out of sequence or a key that
+// is neither a block's nor the header's; LMDB's.
+Result<bool> ReadHzSparseBlockValue(lmdb::Txn& txn, unsigned int dbi, uint64_t b, const std::string& path,
+                                    std::vector<uint8_t>* out);
 
 }  // namespace simplexdb

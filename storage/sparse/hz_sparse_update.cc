@@ -5,7 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
-#include <set>
+#include <map>
 #include <span>
 #include <vector>
 
@@ -150,55 +150,64 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
   SDB_RETURN_IF_ERROR(env->SetMapBytes(std::max(env->map_bytes(), old_bytes + 2 * built.file_bytes +
                                                                       (uint64_t{64} << 20))));
   SDB_ASSIGN_OR_RETURN(lmdb::Txn in, lmdb::Txn::Begin(*fresh, /*read_only=*/true));
-  SDB_ASSIGN_OR_RETURN(const MDB_dbi in_blocks, in.OpenDb("blocks", false));
+  SDB_ASSIGN_OR_RETURN(const MDB_dbi in_db, in.OpenDb(nullptr, false));
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*env, /*read_only=*/false));
-  SDB_ASSIGN_OR_RETURN(const MDB_dbi blocks, txn.OpenDb("blocks", false));
-  SDB_ASSIGN_OR_RETURN(const MDB_dbi meta, txn.OpenDb("meta", false));
-  // Entries are blocks' parts (hz_sparse_format.h); the report counts
-  // blocks: written when any part is written or removed, deleted when all
-  // are gone. First the old parts the new store lacks.
-  std::vector<std::array<uint8_t, kHzSparseKeyBytes>> gone;
-  std::set<uint64_t> written, had;
-  const auto note_gone = [&](std::span<const uint8_t> key, std::span<const uint8_t>) -> Status {
-    uint64_t b = 0;
-    uint32_t part = 0;
-    if (!ParseHzSparseKey(key, &b, &part)) {
-      return Status::Corruption(path + ": a block key of " + std::to_string(key.size()) + " bytes");
-    }
-    had.insert(b);
-    bool found = false;
-    SDB_RETURN_IF_ERROR(in.Get(in_blocks, key, &found).status());
-    if (!found) {
-      gone.emplace_back();
-      std::copy(key.begin(), key.end(), gone.back().begin());
-      written.insert(b);
+  SDB_ASSIGN_OR_RETURN(const MDB_dbi db, txn.OpenDb(nullptr, false));
+  // Entries are blocks' parts (hz_sparse_format.h), cut where each file's
+  // pages end: blocks are compared whole. A changed block's old parts are
+  // deleted and the new ones put; the report counts blocks.
+  std::map<uint64_t, uint32_t> old_parts, new_parts;
+  const auto count_parts = [](const std::string& file, std::map<uint64_t, uint32_t>* parts) {
+    return [file, parts](std::span<const uint8_t> key, std::span<const uint8_t>) -> Status {
+      uint64_t b = 0;
+      uint32_t part = 0;
+      if (IsHzSparseHeaderKey(key)) return Status::OK();
+      if (!ParseHzSparseKey(key, &b, &part)) {
+        return Status::Corruption(file + ": a key of " + std::to_string(key.size()) + " bytes");
+      }
+      ++(*parts)[b];
+      return Status::OK();
+    };
+  };
+  SDB_RETURN_IF_ERROR(ForEachEntry(txn, db, count_parts(path, &old_parts)));
+  SDB_RETURN_IF_ERROR(ForEachEntry(in, in_db, count_parts(scratch.path(), &new_parts)));
+  const auto remove = [&](uint64_t b, uint32_t parts) -> Status {
+    for (uint32_t part = 0; part < parts; ++part) {
+      auto k = HzSparseKey(b, part);
+      MDB_val key{k.size(), k.data()};
+      if (const int rc = mdb_del(txn.get(), db, &key, nullptr); rc != MDB_SUCCESS) {
+        return env->FromCode(rc, "deleting block " + std::to_string(b));
+      }
     }
     return Status::OK();
   };
-  SDB_RETURN_IF_ERROR(ForEachEntry(txn, blocks, note_gone));
-  for (const auto& k : gone) {
-    MDB_val key{k.size(), const_cast<uint8_t*>(k.data())};
-    if (const int rc = mdb_del(txn.get(), blocks, &key, nullptr); rc != MDB_SUCCESS) {
-      return env->FromCode(rc, "deleting a block");
+  std::vector<uint8_t> old_value, new_value;
+  for (const auto& [b, parts] : new_parts) {
+    SDB_RETURN_IF_ERROR(ReadHzSparseBlockValue(in, in_db, b, scratch.path(), &new_value).status());
+    const auto old = old_parts.find(b);
+    if (old != old_parts.end()) {
+      SDB_RETURN_IF_ERROR(ReadHzSparseBlockValue(txn, db, b, path, &old_value).status());
+      if (old_value == new_value) {
+        ++report.blocks_unchanged;
+        continue;
+      }
+      SDB_RETURN_IF_ERROR(remove(b, old->second));
     }
+    for (uint32_t part = 0; part < parts; ++part) {
+      const auto key = HzSparseKey(b, part);
+      bool found = false;
+      SDB_ASSIGN_OR_RETURN(const std::span<const uint8_t> value, in.Get(in_db, key, &found));
+      if (!found) return Status::Corruption(scratch.path() + ": block " + std::to_string(b) + " lost a part");
+      SDB_RETURN_IF_ERROR(txn.Put(db, key, value));
+    }
+    ++report.blocks_written;
   }
-  std::set<uint64_t> now;
-  const auto put_changed = [&](std::span<const uint8_t> key, std::span<const uint8_t> value) -> Status {
-    uint64_t b = 0;
-    uint32_t part = 0;
-    if (!ParseHzSparseKey(key, &b, &part)) return Status::Corruption(scratch.path() + ": a block key");
-    now.insert(b);
-    bool found = false;
-    SDB_ASSIGN_OR_RETURN(const std::span<const uint8_t> old, txn.Get(blocks, key, &found));
-    if (found && std::equal(old.begin(), old.end(), value.begin(), value.end())) return Status::OK();
-    written.insert(b);
-    return txn.Put(blocks, key, value);
-  };
-  SDB_RETURN_IF_ERROR(ForEachEntry(in, in_blocks, put_changed));
-  for (const uint64_t b : had) report.blocks_deleted += now.count(b) == 0;
-  for (const uint64_t b : written) report.blocks_written += now.count(b) != 0;
-  report.blocks_unchanged = now.size() - report.blocks_written;
-  SDB_RETURN_IF_ERROR(txn.Put(meta, kHzSparseHeaderKey, EncodeHzSparseHeader(built.header)));
+  for (const auto& [b, parts] : old_parts) {
+    if (new_parts.count(b)) continue;
+    SDB_RETURN_IF_ERROR(remove(b, parts));
+    ++report.blocks_deleted;
+  }
+  SDB_RETURN_IF_ERROR(txn.Put(db, kHzSparseHeaderKey, EncodeHzSparseHeader(built.header)));
   in.Abort();
   SDB_RETURN_IF_ERROR(txn.Commit());
   if (options.progress) {

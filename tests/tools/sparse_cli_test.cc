@@ -45,7 +45,7 @@ TEST(SparseCli, ImportConvertInfoVerifyRoundTrip) {
   EXPECT_EQ(info["kind"], "ht-sparse");
   EXPECT_EQ(info["dims"], (std::vector<int>{17, 13, 9}));
   EXPECT_EQ(info["tolerance"], 0.0);
-  EXPECT_EQ(info["format_version"], 3);
+  EXPECT_EQ(info["format_version"], 4);
   // Built from the volume or through the dense store: the same store.
   const auto direct = Json(RunCli("info " + dir.path() + "/a.lmdb --json"));
   for (const char* key : {"kept", "blocks", "field_min", "field_max", "error_max", "quantum"}) {

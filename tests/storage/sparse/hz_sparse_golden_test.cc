@@ -5,8 +5,8 @@
 // - a reference store keeps opening, verifying, and answering within its
 //   tolerance of the brute force over the volume it was built from;
 // - building that volume again writes the same entries: the same block
-//   keys, each block's content the same bytes once its zstd frame is
-//   decoded (the frame itself may change with the zstd version), and the
+//   keys, each block's content the same bytes once its zstd frames are
+//   decoded (the frames themselves may change with the zstd version), and the
 //   same header but for its source name.
 //
 // To change the layout on purpose, regenerate and say so in
@@ -65,7 +65,7 @@ Status Build(const Golden& g, const std::string& dir, const std::string& out) {
 }
 
 // The header (source cleared) and every block's decoded content, by block:
-// its parts (keys in order) joined, then the zstd frame decoded.
+// its parts (keys in order) joined, then its zstd frames decoded.
 struct Entries {
   std::vector<uint8_t> header;
   std::map<uint64_t, std::vector<uint8_t>> blocks;
@@ -73,33 +73,56 @@ struct Entries {
 
 Entries ReadEntries(const std::string& path) {
   Entries out;
+  HzSparseHeader header;
   {  // Closed before the file is opened again (one LMDB environment per file and process).
     auto store = HzSparseStore::Open(path, {});
     EXPECT_TRUE(store.ok()) << store.status().ToString();
     if (!store.ok()) return out;
-    HzSparseHeader h = (*store)->header();
+    header = (*store)->header();
+    HzSparseHeader h = header;
     h.source.clear();
     out.header = EncodeHzSparseHeader(h);
   }
   auto env = lmdb::Env::Open(path, {});
   EXPECT_TRUE(env.ok()) << env.status().ToString();
   auto txn = lmdb::Txn::Begin(**env, /*read_only=*/true);
-  auto dbi = txn->OpenDb("blocks", false);
+  auto dbi = txn->OpenDb(nullptr, false);
   auto cursor = lmdb::Cursor::Open(*txn, *dbi);
   std::map<uint64_t, std::vector<uint8_t>> values;
   MDB_val k, v;
   for (int rc = mdb_cursor_get(cursor->get(), &k, &v, MDB_FIRST); rc == MDB_SUCCESS;
        rc = mdb_cursor_get(cursor->get(), &k, &v, MDB_NEXT)) {
+    const std::span<const uint8_t> key(static_cast<const uint8_t*>(k.mv_data), k.mv_size);
+    if (IsHzSparseHeaderKey(key)) continue;
     uint64_t block = 0;
     uint32_t part = 0;
-    EXPECT_TRUE(ParseHzSparseKey({static_cast<const uint8_t*>(k.mv_data), k.mv_size}, &block, &part));
+    EXPECT_TRUE(ParseHzSparseKey(key, &block, &part));
     const auto* bytes = static_cast<const uint8_t*>(v.mv_data);
     values[block].insert(values[block].end(), bytes, bytes + v.mv_size);
   }
+  // A block's content: its counts, then its three sections decoded.
   ZstdDecompressor zstd;
   for (const auto& [block, value] : values) {
-    std::vector<uint8_t> content(LoadLittle<uint32_t>(value.data()));
-    EXPECT_TRUE(zstd.Decompress(std::span(value).subspan(4, value.size() - 12), content, path).ok());
+    if (value.size() < kHzSparseBlockPrefix + 8) {
+      ADD_FAILURE() << path << ": block " << block << " of " << value.size() << " bytes";
+      continue;
+    }
+    const uint32_t candidates = LoadLittle<uint32_t>(value.data() + 4), kept = LoadLittle<uint32_t>(value.data() + 8);
+    const uint32_t errors = LoadLittle<uint32_t>(value.data() + 12);
+    const size_t frame[2] = {LoadLittle<uint32_t>(value.data() + 16), LoadLittle<uint32_t>(value.data() + 20)};
+    const size_t section[3] = {(candidates + size_t{7}) / 8, errors * HzSparseErrorWidth(header.quantization),
+                               kept * HzSparseResidualWidth(header)};
+    std::vector<uint8_t> content(value.begin(), value.begin() + 16);
+    size_t at = kHzSparseBlockPrefix;
+    for (int i = 0; i < 3; ++i) {
+      const size_t bytes = i < 2 ? frame[i] : value.size() - 8 - at;
+      std::vector<uint8_t> decoded(section[i]);
+      if (bytes > 0) {
+        EXPECT_TRUE(zstd.Decompress(std::span(value).subspan(at, bytes), decoded, path).ok());
+      }
+      content.insert(content.end(), decoded.begin(), decoded.end());
+      at += bytes;
+    }
     out.blocks[block] = std::move(content);
   }
   return out;

@@ -455,27 +455,52 @@ TEST(HzSparseStore, AFormatOneStoreIsRefused) {
   EXPECT_NE(s.message().find("import"), std::string_view::npos) << s.ToString();
 }
 
-// Header version 2 (one LMDB entry per block, before values were cut into
-// parts): refused, with the same advice.
-TEST(HzSparseStore, AVersionTwoStoreIsRefused) {
+// Header versions 2 and 3 kept the header in a database "meta" and the
+// blocks in "blocks": refused, with the same advice.
+TEST(HzSparseStore, AnEarlierLayoutIsRefused) {
   TempDir dir;
   Stores s = Build(BoxInRamp(3, {6, 5, 7, 1}, VoxelType::kU8, 14), dir, 0, 6);
   ASSERT_NE(s.sparse, nullptr);
   HzSparseHeader h = s.sparse->header();
-  h.version = 2;
+  h.version = 3;
+  s.sparse.reset();
+  {
+    lmdb::Env::Options o;
+    o.read_only = false;
+    o.map_bytes = 1 << 20;
+    auto env = *lmdb::Env::Open(dir / "old.sdb", o);
+    auto txn = *lmdb::Txn::Begin(*env, false);
+    ASSERT_TRUE(txn.OpenDb("blocks", true).ok());
+    const MDB_dbi meta = *txn.OpenDb("meta", true);
+    ASSERT_TRUE(txn.Put(meta, kHzSparseHeaderKey, EncodeHzSparseHeader(h)).ok());
+    ASSERT_TRUE(txn.Commit().ok());
+  }
+  const Status opened = HzSparseStore::Open(dir / "old.sdb", {}).status();
+  EXPECT_TRUE(opened.IsNotSupported()) << opened.ToString();
+  EXPECT_NE(opened.message().find("version 2 or 3"), std::string_view::npos) << opened.ToString();
+  EXPECT_NE(opened.message().find("import the volume again"), std::string_view::npos) << opened.ToString();
+}
+
+// A header of another version where this layout keeps it: refused too.
+TEST(HzSparseStore, AnotherHeaderVersionIsRefused) {
+  TempDir dir;
+  Stores s = Build(BoxInRamp(3, {6, 5, 7, 1}, VoxelType::kU8, 14), dir, 0, 6);
+  ASSERT_NE(s.sparse, nullptr);
+  HzSparseHeader h = s.sparse->header();
+  h.version = 5;
   s.sparse.reset();  // one environment per file and process (LMDB)
   {
     lmdb::Env::Options o;
     o.read_only = false;
     auto env = *lmdb::Env::Open(dir / "sparse.sdb", o);
     auto txn = *lmdb::Txn::Begin(*env, false);
-    const MDB_dbi meta = *txn.OpenDb("meta", false);
-    ASSERT_TRUE(txn.Put(meta, kHzSparseHeaderKey, EncodeHzSparseHeader(h)).ok());
+    const MDB_dbi dbi = *txn.OpenDb(nullptr, false);
+    ASSERT_TRUE(txn.Put(dbi, kHzSparseHeaderKey, EncodeHzSparseHeader(h)).ok());
     ASSERT_TRUE(txn.Commit().ok());
   }
   const Status opened = HzSparseStore::Open(dir / "sparse.sdb", {}).status();
   EXPECT_TRUE(opened.IsNotSupported()) << opened.ToString();
-  EXPECT_NE(opened.message().find("version 2"), std::string_view::npos) << opened.ToString();
+  EXPECT_NE(opened.message().find("version 5"), std::string_view::npos) << opened.ToString();
   EXPECT_NE(opened.message().find("import the volume again"), std::string_view::npos) << opened.ToString();
 }
 

@@ -27,22 +27,19 @@ namespace {
 using testing::TempDir;
 using testing::TestVolume;
 
-// Every entry of both databases, by database and key.
-using Snapshot = std::map<std::pair<int, std::vector<uint8_t>>, std::vector<uint8_t>>;
+// Every entry (blocks' parts and the header), by key.
+using Snapshot = std::map<std::vector<uint8_t>, std::vector<uint8_t>>;
 
 Snapshot Read(lmdb::Txn& txn) {
   Snapshot out;
-  const char* names[] = {"blocks", "meta"};
-  for (int db = 0; db < 2; ++db) {
-    const MDB_dbi dbi = *txn.OpenDb(names[db], false);
-    auto cursor = *lmdb::Cursor::Open(txn, dbi);
-    MDB_val k, v;
-    for (int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_FIRST); rc == MDB_SUCCESS;
-         rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT)) {
-      const auto* kb = static_cast<const uint8_t*>(k.mv_data);
-      const auto* vb = static_cast<const uint8_t*>(v.mv_data);
-      out[{db, std::vector<uint8_t>(kb, kb + k.mv_size)}] = std::vector<uint8_t>(vb, vb + v.mv_size);
-    }
+  const MDB_dbi dbi = *txn.OpenDb(nullptr, false);
+  auto cursor = *lmdb::Cursor::Open(txn, dbi);
+  MDB_val k, v;
+  for (int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_FIRST); rc == MDB_SUCCESS;
+       rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT)) {
+    const auto* kb = static_cast<const uint8_t*>(k.mv_data);
+    const auto* vb = static_cast<const uint8_t*>(v.mv_data);
+    out[std::vector<uint8_t>(kb, kb + k.mv_size)] = std::vector<uint8_t>(vb, vb + v.mv_size);
   }
   return out;
 }
