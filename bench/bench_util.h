@@ -39,12 +39,26 @@ inline Result<VolumeInfo> OpenBenchVolume(const std::string& path, const std::st
   return OpenRawVolume(path, dimension, dims, type, ByteOrder::kLittle, 0);
 }
 
+// A scratch directory for this run's volumes and stores, removed when the
+// program exits normally (a query_bench run writes about 900 MB there).
 inline const std::string& WorkDir() {
-  static const std::string dir = [] {
-    std::string t = std::filesystem::temp_directory_path().string() + "/simplexdb_bench_XXXXXX";
-    return std::string(mkdtemp(t.data()));
-  }();
-  return dir;
+  struct Scratch {
+    std::string dir;
+    Scratch() {
+      std::string t = std::filesystem::temp_directory_path().string() + "/simplexdb_bench_XXXXXX";
+      if (mkdtemp(t.data()) == nullptr) {
+        std::perror(t.c_str());
+        std::exit(1);
+      }
+      dir = t;
+    }
+    ~Scratch() {
+      std::error_code ec;
+      std::filesystem::remove_all(dir, ec);
+    }
+  };
+  static const Scratch scratch;
+  return scratch.dir;
 }
 
 // A Perlin volume (uint8, like the seed's byte-valued data), written once.

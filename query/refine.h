@@ -322,9 +322,15 @@ class Refiner {
   }
 
   // The work list in LIFO order: candidates are checked depth-first, each new
-  // leaf once.
+  // leaf once. Every node goes on the list once: its children go on when it
+  // is split, if it was visited already, or else when it is visited (a node
+  // split for conformity while it waited on the list). Queuing the children
+  // of every forced split at once left most entries stale: on a uniform 1%
+  // query of 129^3 Perlin noise the list held 4.5 M entries, two thirds of
+  // them split since, for a mesh of 4.7 M tetrahedra.
   Status DepthFirst(std::vector<Code> work) {
     SplitSet<D>& split = mesh_->split_set();
+    SplitSet<D> visited;
     const auto push_children = [&](Code m) {
       work.push_back(m.child(1));
       work.push_back(m.child(0));
@@ -332,14 +338,18 @@ class Refiner {
     while (!work.empty()) {
       const Code c = work.back();
       work.pop_back();
-      if (split.contains(c)) continue;  // split for conformity; children queued then
+      visited.insert(c);
+      if (split.contains(c)) {  // split for conformity while it waited
+        push_children(c);
+        continue;
+      }
       SDB_ASSIGN_OR_RETURN(const bool fails, Fails(c));
       if (!fails) continue;
       source_.Descend(c);
       // Members of the cluster go on the list before `c`'s own children, so
       // the walk continues below `c` first.
       SplitClosure(c, [&](Code m) {
-        if (m != c) push_children(m);
+        if (m != c && visited.contains(m)) push_children(m);
       });
       push_children(c);
     }
