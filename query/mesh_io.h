@@ -91,7 +91,24 @@ Status ForEachLeaf(const Mesh<D>& mesh, Source& source, Leaf&& leaf) {
   return Status::OK();
 }
 
-// The HT mesh's leaves with their field and errors, points shared.
+// Whether the tetrahedron v has positive orientation as VTK counts it: v3
+// on the side (v1 - v0) x (v2 - v0) points to. Exact: lattice coordinates
+// of at most 20 bits make every term of the determinant under 2^61.
+inline bool PositivelyOriented(const SimplexVertices<3>& v) {
+  static_assert(kCoordBits<3> <= 20);
+  std::array<std::array<int64_t, 3>, 3> e{};
+  for (int i = 0; i < 3; ++i) {
+    for (int a = 0; a < 3; ++a) e[i][a] = int64_t{v[i + 1][a]} - v[0][a];
+  }
+  const int64_t det = e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1]) -
+                       e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0]) +
+                       e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
+  return det > 0;
+}
+
+// The HT mesh's leaves with their field and errors, points shared. Each
+// tetrahedron is written with positive orientation (half of them, in code
+// order, are not: their first two vertices are swapped).
 template <ReadSource<3> Source>
 Result<TetMeshData> CollectTetMesh(const Mesh<3>& mesh, Source& source) {
   TetMeshData out;
@@ -108,6 +125,7 @@ Result<TetMeshData> CollectTetMesh(const Mesh<3>& mesh, Source& source) {
           }
           out.connectivity.push_back(it->second);
         }
+        if (!PositivelyOriented(v)) std::swap(out.connectivity.end()[-4], out.connectivity.end()[-3]);
         SDB_ASSIGN_OR_RETURN(const double e, source.Error(code));
         out.error.push_back(e);
         out.level.push_back(static_cast<uint8_t>(code.level()));

@@ -2,7 +2,9 @@
 """Reads a .vtu with VTK's own XML reader and prints what VTK sees, as JSON:
 
     {"points", "cells", "cell_types": [...distinct...], "point_arrays": {name: [min, max]},
-     "cell_arrays": {name: [min, max]}, "volume": total cell volume,
+     "cell_arrays": {name: [min, max]}, "volume": total cell volume (unsigned),
+     "signed_volume": the sum of VTK's signed cell volumes, "negative_cells": cells
+     VTK finds inverted, "bounds": [xmin, xmax, ymin, ymax, zmin, zmax],
      "nan_points": points whose "field" is NaN (a missing value)}
 
 Used by tests/tools/extract_cli_test.cc to check the files `simplexdb
@@ -42,7 +44,8 @@ sizes.SetInputData(grid)
 sizes.ComputeVolumeOn()
 sizes.Update()
 volume = sizes.GetOutput().GetCellData().GetArray("Volume")
-total = sum(abs(volume.GetValue(i)) for i in range(volume.GetNumberOfTuples()))
+values = [volume.GetValue(i) for i in range(volume.GetNumberOfTuples())]
+total = sum(abs(v) for v in values)
 types = sorted({grid.GetCellType(i) for i in range(grid.GetNumberOfCells())})
 field = grid.GetPointData().GetArray("field")
 nan_points = 0
@@ -55,5 +58,8 @@ print(json.dumps({
     "point_arrays": arrays(grid.GetPointData()),
     "cell_arrays": arrays(grid.GetCellData()),
     "volume": total,
+    "signed_volume": sum(values),
+    "negative_cells": sum(1 for v in values if v < 0),
+    "bounds": list(grid.GetBounds()),
     "nan_points": nan_points,
 }))

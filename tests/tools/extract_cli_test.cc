@@ -117,8 +117,11 @@ TEST_F(ExtractCli, VtuReadByVtk) {
     const auto vtk = ReadWithVtk(python, vtu);
     EXPECT_EQ(vtk["cells"], stats["simplices"]);
     EXPECT_EQ(vtk["cell_types"], nlohmann::json::array({10}));  // VTK_TETRA
-    // The tetrahedra tile the 2^5 cube exactly.
+    // The tetrahedra tile the 2^5 cube exactly, every one positively
+    // oriented as VTK counts it.
     EXPECT_NEAR(vtk["volume"].get<double>(), 32.0 * 32 * 32, 1e-6);
+    EXPECT_NEAR(vtk["signed_volume"].get<double>(), 32.0 * 32 * 32, 1e-6);
+    EXPECT_EQ(vtk["negative_cells"], 0);
     // Points: shared, within the grid; field within the store's range.
     EXPECT_LE(vtk["points"].get<uint64_t>(), 33u * 33 * 33);
     EXPECT_GE(vtk["point_arrays"]["field"][0].get<double>(), info["field_min"].get<double>());
@@ -153,6 +156,8 @@ TEST(ExtractCliHp, TimeSlicesReadByVtk) {
   auto vtk = ReadWithVtk(python, dir.path() + "/s.vtu");
   EXPECT_EQ(vtk["cell_types"], nlohmann::json::array({10}));
   EXPECT_NEAR(vtk["volume"].get<double>(), 8.0 * 8 * 8, 1e-9);  // the slice fills the 2^3 cube
+  EXPECT_NEAR(vtk["signed_volume"].get<double>(), 8.0 * 8 * 8, 1e-9);
+  EXPECT_EQ(vtk["negative_cells"], 0);
   // The statistics count the slice VTK reads; at error 0 on noise (no linear
   // region) a grid time is cut from the full-resolution mesh: 6 tetrahedra
   // per cube of the 8^3 grid, the count the seed's Fig. 63 gives as 100%.
@@ -173,6 +178,8 @@ TEST(ExtractCliHp, TimeSlicesReadByVtk) {
     EXPECT_NE(pvd.find("file=\"" + file + "\""), std::string::npos) << pvd;
     vtk = ReadWithVtk(python, dir.path() + "/" + file);
     EXPECT_NEAR(vtk["volume"].get<double>(), 512.0, 1e-9) << file;
+    EXPECT_NEAR(vtk["signed_volume"].get<double>(), 512.0, 1e-9) << file;
+    EXPECT_EQ(vtk["negative_cells"], 0) << file;
   }
   r = RunCli("extract " + store + " --error 5% --format vtu -o " + dir.path() + "/x.vtu");
   EXPECT_EQ(r.exit_code, 2);

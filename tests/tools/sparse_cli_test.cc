@@ -208,6 +208,8 @@ TEST(SparseCli, MissingValuesEndToEnd) {
   const auto vtk = nlohmann::json::parse(out);
   EXPECT_GT(vtk["nan_points"].get<int>(), 0);
   EXPECT_NEAR(vtk["volume"].get<double>(), 32.0 * 32 * 32, 1e-6);
+  EXPECT_NEAR(vtk["signed_volume"].get<double>(), 32.0 * 32 * 32, 1e-6);
+  EXPECT_EQ(vtk["negative_cells"], 0);
 }
 
 }  // namespace
