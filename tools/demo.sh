@@ -97,4 +97,6 @@ else
   exit 1
 fi
 echo
-echo "Everything above is in $work"
+echo "Everything above is in $work (kept until the next run): the stores,"
+echo "the exported field and the meshes. To look at a mesh: paraview \"$work/ht_3%.vtu\""
+echo "(color by 'field' or 'error'; Debian: apt-get install paraview)."

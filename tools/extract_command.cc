@@ -36,7 +36,7 @@ struct ExtractArgs {
   std::optional<double> iso;
   std::optional<double> time;
   std::string algorithm = "depth-first";
-  std::string format = "json";
+  std::string format;  // empty: from the output's extension, else json
   std::string output = "-";
   std::string from;
   std::string slices;
@@ -101,16 +101,74 @@ void WriteSliceSeries(const Mesh<4>& mesh, Source& source, const std::vector<dou
   if (Status st = WriteFileAtomically(output, pvd); !st.ok()) Fail(st);
 }
 
+// The format an output file's extension names, or "" for another one.
+std::string FormatOfExtension(const std::string& output) {
+  const size_t slash = output.find_last_of('/'), dot = output.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+  const std::string ext = output.substr(dot + 1);
+  if (ext == "vtu" || ext == "pvd" || ext == "json") return ext;
+  if (ext == "codes" || ext == "txt") return "codes";
+  return "";
+}
+
+// --format as given, else from the output's extension, else json; an
+// explicit one that contradicts the extension is an error.
+std::string ResolveFormat(const ExtractArgs& a) {
+  const std::string implied = a.output == "-" ? "" : FormatOfExtension(a.output);
+  if (a.format.empty()) return implied.empty() ? "json" : implied;
+  if (!implied.empty() && implied != a.format) {
+    throw CommandError(fmt::format("--format {} contradicts the output's extension: {} names {} (leave --format "
+                                   "out, or name the file for what it holds)",
+                                   a.format, a.output, implied),
+                       2);
+  }
+  return a.format;
+}
+
+// Criteria that can meet no simplex of the real grid are a mistake in the
+// command line, not an empty mesh: a box outside the grid, an isovalue
+// outside the field's range, a time outside the store's.
+template <int D>
+void CheckCriteriaMeetTheGrid(const CriteriaSpec& spec, const std::string& box_text, const SourceInfo& info) {
+  if (spec.box) {
+    const std::vector<double>& b = *spec.box;  // x0,y0,z0,x1,y1,z1[,t0,t1]
+    for (size_t k = 0; k < b.size() / 2; ++k) {
+      const double lo = k < 3 ? b[k] : b[6], hi = k < 3 ? b[k + 3] : b[7];
+      const double last = static_cast<double>(info.dims[k]) - 1;
+      if (hi < 0 || lo > last) {
+        throw CommandError(fmt::format("--box {}: {} from {} to {} misses the grid, whose {} runs from 0 to {}",
+                                       box_text, "xyzt"[k], lo, hi, "xyzt"[k], last),
+                           2);
+      }
+    }
+  }
+  if (spec.iso && !(*spec.iso >= info.field_min && *spec.iso <= info.field_max)) {
+    throw CommandError(fmt::format("--iso {}: outside the field's range, {} to {}: no simplex contains it",
+                                   *spec.iso, info.field_min, info.field_max),
+                       2);
+  }
+  if (D == 4 && spec.time) {  // an HT's --time is refused by MakeCriteria
+    const double last = static_cast<double>(info.dims[3]) - 1;
+    if (!(*spec.time >= 0 && *spec.time <= last)) {
+      throw CommandError(
+          fmt::format("--time {}: outside the store's times, 0 to {} (grid units)", *spec.time, last), 2);
+    }
+  }
+}
+
 // `hz`: the store behind `source` when it is a dense one (its cache and
 // blocks are reported), null otherwise.
 template <int D, class Source>
-void Extract(Source& source, const ExtractArgs& a, const HzStore* hz = nullptr) {
+void Extract(Source& source, const ExtractArgs& given, const HzStore* hz = nullptr) {
+  ExtractArgs a = given;
+  a.format = ResolveFormat(given);
   const SourceInfo& info = source.info();
   CriteriaSpec spec;
   spec.error.value = ParseAmount(a.error, "--error", info.field_range());
   if (!a.box.empty()) spec.box = ParseNumberList(a.box, "--box", 6, 8);
   spec.iso = a.iso;
   spec.time = a.time;
+  CheckCriteriaMeetTheGrid<D>(spec, a.box, info);
   Result<Criteria<D>> criteria = MakeCriteria<D>(spec, info.domain_bits, info.field_range());
   if (!criteria.ok()) throw CommandError(std::string(criteria.status().message()), 2);
   Result<Algorithm> algorithm = ParseAlgorithm(a.algorithm);
@@ -305,8 +363,9 @@ void RegisterExtractCommand(CLI::App& app) {
   cmd->add_option("--format", args->format,
                   "codes (leaf codes, one per line), vtu (VTK unstructured grid: the HT's tetrahedra, or the\n"
                   "tetrahedra of the HP's time slice --time), pvd (HP: a ParaView series of time slices\n"
-                  "--slices, one .vtu each beside OUTPUT) or json (statistics; the default; with --time also the\n"
-                  "tetrahedra of the time slice)");
+                  "--slices, one .vtu each beside OUTPUT) or json (statistics; with --time also the tetrahedra\n"
+                  "of the time slice). Default: named by OUTPUT's extension (.vtu, .pvd, .json, .codes or .txt),\n"
+                  "else json; a --format the extension contradicts is an error");
   cmd->add_option("--slices", args->slices, "pvd: the times of the slices, T1,T2,... in grid units");
   cmd->add_option("-o,--output", args->output, "Output file ('-' for stdout, the default for codes and json)");
   cmd->add_flag("--in-memory", args->in_memory,

@@ -3,9 +3,12 @@
 #include <cstdio>
 #include <exception>
 #include <new>
+#include <string>
 
 #include <CLI/CLI.hpp>
 
+#include "storage/dense/hz_format.h"
+#include "storage/sparse/hz_sparse_format.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 
@@ -19,6 +22,11 @@ int main(int argc, char** argv) {
       "the options of a command.",
       "simplexdb"};
   app.require_subcommand(1);
+  app.set_version_flag("--version",
+                       std::string("simplexdb ") + SIMPLEXDB_VERSION + " (writes dense stores of header version " +
+                           std::to_string(simplexdb::kHzFormatVersion) + ", sparse stores of header version " +
+                           std::to_string(simplexdb::kHzSparseFormatVersion) + ")",
+                       "Print the version and the store formats this build writes, then exit");
   simplexdb::tools::RegisterCodesCommand(app);
   simplexdb::tools::RegisterInspectCommand(app);
   simplexdb::tools::RegisterGenerateCommand(app);

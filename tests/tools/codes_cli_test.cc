@@ -241,6 +241,13 @@ TEST(CodesCli, UsageErrors) {
   EXPECT_NE(help.out.find("codes"), std::string::npos);
 }
 
+TEST(Cli, Version) {
+  const auto r = RunCli("--version");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out.rfind("simplexdb 0.", 0), 0u) << r.out;
+  EXPECT_NE(r.out.find("sparse stores of header version"), std::string::npos) << r.out;
+}
+
 TEST(InspectCli, ExplainsACode) {
   const auto r = RunCli("inspect --hierarchy ht 2:10011");
   ASSERT_EQ(r.exit_code, 0) << r.err;

@@ -2,7 +2,9 @@
 // files read back by VTK itself, and what a user sees for wrong input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -131,6 +133,48 @@ TEST_F(ExtractCli, VtuReadByVtk) {
   }
 }
 
+// Without --format the output's extension names it; a --format the
+// extension contradicts is refused before anything is written.
+TEST_F(ExtractCli, FormatFromTheOutputsExtension) {
+  const std::string vtu = dir_.path() + "/x.vtu", codes = dir_.path() + "/x.txt";
+  auto r = RunCli("extract " + store_ + " --error 3% -o " + vtu);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(ReadWholeFile(vtu).rfind("<?xml", 0), 0u);
+  r = RunCli("extract " + store_ + " --error 3% -o " + codes);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string text = ReadWholeFile(codes);
+  EXPECT_EQ(static_cast<uint64_t>(std::count(text.begin(), text.end(), '\n')), Json(r)["simplices"].get<uint64_t>());
+  const std::string other = dir_.path() + "/y.vtu";
+  r = RunCli("extract " + store_ + " --error 3% --format json -o " + other);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--format json contradicts"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(other));
+  // An extension that names no format: --format, else json.
+  r = RunCli("extract " + store_ + " --error 3% -o " + dir_.path() + "/stats.out");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(nlohmann::json::parse(ReadWholeFile(dir_.path() + "/stats.out")).contains("simplices"));
+}
+
+// Criteria that meet nothing of the grid (33^3 here, field 0..255 at most)
+// are errors naming the value and the valid range.
+TEST_F(ExtractCli, CriteriaThatMeetNothingAreErrors) {
+  const auto info = Json(RunCli("info " + store_ + " --json"));
+  struct Case {
+    std::string args, expected;
+  };
+  const double above = info["field_max"].get<double>() + 1;
+  for (const Case& c : {Case{"--box 40,0,0,50,32,32", "x from 40 to 50 misses the grid, whose x runs from 0 to 32"},
+                        Case{"--box 0,0,-9,32,32,-1", "z from -9 to -1 misses the grid"},
+                        Case{"--iso " + std::to_string(above), "outside the field's range"}}) {
+    SCOPED_TRACE(c.args);
+    const auto r = RunCli("extract " + store_ + " --error 1% " + c.args);
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_NE(r.err.find(c.expected), std::string::npos) << r.err;
+  }
+  // A box that overlaps the grid in part is fine.
+  EXPECT_EQ(RunCli("extract " + store_ + " --error 1% --box 30,30,30,60,60,60").exit_code, 0);
+}
+
 // The statistics report the decoded blocks the cache holds, within the
 // budget given (the scale runs of bench/experiments.py read them).
 TEST_F(ExtractCli, ReportsTheCacheWithinItsBudget) {
@@ -184,6 +228,12 @@ TEST(ExtractCliHp, TimeSlicesReadByVtk) {
   r = RunCli("extract " + store + " --error 5% --format vtu -o " + dir.path() + "/x.vtu");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--time"), std::string::npos) << r.err;
+  // A time outside the store's (0 to 8 here) meets nothing: an error.
+  for (const char* t : {"8.5", "-1"}) {
+    r = RunCli("extract " + store + " --error 5% --time " + t);
+    EXPECT_EQ(r.exit_code, 2) << t;
+    EXPECT_NE(r.err.find("outside the store's times, 0 to 8"), std::string::npos) << r.err;
+  }
 }
 
 TEST_F(ExtractCli, ClearErrors) {
