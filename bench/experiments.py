@@ -719,9 +719,9 @@ each query: a 256 MiB cache that starts empty; the OS page cache may still hold 
 zstd with no cache at all (the floor: depth-first only), and the lossless LMDB store.
 Incremental goes from the 5 % mesh to the 1 % mesh and back. Perlin noise, as in
 `bench/query_bench.cc`. The last column is format 1's in-memory rate in this script's run
-of 2026-11-21 (another machine of this kind). Format 2's in-core rates are lower: about half
-in 3D (issue 16's in-core target, not met yet; in a profile a fifth of the time goes to
-computing the finest octave's errors from the field as a query reaches them). The seed's Fig. 46 measured about 280,000 splits per second out of core (Pentium III, 650 MHz).
+of 2026-11-21 (another machine of this kind; that binary, rebuilt, ran at about 9 M splits/s
+in the HT on 2026-11-27: `bench/in_core_vs_format1.sh` runs it and today's in turn). The
+seed's Fig. 46 measured about 280,000 splits per second out of core (Pentium III, 650 MHz).
 
 Benchmark context: {context.get('num_cpus')} CPUs at {context.get('mhz_per_cpu')} MHz,
 `{os.path.relpath(QUERY_BENCH, ROOT)} --benchmark_min_time={0.2 if a.quick else 0.5} --benchmark_repetitions=3
