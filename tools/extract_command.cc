@@ -132,7 +132,7 @@ template <int D>
 void CheckCriteriaMeetTheGrid(const CriteriaSpec& spec, const std::string& box_text, const SourceInfo& info) {
   if (spec.box) {
     const std::vector<double>& b = *spec.box;  // x0,y0,z0,x1,y1,z1[,t0,t1]
-    for (size_t k = 0; k < b.size() / 2; ++k) {
+    for (size_t k = 0; k < b.size() / 2 && k < static_cast<size_t>(D); ++k) {  // MakeCriteria checks counts
       const double lo = k < 3 ? b[k] : b[6], hi = k < 3 ? b[k + 3] : b[7];
       const double last = static_cast<double>(info.dims[k]) - 1;
       if (hi < 0 || lo > last) {
