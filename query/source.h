@@ -60,6 +60,11 @@ struct SourceInfo {
   // min == max == 0 when every value is missing.
   double field_min = 0, field_max = 0;
   double error_max = 0;  // the largest node error, before quantization
+  // Physical placement of grid point i on axis a: origin[a] + i * spacing[a]
+  // (axis 3 is time for HP). Unit spacing and zero origin when the input
+  // gave none.
+  std::array<double, 4> spacing = {1, 1, 1, 1};
+  std::array<double, 4> origin = {0, 0, 0, 0};
   std::string path;      // the store's file, for messages
 
   int leaf_level() const { return dimension * domain_bits; }
@@ -77,6 +82,8 @@ SourceInfo InfoFromHeader(const Header& h, const std::string& path) {
   info.field_min = h.field_min;
   info.field_max = h.field_max;
   info.error_max = h.error_max;
+  info.spacing = h.spacing;
+  if constexpr (requires { h.origin; }) info.origin = h.origin;
   info.path = path;
   return info;
 }
