@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "query/clip.h"
 #include "query/conformity.h"
 #include "query/criteria.h"
 #include "query/mesh.h"
@@ -81,20 +82,31 @@ Mesh<D> ReadMesh(const std::string& path) {
   return mesh;
 }
 
-// OUTPUT.pvd and one OUTPUT_<i>.vtu per time (grid units) beside it.
+// Writes a mesh of grid-unit points as ParaView should see it: clipped to
+// the real grid and placed physically.
+void WriteMeshOnGrid(TetMeshData data, const SourceInfo& info, const std::string& path) {
+  data = ClipToGrid(std::move(data), info.dims);
+  PlacePhysically(data, info);
+  if (Status st = WriteVtu(data, path); !st.ok()) Fail(st);
+}
+
+// OUTPUT.pvd and one OUTPUT_<i>.vtu per time (grid units) beside it; the
+// collection's times are physical.
 template <class Source>
 void WriteSliceSeries(const Mesh<4>& mesh, Source& source, const std::vector<double>& times,
                       const std::string& output) {
   const std::string stem = output.size() > 4 && output.ends_with(".pvd") ? output.substr(0, output.size() - 4) : output;
-  const double scale = std::ldexp(1.0, kCoordBits<4> - source.info().domain_bits);
+  const SourceInfo& info = source.info();
+  const double scale = std::ldexp(1.0, kCoordBits<4> - info.domain_bits);
   std::string pvd = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n<Collection>\n";
   for (size_t i = 0; i < times.size(); ++i) {
     const std::string file = fmt::format("{}_{}.vtu", stem, i);
     Result<TetMeshData> data = SliceHpMesh(mesh, source, times[i] * scale);
     if (!data.ok()) Fail(data.status());
-    if (Status st = WriteVtu(*data, file); !st.ok()) Fail(st);
+    WriteMeshOnGrid(std::move(*data), info, file);
     const size_t slash = file.find_last_of('/');
-    pvd += fmt::format("<DataSet timestep=\"{}\" part=\"0\" file=\"{}\"/>\n", times[i],
+    pvd += fmt::format("<DataSet timestep=\"{}\" part=\"0\" file=\"{}\"/>\n",
+                       info.origin[3] + times[i] * info.spacing[3],
                        slash == std::string::npos ? file : file.substr(slash + 1));
   }
   pvd += "</Collection>\n</VTKFile>\n";
@@ -219,9 +231,7 @@ void Extract(Source& source, const ExtractArgs& given, const HzStore* hz = nullp
       Result<TetMeshData> data = SliceHpMesh(mesh, source, *criteria->time);
       if (!data.ok()) Fail(data.status());
       slice_tetrahedra = data->cells();
-      if (a.format == "vtu") {
-        if (Status st = WriteVtu(*data, a.output); !st.ok()) Fail(st);
-      }
+      if (a.format == "vtu") WriteMeshOnGrid(std::move(*data), info, a.output);
     }
   }
   if (a.format == "codes") {
@@ -230,7 +240,7 @@ void Extract(Source& source, const ExtractArgs& given, const HzStore* hz = nullp
     if constexpr (D == 3) {
       Result<TetMeshData> data = CollectTetMesh(mesh, source);
       if (!data.ok()) Fail(data.status());
-      if (Status st = WriteVtu(*data, a.output); !st.ok()) Fail(st);
+      WriteMeshOnGrid(std::move(*data), info, a.output);
     }
   } else if (a.format == "pvd") {
     if constexpr (D == 4) WriteSliceSeries(mesh, source, slices, a.output);

@@ -207,9 +207,11 @@ TEST(SparseCli, MissingValuesEndToEnd) {
   ASSERT_EQ(pclose(p), 0) << out;
   const auto vtk = nlohmann::json::parse(out);
   EXPECT_GT(vtk["nan_points"].get<int>(), 0);
-  EXPECT_NEAR(vtk["volume"].get<double>(), 32.0 * 32 * 32, 1e-6);
-  EXPECT_NEAR(vtk["signed_volume"].get<double>(), 32.0 * 32 * 32, 1e-6);
+  // The mesh is clipped to the real 33 x 30 x 33 grid.
+  EXPECT_NEAR(vtk["volume"].get<double>(), 32.0 * 29 * 32, 1e-6);
+  EXPECT_NEAR(vtk["signed_volume"].get<double>(), 32.0 * 29 * 32, 1e-6);
   EXPECT_EQ(vtk["negative_cells"], 0);
+  EXPECT_EQ(vtk["bounds"], nlohmann::json::parse("[0, 32, 0, 29, 0, 32]"));
 }
 
 }  // namespace
