@@ -41,6 +41,7 @@ struct ExtractArgs {
   std::string output = "-";
   std::string from;
   std::string slices;
+  std::string units = "grid";  // of --box, --time and --slices: grid or physical
   uint64_t budget = 0;
   double time_limit = 0;
   bool in_memory = false;
@@ -137,19 +138,36 @@ std::string ResolveFormat(const ExtractArgs& a) {
   return a.format;
 }
 
+// The units --box, --time and --slices are given in: grid units (the
+// contract's: point i of an axis is at i) or physical ones (the store's
+// origin + i * spacing).
+struct AxisUnits {
+  bool physical = false;
+  const SourceInfo* info = nullptr;
+
+  double ToGrid(int axis, double x) const {
+    return physical ? (x - info->origin[axis]) / info->spacing[axis] : x;
+  }
+  double FromGrid(int axis, double i) const { return physical ? info->origin[axis] + i * info->spacing[axis] : i; }
+  const char* name() const { return physical ? "physical units" : "grid units"; }
+};
+
 // Criteria that can meet no simplex of the real grid are a mistake in the
 // command line, not an empty mesh: a box outside the grid, an isovalue
 // outside the field's range, a time outside the store's.
 template <int D>
-void CheckCriteriaMeetTheGrid(const CriteriaSpec& spec, const std::string& box_text, const SourceInfo& info) {
+void CheckCriteriaMeetTheGrid(const CriteriaSpec& spec, const std::string& box_text, const SourceInfo& info,
+                              const AxisUnits& units) {
   if (spec.box) {
     const std::vector<double>& b = *spec.box;  // x0,y0,z0,x1,y1,z1[,t0,t1]
     for (size_t k = 0; k < b.size() / 2 && k < static_cast<size_t>(D); ++k) {  // MakeCriteria checks counts
       const double lo = k < 3 ? b[k] : b[6], hi = k < 3 ? b[k + 3] : b[7];
       const double last = static_cast<double>(info.dims[k]) - 1;
       if (hi < 0 || lo > last) {
-        throw CommandError(fmt::format("--box {}: {} from {} to {} misses the grid, whose {} runs from 0 to {}",
-                                       box_text, "xyzt"[k], lo, hi, "xyzt"[k], last),
+        const int axis = static_cast<int>(k);
+        throw CommandError(fmt::format("--box {}: {} from {} to {} misses the grid, whose {} runs from {} to {} ({})",
+                                       box_text, "xyzt"[k], units.FromGrid(axis, lo), units.FromGrid(axis, hi),
+                                       "xyzt"[k], units.FromGrid(axis, 0), units.FromGrid(axis, last), units.name()),
                            2);
       }
     }
@@ -162,8 +180,10 @@ void CheckCriteriaMeetTheGrid(const CriteriaSpec& spec, const std::string& box_t
   if (D == 4 && spec.time) {  // an HT's --time is refused by MakeCriteria
     const double last = static_cast<double>(info.dims[3]) - 1;
     if (!(*spec.time >= 0 && *spec.time <= last)) {
-      throw CommandError(
-          fmt::format("--time {}: outside the store's times, 0 to {} (grid units)", *spec.time, last), 2);
+      throw CommandError(fmt::format("--time {}: outside the store's times, {} to {} ({})",
+                                     units.FromGrid(3, *spec.time), units.FromGrid(3, 0), units.FromGrid(3, last),
+                                     units.name()),
+                         2);
     }
   }
 }
@@ -175,12 +195,20 @@ void Extract(Source& source, const ExtractArgs& given, const HzStore* hz = nullp
   ExtractArgs a = given;
   a.format = ResolveFormat(given);
   const SourceInfo& info = source.info();
+  if (a.units != "grid" && a.units != "physical") {
+    throw CommandError(fmt::format("--units {}: expected grid or physical", a.units), 2);
+  }
+  const AxisUnits units{a.units == "physical", &info};
   CriteriaSpec spec;
   spec.error.value = ParseAmount(a.error, "--error", info.field_range());
-  if (!a.box.empty()) spec.box = ParseNumberList(a.box, "--box", 6, 8);
+  if (!a.box.empty()) {
+    std::vector<double> box = ParseNumberList(a.box, "--box", 6, 8);
+    for (size_t i = 0; i < box.size(); ++i) box[i] = units.ToGrid(i < 6 ? static_cast<int>(i % 3) : 3, box[i]);
+    spec.box = std::move(box);
+  }
   spec.iso = a.iso;
-  spec.time = a.time;
-  CheckCriteriaMeetTheGrid<D>(spec, a.box, info);
+  if (a.time) spec.time = units.ToGrid(3, *a.time);
+  CheckCriteriaMeetTheGrid<D>(spec, a.box, info, units);
   Result<Criteria<D>> criteria = MakeCriteria<D>(spec, info.domain_bits, info.field_range());
   if (!criteria.ok()) throw CommandError(std::string(criteria.status().message()), 2);
   Result<Algorithm> algorithm = ParseAlgorithm(a.algorithm);
@@ -200,8 +228,9 @@ void Extract(Source& source, const ExtractArgs& given, const HzStore* hz = nullp
   std::vector<double> slices;
   if (a.format == "pvd") {
     if (D != 4) throw CommandError("--format pvd writes a series of HP time slices; the HT has no time", 2);
-    if (a.slices.empty()) throw CommandError("--format pvd needs --slices T1,T2,... (times in grid units)", 2);
+    if (a.slices.empty()) throw CommandError("--format pvd needs --slices T1,T2,... (times in --units)", 2);
     slices = ParseNumberList(a.slices, "--slices", 1, 100000);
+    for (double& t : slices) t = units.ToGrid(3, t);
   }
 
   Mesh<D> mesh = a.from.empty() ? Mesh<D>() : ReadMesh<D>(a.from);
@@ -360,10 +389,16 @@ void RegisterExtractCommand(CLI::App& app) {
       ->required();
   cmd->add_option("--box", args->box,
                   "Hold only simplices meeting this closed box to the threshold: x0,y0,z0,x1,y1,z1[,t0,t1] "
-                  "in grid coordinates (an exact test)");
+                  "in grid coordinates, or physical ones with --units physical (an exact test)");
   cmd->add_option("--iso", args->iso,
                   "Hold only simplices that may contain this isovalue (vertex range widened by their error)");
-  cmd->add_option("--time", args->time, "HP: hold only pentatopes meeting the time slice t = T (grid units)");
+  cmd->add_option("--time", args->time, "HP: hold only pentatopes meeting the time slice t = T (grid units, or\n"
+                  "physical with --units physical)");
+  cmd->add_option("--units", args->units,
+                  "grid (default: point i of an axis is at i) or physical (the store's origin + i x spacing,\n"
+                  "`simplexdb info` shows them): the units of --box, --time and --slices. Meshes are\n"
+                  "always written in physical coordinates")
+      ->capture_default_str();
   cmd->add_option("--algorithm", args->algorithm, "depth-first (default), priority, incremental, saturated, or level-order (the\n"
                   "depth-first mesh, candidates taken level by level in the store's order: each\n"
                   "block of a format-2 store read about once, for a cache far smaller than the store)");
@@ -376,7 +411,7 @@ void RegisterExtractCommand(CLI::App& app) {
                   "--slices, one .vtu each beside OUTPUT) or json (statistics; with --time also the tetrahedra\n"
                   "of the time slice). Default: named by OUTPUT's extension (.vtu, .pvd, .json, .codes or .txt),\n"
                   "else json; a --format the extension contradicts is an error");
-  cmd->add_option("--slices", args->slices, "pvd: the times of the slices, T1,T2,... in grid units");
+  cmd->add_option("--slices", args->slices, "pvd: the times of the slices, T1,T2,... (in --units)");
   cmd->add_option("-o,--output", args->output, "Output file ('-' for stdout, the default for codes and json)");
   cmd->add_flag("--in-memory", args->in_memory,
                 "Decode the whole dense store and compute its finest errors at open (in-core: "

@@ -188,6 +188,45 @@ TEST_F(ExtractCli, ReportsTheCacheWithinItsBudget) {
   EXPECT_LE(j["anonymous_memory_bytes"].get<uint64_t>(), j["peak_memory_bytes"].get<uint64_t>());
 }
 
+// A grid that is not 2^k + 1 on a side, with a physical spacing: the mesh
+// VTK reads covers the real grid in physical units, no more.
+TEST(ExtractCliPadded, VtuCoversTheRealGridInPhysicalUnits) {
+  const std::string python = PythonWithVtk();
+  if (python.empty()) GTEST_SKIP() << "no python3 that can import VTK (Debian: apt-get install python3-vtk9)";
+  const TempDir dir;
+  const std::string nrrd = dir.path() + "/v.nrrd", store = dir.path() + "/v.sdb";
+  const testing::TestVolume v = testing::TestVolume::Random(3, {20, 13, 27, 1}, VoxelType::kU8, 8);
+  {
+    std::ofstream out(nrrd, std::ios::binary);
+    out << "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 20 13 27\nspacings: 0.5 2 1.5\nencoding: raw\n\n";
+    for (double x : v.values) out.put(static_cast<char>(static_cast<uint8_t>(x)));
+  }
+  ASSERT_EQ(RunCli("import " + nrrd + " -o " + store + " -q").exit_code, 0);
+  for (const std::string criteria : {"--error 0", "--error 10%", "--error 100%",
+                                     "--error 1% --units physical --box 2,2,2,4,20,30"}) {
+    SCOPED_TRACE(criteria);
+    const std::string vtu = dir.path() + "/m.vtu";
+    auto r = RunCli("extract " + store + " " + criteria + " -o " + vtu);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto vtk = ReadWithVtk(python, vtu);
+    EXPECT_EQ(vtk["bounds"], nlohmann::json::parse("[0, 9.5, 0, 24, 0, 39]"));
+    EXPECT_NEAR(vtk["volume"].get<double>(), 9.5 * 24 * 39, 1e-6);
+    EXPECT_NEAR(vtk["signed_volume"].get<double>(), 9.5 * 24 * 39, 1e-6);
+    EXPECT_EQ(vtk["negative_cells"], 0);
+  }
+  // A box in physical units outside the grid names both.
+  auto r = RunCli("extract " + store + " --error 1% --units physical --box 0,0,40,9,24,50");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("z from 40 to 50 misses the grid, whose z runs from 0 to 39 (physical units)"),
+            std::string::npos)
+      << r.err;
+  // The same box in grid units meets the grid.
+  EXPECT_EQ(RunCli("extract " + store + " --error 1% --box 0,0,20,9,12,26").exit_code, 0);
+  r = RunCli("extract " + store + " --error 1% --units metres");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--units metres: expected grid or physical"), std::string::npos) << r.err;
+}
+
 TEST(ExtractCliHp, TimeSlicesReadByVtk) {
   const std::string python = PythonWithVtk();
   if (python.empty()) GTEST_SKIP() << "no python3 that can import VTK (Debian: apt-get install python3-vtk9)";
