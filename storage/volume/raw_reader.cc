@@ -4,7 +4,9 @@
 
 #include <string>
 
+#include "storage/io/read_only_file.h"
 #include "storage/volume/volume_info_internal.h"
+#include "storage/volume/voxel_type.h"
 
 namespace simplexdb {
 
@@ -32,6 +34,20 @@ Result<VolumeInfo> OpenRawVolume(const std::string& path, int dimension,
   DropSingleTimeStep(info);
   SDB_RETURN_IF_ERROR(ValidateGrid(path, info.dimension, info.dims));
   SDB_RETURN_IF_ERROR(CheckDataFiles(info, TruncatedRaw));
+  // Nothing may follow the voxels: a file longer than the dims and type
+  // say is almost always described wrongly (another type, or larger dims),
+  // and would import as a garbled volume without a word.
+  SDB_ASSIGN_OR_RETURN(const ReadOnlyFile file, ReadOnlyFile::Open(path));
+  SDB_ASSIGN_OR_RETURN(const uint64_t size, file.Size());
+  const uint64_t bytes = info.voxel_count() * VoxelSize(type);
+  if (size - offset != bytes) {
+    return Status::InvalidArgument(
+        path + ": has " + std::to_string(size) + " bytes, expected " + std::to_string(offset + bytes) + " (" +
+        FormatDims(info.dimension, info.dims) + " " + std::string(VoxelTypeName(type)) + " = " +
+        std::to_string(bytes) + " bytes after offset " + std::to_string(offset) +
+        "): the dims or type given are wrong (a header before the voxels is skipped with the offset; "
+        "nothing may follow them)");
+  }
   return info;
 }
 

@@ -137,11 +137,11 @@ Status ValidateGrid(const std::string& what, int dimension,
                     const std::array<uint32_t, 4>& dims);
 
 // A headerless file of dims[0] * ... * dims[3] voxels of `type` in `order`,
-// starting `offset` bytes into the file. A file longer than that is accepted:
-// the extra bytes are trailing (after the voxels) and ignored, since headers
-// are skipped with `offset`. A file shorter than that is InvalidArgument
-// naming the file, the bytes expected and the bytes found (the file is
-// truncated, or the dims or type given are wrong). O(1): stats the file.
+// starting `offset` bytes into the file, and nothing after them. A file of
+// another size is InvalidArgument naming the file, the bytes expected and
+// the bytes found (the file is truncated, or the dims or type given are
+// wrong: a longer file would import as a garbled volume). O(1): stats the
+// file.
 Result<VolumeInfo> OpenRawVolume(const std::string& path, int dimension,
                                  std::array<uint32_t, 4> dims, VoxelType type,
                                  ByteOrder order, uint64_t offset);

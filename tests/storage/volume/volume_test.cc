@@ -348,11 +348,19 @@ TEST(RawVolume, BigEndianInt16AndFloat32ReadBack) {
   }
 }
 
-TEST(RawVolume, TrailingBytesAreAcceptedAndIgnored) {
+TEST(RawVolume, TrailingBytesAreRefused) {
   TempDir dir;
   const std::string path = dir / "trailing.raw";
   WriteFile(path, Encode(VoxelType::kU8, ByteOrder::kLittle, Iota(8)) + "extra");
   auto info = OpenRawVolume(path, 3, {2, 2, 2, 1}, VoxelType::kU8, ByteOrder::kLittle, 0);
+  ASSERT_FALSE(info.ok());
+  EXPECT_TRUE(info.status().IsInvalidArgument());
+  EXPECT_NE(info.status().message().find(path + ": has 13 bytes, expected 8 (2x2x2 uint8 = 8 bytes after offset 0)"),
+            std::string::npos)
+      << info.status().ToString();
+  // The same voxels behind a 5-byte header that --offset skips are fine.
+  WriteFile(path, "head:" + Encode(VoxelType::kU8, ByteOrder::kLittle, Iota(8)));
+  info = OpenRawVolume(path, 3, {2, 2, 2, 1}, VoxelType::kU8, ByteOrder::kLittle, 5);
   ASSERT_TRUE(info.ok()) << info.status().ToString();
   EXPECT_EQ(ReadAll(*info), Iota(8));
 }
