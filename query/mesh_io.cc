@@ -194,6 +194,8 @@ Status WriteCompressedVtu(const TetMeshData& mesh, const std::string& path, cons
   static_assert(std::endian::native == std::endian::little, "VTK files here are little-endian");
   assert(options.block_bytes > 0 && options.block_bytes % 8 == 0);
   const uint64_t n_points = mesh.field.size(), n_cells = mesh.cells();
+  // Point indices are below n_points (CollectTetMesh, SliceHpMesh), so
+  // the narrowing casts below keep every index and offset.
   const bool int32 = n_points <= options.int32_limit && 4 * n_cells <= options.int32_limit;
   const int64_t* connectivity = mesh.connectivity.data();
 
