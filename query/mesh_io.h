@@ -51,9 +51,11 @@ struct TetMeshData {
   uint64_t cells() const { return connectivity.size() / 4; }
 };
 
-// VTK XML UnstructuredGrid, raw binary appended data (little-endian, 64-bit
-// headers): point array "field", cell arrays "error", "level" and "code",
-// cell type VTK_TETRA.
+// VTK XML UnstructuredGrid, binary appended data compressed with zlib
+// (vtkZLibDataCompressor, little-endian, 64-bit headers; Int32 connectivity
+// and offsets when they fit, else Int64): point array "field", cell arrays
+// "error", "level" and "code", cell type VTK_TETRA. Holds the compressed
+// arrays in memory until written: also ResourceExhausted when they do not fit.
 Status WriteVtu(const TetMeshData& mesh, const std::string& path);
 
 // Walks the leaves of `mesh` depth-first, carrying vertices and their field

@@ -130,6 +130,12 @@ TEST_F(ExtractCli, VtuReadByVtk) {
     EXPECT_LE(vtk["point_arrays"]["field"][1].get<double>(), info["field_max"].get<double>());
     for (const char* a : {"error", "level", "code"}) EXPECT_TRUE(vtk["cell_arrays"].contains(a)) << a;
     EXPECT_LE(vtk["cell_arrays"]["level"][1].get<double>(), 15);
+    // zlib-compressed, 32-bit indices for a mesh this small.
+    EXPECT_EQ(vtk["file"]["compressor"], "vtkZLibDataCompressor");
+    EXPECT_EQ(vtk["file"]["header_type"], "UInt64");
+    EXPECT_EQ(vtk["file"]["arrays"]["connectivity"]["type"], "Int32");
+    EXPECT_EQ(vtk["file"]["arrays"]["offsets"]["type"], "Int32");
+    EXPECT_EQ(vtk["file"]["arrays"]["code"]["type"], "UInt64");
   }
 }
 
@@ -241,6 +247,7 @@ TEST(ExtractCliHp, TimeSlicesReadByVtk) {
   EXPECT_NEAR(vtk["volume"].get<double>(), 8.0 * 8 * 8, 1e-9);  // the slice fills the 2^3 cube
   EXPECT_NEAR(vtk["signed_volume"].get<double>(), 8.0 * 8 * 8, 1e-9);
   EXPECT_EQ(vtk["negative_cells"], 0);
+  EXPECT_EQ(vtk["file"]["compressor"], "vtkZLibDataCompressor");
   // The statistics count the slice VTK reads; at error 0 on noise (no linear
   // region) a grid time is cut from the full-resolution mesh: 6 tetrahedra
   // per cube of the 8^3 grid, the count the seed's Fig. 63 gives as 100%.
@@ -263,6 +270,7 @@ TEST(ExtractCliHp, TimeSlicesReadByVtk) {
     EXPECT_NEAR(vtk["volume"].get<double>(), 512.0, 1e-9) << file;
     EXPECT_NEAR(vtk["signed_volume"].get<double>(), 512.0, 1e-9) << file;
     EXPECT_EQ(vtk["negative_cells"], 0) << file;
+    EXPECT_EQ(vtk["file"]["compressor"], "vtkZLibDataCompressor") << file;  // the same writer as .vtu
   }
   r = RunCli("extract " + store + " --error 5% --format vtu -o " + dir.path() + "/x.vtu");
   EXPECT_EQ(r.exit_code, 2);
