@@ -1,7 +1,11 @@
 // Writing volumes as NRRD, for `simplexdb generate` and `simplexdb export`.
 //
 // Output is always NRRD0004, encoding raw, little endian, with "spacings:"
-// (so OpenNrrd, teem, VTK, ITK and 3D Slicer read it). Files appear
+// or, for a 3D grid given an origin, "space directions:" and "space origin:"
+// (so OpenNrrd, teem, VTK, ITK and 3D Slicer read it). VTK's vtkNrrdReader
+// reads no 4D file as 4D (it takes the first axis for vector components, as
+// it does an x axis of 9 samples or fewer): write a time series as one 3D
+// file per step (PrepareNrrd, for all-or-nothing). Files appear
 // atomically, through the one atomic writer (AtomicFileWriter,
 // storage/io/file.h): the bytes go to `<path>.tmp.<pid>` in the same
 // directory, which is fsynced and renamed over `path`, and the directory is
@@ -13,7 +17,8 @@
 // Errors (every message names the file, never a temporary):
 //   InvalidArgument    bad dims, values.size() not the voxel count, a value
 //                      not representable as `type` (the first one is named
-//                      with its voxel index), a non-positive spacing.
+//                      with its voxel index), a non-positive spacing, an
+//                      origin for a 4D grid or not finite.
 //   NotFound           the output folder does not exist (or a component of
 //                      the path is a regular file).
 //   ResourceExhausted  the disk or quota is full.
