@@ -26,6 +26,7 @@
 #include "storage/dense/hz_store.h"
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
+#include "storage/volume/vti_writer.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 #include "tools/sparse_commands.h"
@@ -407,15 +408,18 @@ ExportGeometry GeometryOf(const HzHeader& h, const ExportBox& box, int dimension
   return g;
 }
 
-// A 4D store without --time, to OUT.nrrd: one 3D NRRD per time step,
-// OUT_t<t>.nrrd with t the grid time (four digits or more), and OUT.pvd
-// listing them with their times, origin[3] + t * spacing[3]. All files are
-// written to their temporaries first and renamed after the last is
-// complete, the .pvd last: a failure while writing leaves none of them, and
-// a .pvd never names a missing file.
+// A 4D store without --time, to OUT.nrrd or OUT.pvd: one 3D image per time
+// step, OUT_t<t>.nrrd (VTK's NRRD reader, Slicer, ITK) or OUT_t<t>.vti
+// (ParaView's .pvd reader opens VTK XML files only), t the grid time (four
+// digits or more), and OUT.pvd listing them with their times, origin[3] +
+// t * spacing[3]. All files are written to their temporaries first and
+// renamed after the last is complete, the .pvd last: a failure while
+// writing leaves none of them, and a .pvd never names a missing file.
 void ExportTimeSeries(const HzStore& store, const ExportArgs& a, const ExportBox& box) {
   const HzHeader& h = store.header();
-  const std::string stem = a.output.substr(0, a.output.size() - 5);
+  const bool vti = EndsWith(a.output, ".pvd");
+  const std::string stem = a.output.substr(0, a.output.size() - (vti ? 4 : 5));
+  const char* ext = vti ? "vti" : "nrrd";
   const size_t slash = stem.find_last_of('/');
   const int width = std::max<int>(4, static_cast<int>(std::to_string(h.dims[3] - 1).size()));
   std::vector<std::unique_ptr<AtomicFileWriter>> files;
@@ -427,14 +431,16 @@ void ExportTimeSeries(const HzStore& store, const ExportArgs& a, const ExportBox
     one.lo[3] = one.hi[3] = t;
     const std::vector<double> values = ReadExportBox<4>(store, one, &dims);
     const ExportGeometry g = GeometryOf(h, one, 4);
-    const std::string path = CheckOutput(fmt::format("{}_t{:0{}}.nrrd", stem, t, width),
-                                         {a.store}, a.force);
+    const std::string name = fmt::format("{}_t{:0{}}.{}", stem, t, width, ext);
+    const std::string path = CheckOutput(name, {a.store}, a.force);
+    const std::array<double, 3> origin = {g.origin[0], g.origin[1], g.origin[2]};
     Result<std::unique_ptr<AtomicFileWriter>> file =
-        PrepareNrrd(path, 3, {dims[0], dims[1], dims[2], 1}, h.voxel_type, values, g.spacing,
-                    std::array<double, 3>{g.origin[0], g.origin[1], g.origin[2]});
+        vti ? PrepareVti(path, {dims[0], dims[1], dims[2]}, h.voxel_type, values,
+                         {g.spacing[0], g.spacing[1], g.spacing[2]}, origin)
+            : PrepareNrrd(path, 3, {dims[0], dims[1], dims[2], 1}, h.voxel_type, values,
+                          g.spacing, origin);
     if (!file.ok()) Fail(file.status());
     files.push_back(*std::move(file));
-    const std::string name = fmt::format("{}_t{:0{}}.nrrd", stem, t, width);
     steps.emplace_back(g.origin[3], slash == std::string::npos ? name : name.substr(slash + 1));
     count += values.size();
   }
@@ -450,8 +456,8 @@ void ExportTimeSeries(const HzStore& store, const ExportArgs& a, const ExportBox
   pvd += "</Collection>\n</VTKFile>\n";
   const std::string pvd_path = CheckOutput(stem + ".pvd", {a.store}, a.force);
   if (const Status st = WriteFileAtomically(pvd_path, pvd); !st.ok()) Fail(st);
-  fmt::print("{}: {} {} values ({} in {} time steps) written to {}_t*.nrrd and {}.pvd\n", a.store,
-             count, VoxelTypeName(h.voxel_type), FormatDims(3, dims), steps.size(), stem, stem);
+  fmt::print("{}: {} {} values ({} in {} time steps) written to {}_t*.{} and {}.pvd\n", a.store,
+             count, VoxelTypeName(h.voxel_type), FormatDims(3, dims), steps.size(), stem, ext, stem);
 }
 
 template <int D>
@@ -459,7 +465,13 @@ void ExportField(const HzStore& store, const ExportArgs& a) {
   const HzHeader& h = store.header();
   const ExportBox box = ResolveExportBox<D>(store, a);
   const bool nrrd = EndsWith(a.output, ".nrrd");
-  if (D == 4 && a.time.empty() && nrrd) {
+  if (EndsWith(a.output, ".pvd") && (D != 4 || !a.time.empty())) {
+    throw CommandError(fmt::format("-o {}: a .pvd is the time series of a 4D (HP) store without "
+                                   "--time; write this image as OUT.nrrd",
+                                   a.output),
+                       2);
+  }
+  if (D == 4 && a.time.empty() && (nrrd || EndsWith(a.output, ".pvd"))) {
     ExportTimeSeries(store, a, box);
     return;
   }
@@ -570,20 +582,28 @@ void RegisterStoreCommands(CLI::App& app) {
         "as raw with a detached NRRD header beside it (OUT.raw + OUT.nhdr). Values\n"
         "are the store's own, losslessly. A 3D image says where it is: \"space\n"
         "directions\" and \"space origin\" from the store's spacing and origin.\n"
-        "A 4D (HP) store to OUT.nrrd: one 3D NRRD per time step, OUT_t0000.nrrd,\n"
-        "OUT_t0001.nrrd, ... (named by the grid time), and OUT.pvd listing them\n"
-        "with their times (origin_t + t * spacing_t). VTK's NRRD reader (and so\n"
-        "ParaView) reads no 4D NRRD as 4D: it takes the first axis for vector\n"
-        "components. With --time T, the one 3D time step T as OUT.nrrd. To OUT.raw\n"
-        "a 4D store stays one 4D file (x fastest, t slowest), for teem, ITK and\n"
-        "Slicer. VTK also takes an x axis of 9 points or fewer for components.\n"
-        "All files appear when all are complete; a failure leaves none of them.\n"
+        "A 4D (HP) store is written as one 3D image per time step (VTK's NRRD\n"
+        "reader, and so ParaView, reads no 4D NRRD as 4D: it takes the first axis\n"
+        "for vector components):\n"
+        "  -o OUT.pvd   OUT_t0000.vti, OUT_t0001.vti, ... (VTK XML image data) and\n"
+        "               OUT.pvd listing them with their times (origin_t + t *\n"
+        "               spacing_t): ParaView opens OUT.pvd as a time series.\n"
+        "  -o OUT.nrrd  OUT_t0000.nrrd, ... (for VTK, Slicer, ITK) and OUT.pvd\n"
+        "               listing them (for scripts: ParaView's .pvd reader opens\n"
+        "               VTK XML files only).\n"
+        "  --time T     the one 3D time step T as OUT.nrrd (or OUT.raw).\n"
+        "Files are named by the grid time t. To OUT.raw a 4D store stays one 4D\n"
+        "file (x fastest, t slowest) for teem, ITK and Slicer. VTK also takes an\n"
+        "x axis of 9 points or fewer for vector components, whatever the header.\n"
+        "Every file is complete before the first is renamed into place: a failure\n"
+        "while writing leaves none of them.\n"
         "Example: simplexdb export tooth.sdb --roi 0,0,0,50,50,80 --step 2 -o part.nrrd\n"
+        "         simplexdb export flow.sdb -o flow.pvd\n"
         "         simplexdb export flow.sdb --time 3 -o flow_t3.nrrd");
     cmd->add_option("store", a->store, "a store file")->required();
     cmd->add_option("-o,--output", a->output,
-                    "OUT.nrrd (a 4D store: OUT_t<t>.nrrd per step + OUT.pvd), or OUT.raw "
-                    "(+ OUT.nhdr)")
+                    "OUT.nrrd (a 4D store: OUT_t<t>.nrrd per step + OUT.pvd), OUT.pvd (a 4D "
+                    "store: OUT_t<t>.vti per step), or OUT.raw (+ OUT.nhdr)")
         ->required();
     cmd->add_option("--roi", a->roi,
                     "x0,y0,z0[,t0],x1,y1,z1[,t1]: a box of the grid, inclusive, one range per "

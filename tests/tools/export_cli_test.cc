@@ -1,5 +1,5 @@
-// simplexdb export of an HP (4D) store: one 3D NRRD per time step and a
-// .pvd, read back by VTK's own NRRD reader (tests/tools/
+// simplexdb export of an HP (4D) store: one 3D NRRD (or .vti) per time step
+// and a .pvd, read back by VTK's own readers (tests/tools/
 // vtk_read_nrrd_series.py) and compared with the input volume indexed by
 // hand; --time T; the errors; a failed series leaves nothing.
 #include <gtest/gtest.h>
@@ -146,6 +146,29 @@ TEST_F(ExportCli, HpToNrrdIsOneVtkReadable3DImagePerStepAndAPvd) {
   }
 }
 
+// -o OUT.pvd: the same steps as .vti, the format ParaView's .pvd reader
+// opens, read back by vtkXMLImageDataReader.
+TEST_F(ExportCli, HpToPvdIsAVtiPerStepForParaView) {
+  if (python_.empty()) GTEST_SKIP() << "no python3 that can import VTK (python3-vtk9)";
+  const auto r = RunCli("export " + store4_ + " --roi 2,1,1,1,23,8,7,4 --step 3 -o " + out_ +
+                        "/p.pvd");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(OutputNames(), (std::vector<std::string>{"p.pvd", "p_t0001.vti", "p_t0004.vti"}));
+  const std::vector<VtkImage> images = ReadWithVtk(python_, out_ + "/p.pvd");
+  ASSERT_EQ(images.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    const int64_t t = 1 + 3 * static_cast<int64_t>(i);
+    SCOPED_TRACE("time step " + std::to_string(t));
+    EXPECT_EQ(std::strtod(images[i].time.c_str(), nullptr), 0.25 * static_cast<double>(t));
+    // x 2..23 every 3rd: 8 points (VTK's XML reader makes no guess).
+    EXPECT_EQ(images[i].dims, (std::array<int, 3>{8, 3, 3}));
+    EXPECT_EQ(images[i].components, 1);
+    EXPECT_EQ(images[i].spacing, (std::array<double, 3>{1.5, 6, 4.5}));
+    EXPECT_EQ(images[i].origin, (std::array<double, 3>{1, 2, 1.5}));
+    EXPECT_EQ(images[i].values, Expected({2, 1, 1}, {23, 8, 7}, 3, t));
+  }
+}
+
 TEST_F(ExportCli, HpSeriesWithRoiAndStepPlacesEachStep) {
   if (python_.empty()) GTEST_SKIP() << "no python3 that can import VTK (python3-vtk9)";
   // t 0..4 every 2nd: steps 0, 2, 4; x 2..23 every 2nd: 11 points.
@@ -201,10 +224,14 @@ TEST_F(ExportCli, TimeErrorsAreUsageErrorsNamingTheRange) {
       {store4_ + " --time 1.5", "expected a whole number in 0..4"},
       {store3_ + " --time 0", store3_ + " is a 3D (HT) store; it has no time axis"},
       {store4_ + " --time 1 --roi 0,0,0,0,5,5,5,1", "--roi with --time is x0,y0,z0,x1,y1,z1"},
+      {store4_ + " --time 1 -o " + out_ + "/x.pvd", "a .pvd is the time series of a 4D (HP) "
+                                                    "store without --time"},
+      {store3_ + " -o " + out_ + "/x.pvd", "a .pvd is the time series of a 4D (HP) store"},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.args);
-    const auto r = RunCli("export " + c.args + " -o " + out_ + "/x.nrrd");
+    const std::string output = c.args.find(" -o ") == std::string::npos ? " -o " + out_ + "/x.nrrd" : "";
+    const auto r = RunCli("export " + c.args + output);
     EXPECT_EQ(r.exit_code, 2) << r.err;
     EXPECT_NE(r.err.find(c.message), std::string::npos) << r.err;
     EXPECT_TRUE(OutputNames().empty());

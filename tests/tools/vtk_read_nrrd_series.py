@@ -3,8 +3,9 @@
 
 Used by tests/tools/export_cli_test.cc. Each argument is a .pvd collection
 (parsed with the standard library: VTK's Python has no collection reader;
-each DataSet's file is read with vtkNrrdReader, relative to the .pvd's
-folder) or a single NRRD file (time printed as "-"). One line per image:
+each DataSet's file, relative to the .pvd's folder, is read with
+vtkNrrdReader, or vtkXMLImageDataReader for a .vti) or a single image file
+(time printed as "-"). One line per image:
 
     <time> <dim x> <dim y> <dim z> <spacing x y z> <origin x y z> <components> <count> <values...>
 
@@ -18,6 +19,7 @@ import xml.etree.ElementTree as ElementTree
 
 try:
     from vtkmodules.vtkIOImage import vtkNrrdReader
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
 except ImportError as error:
     print(f"cannot import VTK: {error}", file=sys.stderr)
     sys.exit(77)
@@ -37,7 +39,7 @@ def images(path):
 
 for arg in sys.argv[1:]:
     for time, path in images(arg):
-        reader = vtkNrrdReader()
+        reader = vtkXMLImageDataReader() if path.endswith(".vti") else vtkNrrdReader()
         reader.SetFileName(path)
         reader.Update()
         image = reader.GetOutput()
