@@ -414,7 +414,11 @@ ExportGeometry GeometryOf(const HzHeader& h, const ExportBox& box, int dimension
 // digits or more), and OUT.pvd listing them with their times, origin[3] +
 // t * spacing[3]. All files are written to their temporaries first and
 // renamed after the last is complete, the .pvd last: a failure while
-// writing leaves none of them, and a .pvd never names a missing file.
+// writing leaves none of them, and a .pvd never names a missing file (a
+// rename failing part-way leaves the steps renamed before it, complete).
+// Cost: one open file per step until the renames, so a series longer than
+// the descriptor limit (ulimit -n) fails, ResourceExhausted, before any
+// file appears; memory for one step's values at a time.
 void ExportTimeSeries(const HzStore& store, const ExportArgs& a, const ExportBox& box) {
   const HzHeader& h = store.header();
   const bool vti = EndsWith(a.output, ".pvd");
