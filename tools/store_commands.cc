@@ -1,13 +1,18 @@
 // `simplexdb import`, `info`, `verify` and `export`: building stores from
 // volumes and looking at them (the sparse store's side is in
 // sparse_commands.cc).
+#include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -21,6 +26,7 @@
 #include "storage/dense/hz_store.h"
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
+#include "storage/volume/vti_writer.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 #include "tools/sparse_commands.h"
@@ -283,74 +289,220 @@ struct ExportArgs {
   std::string store;
   std::string output;
   std::string roi;
+  std::string time;  // empty: not given
   int step = 1;
   bool force = false;
 };
 
-template <int D>
-void ExportField(const HzStore& store, const ExportArgs& a) {
-  const auto& h = store.header();
+// A box of the grid, inclusive, and the step between the points read.
+struct ExportBox {
   std::array<int64_t, 4> lo = {0, 0, 0, 0}, hi = {0, 0, 0, 0};
-  for (int c = 0; c < D; ++c) hi[c] = h.dims[c] - 1;
+  int step = 1;
+};
+
+bool EndsWith(const std::string& s, std::string_view suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+// The box --roi, --time and --step ask for. With --time (a 4D store only)
+// the box is the one time step T and --roi has the three space axes;
+// without it --roi has every axis of the store.
+template <int D>
+ExportBox ResolveExportBox(const HzStore& store, const ExportArgs& a) {
+  const HzHeader& h = store.header();
+  ExportBox box;
+  for (int c = 0; c < D; ++c) box.hi[c] = h.dims[c] - 1;
+  if (a.step < 1) throw CommandError("--step must be at least 1", 2);
+  box.step = a.step;
+  int roi_axes = D;
+  if (!a.time.empty()) {
+    if (D != 4) {
+      throw CommandError(fmt::format("--time: {} is a 3D (HT) store; it has no time axis (leave "
+                                     "--time out)",
+                                     a.store),
+                         2);
+    }
+    const double t = ParseNumberList(a.time, "--time", 1, 1)[0];
+    if (t != std::floor(t) || t < 0 || t > h.dims[3] - 1) {
+      throw CommandError(fmt::format("--time {}: not a time step of {}: expected a whole number "
+                                     "in 0..{} (grid units)",
+                                     a.time, a.store, h.dims[3] - 1),
+                         2);
+    }
+    box.lo[3] = box.hi[3] = static_cast<int64_t>(t);
+    roi_axes = 3;
+  }
   if (!a.roi.empty()) {
-    const std::vector<double> v = ParseNumberList(a.roi, "--roi", 2 * D, 2 * D);
-    for (int c = 0; c < D; ++c) {
-      lo[c] = static_cast<int64_t>(v[c]);
-      hi[c] = static_cast<int64_t>(v[D + c]);
-      if (v[c] != std::floor(v[c]) || v[D + c] != std::floor(v[D + c]) || lo[c] < 0 ||
-          hi[c] >= h.dims[c] || lo[c] > hi[c]) {
-        throw CommandError(fmt::format("--roi: axis {} range {}..{} is not within 0..{}", c,
-                                       v[c], v[D + c], h.dims[c] - 1),
+    const size_t n = 2 * static_cast<size_t>(roi_axes);
+    if (D == 4 && roi_axes == 3 && ParseNumberList(a.roi, "--roi", 1, 8).size() == 8) {
+      throw CommandError("--roi with --time is x0,y0,z0,x1,y1,z1: --time gives the time", 2);
+    }
+    const std::vector<double> v = ParseNumberList(a.roi, "--roi", n, n);
+    for (int c = 0; c < roi_axes; ++c) {
+      const double from = v[static_cast<size_t>(c)], to = v[static_cast<size_t>(roi_axes + c)];
+      box.lo[c] = static_cast<int64_t>(from);
+      box.hi[c] = static_cast<int64_t>(to);
+      if (from != std::floor(from) || to != std::floor(to) || box.lo[c] < 0 ||
+          box.hi[c] >= h.dims[c] || box.lo[c] > box.hi[c]) {
+        throw CommandError(fmt::format("--roi: axis {} range {}..{} is not within 0..{}", c, from,
+                                       to, h.dims[c] - 1),
                            2);
       }
     }
   }
-  if (a.step < 1) throw CommandError("--step must be at least 1", 2);
-  std::array<uint32_t, 4> dims = {1, 1, 1, 1};
-  for (int c = 0; c < D; ++c) dims[c] = static_cast<uint32_t>((hi[c] - lo[c]) / a.step + 1);
+  return box;
+}
+
+// The points of `box` (every box.step-th, x fastest; along t too, unless
+// the box is one time step) as read from the store; `dims` gets the count
+// per axis.
+template <int D>
+std::vector<double> ReadExportBox(const HzStore& store, const ExportBox& box,
+                                  std::array<uint32_t, 4>* dims) {
+  const HzHeader& h = store.header();
+  *dims = {1, 1, 1, 1};
+  for (int c = 0; c < D; ++c) {
+    (*dims)[c] = static_cast<uint32_t>((box.hi[c] - box.lo[c]) / box.step + 1);
+  }
   uint64_t count = 1;
-  for (uint32_t d : dims) count *= d;
+  for (uint32_t d : *dims) count *= d;
   std::vector<double> values(count);
   // A power-of-two step from a multiple of it: one lattice's bricks (a
   // coarse read decodes only them); otherwise point by point.
-  const int lattice = std::countr_zero(static_cast<uint64_t>(a.step));
-  bool read = (a.step & (a.step - 1)) == 0 && lattice <= h.domain_bits;
-  for (int c = 0; c < D; ++c) read = read && lo[c] % a.step == 0;
+  const int lattice = std::countr_zero(static_cast<uint64_t>(box.step));
+  bool read = (box.step & (box.step - 1)) == 0 && lattice <= h.domain_bits;
+  for (int c = 0; c < D; ++c) read = read && box.lo[c] % box.step == 0;
   if (read) {
-    const Status st = ReadLattice(store, lattice, lo, hi, values.data());
+    const Status st = ReadLattice(store, lattice, box.lo, box.hi, values.data());
     if (!st.ok()) Fail(st);
+    return values;
   }
   HzStore::Reader<D> reader(store);
   std::array<int64_t, D> p{};
-  for (uint64_t i = 0; i < count && !read; ++i) {
+  for (uint64_t i = 0; i < count; ++i) {
     uint64_t rest = i;
     for (int c = 0; c < D; ++c) {
-      p[c] = lo[c] + static_cast<int64_t>(rest % dims[c]) * a.step;
-      rest /= dims[c];
+      p[c] = box.lo[c] + static_cast<int64_t>(rest % (*dims)[c]) * box.step;
+      rest /= (*dims)[c];
     }
     const Result<double> v = reader.Field(p);
     if (!v.ok()) Fail(v.status());
     values[i] = *v;
   }
-  std::array<double, 4> spacing = h.spacing;
-  for (int c = 0; c < D; ++c) spacing[c] *= a.step;
-  const auto ends_with = [&](std::string_view suffix) {
-    return a.output.size() >= suffix.size() &&
-           a.output.compare(a.output.size() - suffix.size(), suffix.size(), suffix) == 0;
-  };
+  return values;
+}
+
+// The physical placement of a box: voxel size (the store's spacing times the
+// step) and the position of its first point, origin + lo * spacing.
+struct ExportGeometry {
+  std::array<double, 4> spacing = {1, 1, 1, 1};
+  std::array<double, 4> origin = {0, 0, 0, 0};
+};
+
+ExportGeometry GeometryOf(const HzHeader& h, const ExportBox& box, int dimension) {
+  ExportGeometry g;
+  for (int c = 0; c < dimension; ++c) {
+    g.spacing[c] = h.spacing[c] * box.step;
+    g.origin[c] = h.origin[c] + static_cast<double>(box.lo[c]) * h.spacing[c];
+  }
+  return g;
+}
+
+// A 4D store without --time, to OUT.nrrd or OUT.pvd: one 3D image per time
+// step, OUT_t<t>.nrrd (VTK's NRRD reader, Slicer, ITK) or OUT_t<t>.vti
+// (ParaView's .pvd reader opens VTK XML files only), t the grid time (four
+// digits or more), and OUT.pvd listing them with their times, origin[3] +
+// t * spacing[3]. All files are written to their temporaries first and
+// renamed after the last is complete, the .pvd last: a failure while
+// writing leaves none of them, and a .pvd never names a missing file (a
+// rename failing part-way leaves the steps renamed before it, complete).
+// Cost: one open file per step until the renames, so a series longer than
+// the descriptor limit (ulimit -n) fails, ResourceExhausted, before any
+// file appears; memory for one step's values at a time.
+void ExportTimeSeries(const HzStore& store, const ExportArgs& a, const ExportBox& box) {
+  const HzHeader& h = store.header();
+  const bool vti = EndsWith(a.output, ".pvd");
+  const std::string stem = a.output.substr(0, a.output.size() - (vti ? 4 : 5));
+  const char* ext = vti ? "vti" : "nrrd";
+  const size_t slash = stem.find_last_of('/');
+  const int width = std::max<int>(4, static_cast<int>(std::to_string(h.dims[3] - 1).size()));
+  std::vector<std::unique_ptr<AtomicFileWriter>> files;
+  std::vector<std::pair<double, std::string>> steps;  // time, file name without folder
+  uint64_t count = 0;
+  std::array<uint32_t, 4> dims{};
+  for (int64_t t = box.lo[3]; t <= box.hi[3]; t += box.step) {
+    ExportBox one = box;
+    one.lo[3] = one.hi[3] = t;
+    const std::vector<double> values = ReadExportBox<4>(store, one, &dims);
+    const ExportGeometry g = GeometryOf(h, one, 4);
+    const std::string name = fmt::format("{}_t{:0{}}.{}", stem, t, width, ext);
+    const std::string path = CheckOutput(name, {a.store}, a.force);
+    const std::array<double, 3> origin = {g.origin[0], g.origin[1], g.origin[2]};
+    Result<std::unique_ptr<AtomicFileWriter>> file =
+        vti ? PrepareVti(path, {dims[0], dims[1], dims[2]}, h.voxel_type, values,
+                         {g.spacing[0], g.spacing[1], g.spacing[2]}, origin)
+            : PrepareNrrd(path, 3, {dims[0], dims[1], dims[2], 1}, h.voxel_type, values,
+                          g.spacing, origin);
+    if (!file.ok()) Fail(file.status());
+    files.push_back(*std::move(file));
+    steps.emplace_back(g.origin[3], slash == std::string::npos ? name : name.substr(slash + 1));
+    count += values.size();
+  }
+  for (auto& f : files) {
+    if (const Status st = f->Commit(); !st.ok()) Fail(st);
+  }
+  files.clear();
+  std::string pvd =
+      "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n<Collection>\n";
+  for (const auto& [time, name] : steps) {
+    pvd += fmt::format("<DataSet timestep=\"{}\" part=\"0\" file=\"{}\"/>\n", time, name);
+  }
+  pvd += "</Collection>\n</VTKFile>\n";
+  const std::string pvd_path = CheckOutput(stem + ".pvd", {a.store}, a.force);
+  if (const Status st = WriteFileAtomically(pvd_path, pvd); !st.ok()) Fail(st);
+  fmt::print("{}: {} {} values ({} in {} time steps) written to {}_t*.{} and {}.pvd\n", a.store,
+             count, VoxelTypeName(h.voxel_type), FormatDims(3, dims), steps.size(), stem, ext, stem);
+}
+
+template <int D>
+void ExportField(const HzStore& store, const ExportArgs& a) {
+  const HzHeader& h = store.header();
+  const ExportBox box = ResolveExportBox<D>(store, a);
+  const bool nrrd = EndsWith(a.output, ".nrrd");
+  if (EndsWith(a.output, ".pvd") && (D != 4 || !a.time.empty())) {
+    throw CommandError(fmt::format("-o {}: a .pvd is the time series of a 4D (HP) store without "
+                                   "--time; write this image as OUT.nrrd",
+                                   a.output),
+                       2);
+  }
+  if (D == 4 && a.time.empty() && (nrrd || EndsWith(a.output, ".pvd"))) {
+    ExportTimeSeries(store, a, box);
+    return;
+  }
+  std::array<uint32_t, 4> dims{};
+  const std::vector<double> values = ReadExportBox<D>(store, box, &dims);
+  // One time step of an HP is a 3D image; a 4D raw export stays 4D.
+  const int dimension = D == 4 && !a.time.empty() ? 3 : D;
+  const ExportGeometry g = GeometryOf(h, box, D);
+  const NrrdOrigin origin =
+      dimension == 3 ? NrrdOrigin(std::array<double, 3>{g.origin[0], g.origin[1], g.origin[2]})
+                     : std::nullopt;
+  std::array<double, 4> spacing = g.spacing;
+  if (dimension == 3) spacing[3] = 1;
   Status s;
   std::string written = a.output;
-  if (ends_with(".nrrd")) {
-    s = WriteNrrd(a.output, D, dims, h.voxel_type, values, spacing);
+  if (nrrd) {
+    s = WriteNrrd(a.output, dimension, dims, h.voxel_type, values, spacing, origin);
   } else {
-    const std::string base = ends_with(".raw") ? a.output.substr(0, a.output.size() - 4) : a.output;
+    const std::string base = EndsWith(a.output, ".raw") ? a.output.substr(0, a.output.size() - 4) : a.output;
     written = a.output + " and " + base + ".nhdr";
     const std::string nhdr = CheckOutput(base + ".nhdr", {a.store, a.output}, false);
-    s = WriteRawWithNhdr(a.output, nhdr, D, dims, h.voxel_type, values, spacing);
+    s = WriteRawWithNhdr(a.output, nhdr, dimension, dims, h.voxel_type, values, spacing, origin);
   }
   if (!s.ok()) Fail(s);
-  fmt::print("{}: {} {} values ({}) written to {}\n", a.store, count, VoxelTypeName(h.voxel_type),
-             FormatDims(D, dims), written);
+  fmt::print("{}: {} {} values ({}{}) written to {}\n", a.store, values.size(),
+             VoxelTypeName(h.voxel_type), FormatDims(dimension, dims),
+             dimension < D ? fmt::format(", time step {}", box.lo[3]) : "", written);
 }
 
 }  // namespace
@@ -432,12 +584,39 @@ void RegisterStoreCommands(CLI::App& app) {
         "export",
         "Write a store's field back out: OUT.nrrd as one NRRD file, anything else\n"
         "as raw with a detached NRRD header beside it (OUT.raw + OUT.nhdr). Values\n"
-        "are the store's own, losslessly.\n"
-        "Example: simplexdb export tooth.sdb --roi 0,0,0,50,50,80 --step 2 -o part.nrrd");
+        "are the store's own, losslessly. A 3D image says where it is: \"space\n"
+        "directions\" and \"space origin\" from the store's spacing and origin.\n"
+        "A 4D (HP) store is written as one 3D image per time step (VTK's NRRD\n"
+        "reader, and so ParaView, reads no 4D NRRD as 4D: it takes the first axis\n"
+        "for vector components):\n"
+        "  -o OUT.pvd   OUT_t0000.vti, OUT_t0001.vti, ... (VTK XML image data) and\n"
+        "               OUT.pvd listing them with their times (origin_t + t *\n"
+        "               spacing_t): ParaView opens OUT.pvd as a time series.\n"
+        "  -o OUT.nrrd  OUT_t0000.nrrd, ... (for VTK, Slicer, ITK) and OUT.pvd\n"
+        "               listing them (for scripts: ParaView's .pvd reader opens\n"
+        "               VTK XML files only).\n"
+        "  --time T     the one 3D time step T as OUT.nrrd (or OUT.raw).\n"
+        "Files are named by the grid time t. To OUT.raw a 4D store stays one 4D\n"
+        "file (x fastest, t slowest) for teem, ITK and Slicer. VTK also takes an\n"
+        "x axis of 9 points or fewer for vector components, whatever the header.\n"
+        "Every file is complete before the first is renamed into place: a failure\n"
+        "while writing leaves none of them.\n"
+        "Example: simplexdb export tooth.sdb --roi 0,0,0,50,50,80 --step 2 -o part.nrrd\n"
+        "         simplexdb export flow.sdb -o flow.pvd\n"
+        "         simplexdb export flow.sdb --time 3 -o flow_t3.nrrd");
     cmd->add_option("store", a->store, "a store file")->required();
-    cmd->add_option("-o,--output", a->output, "OUT.nrrd, or OUT.raw (+ OUT.nhdr)")->required();
-    cmd->add_option("--roi", a->roi, "x0,y0,z0[,t0],x1,y1,z1[,t1]: a box of the grid, inclusive");
-    cmd->add_option("--step", a->step, "every step-th point along each axis (a coarser resolution)")
+    cmd->add_option("-o,--output", a->output,
+                    "OUT.nrrd (a 4D store: OUT_t<t>.nrrd per step + OUT.pvd), OUT.pvd (a 4D "
+                    "store: OUT_t<t>.vti per step), or OUT.raw (+ OUT.nhdr)")
+        ->required();
+    cmd->add_option("--roi", a->roi,
+                    "x0,y0,z0[,t0],x1,y1,z1[,t1]: a box of the grid, inclusive, one range per "
+                    "axis of the store; with --time the three space axes only");
+    cmd->add_option("--time", a->time,
+                    "a 4D store: only time step T (grid units, 0..T-1) as a 3D image");
+    cmd->add_option("--step", a->step,
+                    "every step-th point along each axis (a coarser resolution); in a 4D "
+                    "export without --time, every step-th time step too")
         ->capture_default_str();
     AddForceOption(cmd, &a->force);
     cmd->callback([a] {

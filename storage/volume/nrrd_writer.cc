@@ -24,7 +24,15 @@ std::string FormatDouble(double v) {
 Status CheckInput(const std::string& path, int dimension,
                   const std::array<uint32_t, 4>& dims, VoxelType type,
                   std::span<const double> values,
-                  const std::array<double, 4>& spacing) {
+                  const std::array<double, 4>& spacing, const NrrdOrigin& origin) {
+  if (origin && dimension != 3) {
+    return Status::InvalidArgument(path + ": a space origin is written for 3D grids only, not " +
+                                   std::to_string(dimension) + "D");
+  }
+  if (origin && !std::all_of(origin->begin(), origin->end(),
+                             [](double v) { return std::isfinite(v); })) {
+    return Status::InvalidArgument(path + ": the space origin must be finite");
+  }
   if (!IsValidVoxelType(type)) {
     return Status::InvalidArgument(path + ": voxel type code " +
                                    std::to_string(static_cast<int>(type)) +
@@ -68,25 +76,41 @@ Status CheckInput(const std::string& path, int dimension,
 }
 
 // The header up to and including its last field line.
+// With an origin (3D only, checked): the space fields instead of
+// "spacings:" (the specification allows one or the other per axis).
 std::string NrrdHeader(int dimension, const std::array<uint32_t, 4>& dims,
-                       VoxelType type, const std::array<double, 4>& spacing) {
-  std::string sizes, spacings, kinds;
+                       VoxelType type, const std::array<double, 4>& spacing,
+                       const NrrdOrigin& origin) {
+  std::string sizes, spacings, kinds, directions;
   for (int i = 0; i < dimension; ++i) {
     const auto a = static_cast<size_t>(i);
     if (i > 0) {
       sizes += ' ';
       spacings += ' ';
       kinds += ' ';
+      directions += ' ';
     }
     sizes += std::to_string(dims[a]);
     spacings += FormatDouble(spacing[a]);
     kinds += "domain";
+    directions += '(';
+    for (int j = 0; j < 3; ++j) {
+      directions += (j > 0 ? "," : "") + FormatDouble(i == j ? spacing[a] : 0.0);
+    }
+    directions += ')';
   }
   std::string h = "NRRD0004\n# Written by SimplexDB.\n";
   h += "type: " + std::string(NrrdTypeName(type)) + "\n";
   h += "dimension: " + std::to_string(dimension) + "\n";
+  if (origin) h += "space dimension: 3\n";
   h += "sizes: " + sizes + "\n";
-  h += "spacings: " + spacings + "\n";
+  if (origin) {
+    h += "space directions: " + directions + "\n";
+    h += "space origin: (" + FormatDouble((*origin)[0]) + "," + FormatDouble((*origin)[1]) + "," +
+         FormatDouble((*origin)[2]) + ")\n";
+  } else {
+    h += "spacings: " + spacings + "\n";
+  }
   h += "kinds: " + kinds + "\n";
   // "endian:" is required exactly when the type has more than one byte.
   if (VoxelSize(type) > 1) h += "endian: little\n";
@@ -136,24 +160,36 @@ Result<std::string> DataFileName(const std::string& raw_path,
 
 }  // namespace
 
-Status WriteNrrd(const std::string& path, int dimension,
-                 std::array<uint32_t, 4> dims, VoxelType type,
-                 std::span<const double> values, std::array<double, 4> spacing) {
-  SDB_RETURN_IF_ERROR(CheckInput(path, dimension, dims, type, values, spacing));
+Result<std::unique_ptr<AtomicFileWriter>> PrepareNrrd(const std::string& path, int dimension,
+                                                      std::array<uint32_t, 4> dims,
+                                                      VoxelType type,
+                                                      std::span<const double> values,
+                                                      std::array<double, 4> spacing,
+                                                      NrrdOrigin origin) {
+  SDB_RETURN_IF_ERROR(CheckInput(path, dimension, dims, type, values, spacing, origin));
   // A blank line ends an attached header; the voxels follow it.
-  const std::string header = NrrdHeader(dimension, dims, type, spacing) + "\n";
+  const std::string header = NrrdHeader(dimension, dims, type, spacing, origin) + "\n";
   SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> file, AtomicFileWriter::Create(path));
   SDB_ASSIGN_OR_RETURN(const uint64_t at, file->Append(header));
   (void)at;
   SDB_RETURN_IF_ERROR(AppendVoxels(*file, type, values));
+  return file;
+}
+
+Status WriteNrrd(const std::string& path, int dimension,
+                 std::array<uint32_t, 4> dims, VoxelType type,
+                 std::span<const double> values, std::array<double, 4> spacing,
+                 NrrdOrigin origin) {
+  SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> file,
+                       PrepareNrrd(path, dimension, dims, type, values, spacing, origin));
   return file->Commit();
 }
 
 Status WriteRawWithNhdr(const std::string& raw_path, const std::string& nhdr_path,
                         int dimension, std::array<uint32_t, 4> dims,
                         VoxelType type, std::span<const double> values,
-                        std::array<double, 4> spacing) {
-  SDB_RETURN_IF_ERROR(CheckInput(nhdr_path, dimension, dims, type, values, spacing));
+                        std::array<double, 4> spacing, NrrdOrigin origin) {
+  SDB_RETURN_IF_ERROR(CheckInput(nhdr_path, dimension, dims, type, values, spacing, origin));
   SDB_ASSIGN_OR_RETURN(const std::string data_file, DataFileName(raw_path, nhdr_path));
   {
     SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> raw, AtomicFileWriter::Create(raw_path));
@@ -161,7 +197,7 @@ Status WriteRawWithNhdr(const std::string& raw_path, const std::string& nhdr_pat
     SDB_RETURN_IF_ERROR(raw->Commit());
   }
   const std::string header =
-      NrrdHeader(dimension, dims, type, spacing) + "data file: " + data_file + "\n";
+      NrrdHeader(dimension, dims, type, spacing, origin) + "data file: " + data_file + "\n";
   return WriteFileAtomically(nhdr_path, header);
 }
 

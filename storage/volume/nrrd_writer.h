@@ -1,7 +1,11 @@
 // Writing volumes as NRRD, for `simplexdb generate` and `simplexdb export`.
 //
 // Output is always NRRD0004, encoding raw, little endian, with "spacings:"
-// (so OpenNrrd, teem, VTK, ITK and 3D Slicer read it). Files appear
+// or, for a 3D grid given an origin, "space directions:" and "space origin:"
+// (so OpenNrrd, teem, VTK, ITK and 3D Slicer read it). VTK's vtkNrrdReader
+// reads no 4D file as 4D (it takes the first axis for vector components, as
+// it does an x axis of 9 samples or fewer): write a time series as one 3D
+// file per step (PrepareNrrd, for all-or-nothing). Files appear
 // atomically, through the one atomic writer (AtomicFileWriter,
 // storage/io/file.h): the bytes go to `<path>.tmp.<pid>` in the same
 // directory, which is fsynced and renamed over `path`, and the directory is
@@ -13,7 +17,8 @@
 // Errors (every message names the file, never a temporary):
 //   InvalidArgument    bad dims, values.size() not the voxel count, a value
 //                      not representable as `type` (the first one is named
-//                      with its voxel index), a non-positive spacing.
+//                      with its voxel index), a non-positive spacing, an
+//                      origin for a 4D grid or not finite.
 //   NotFound           the output folder does not exist (or a component of
 //                      the path is a regular file).
 //   ResourceExhausted  the disk or quota is full.
@@ -29,13 +34,23 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <span>
 #include <string>
 
+#include "storage/io/file.h"
 #include "storage/volume/voxel_type.h"
 #include "util/status.h"
 
 namespace simplexdb {
+
+// Where a 3D grid sits in space. Without it a file says only "spacings:"
+// (the voxel sizes); with it the file says "space dimension: 3", "space
+// directions:" (the axes, scaled by the spacing, no rotation) and "space
+// origin:" (the position of voxel 0), which VTK's vtkNrrdReader, ParaView,
+// ITK and 3D Slicer take as the image's origin.
+using NrrdOrigin = std::optional<std::array<double, 3>>;
 
 // Writes `values` (x fastest, then y, z, t) converted to `type` as one NRRD
 // file with an attached header.
@@ -47,10 +62,27 @@ namespace simplexdb {
 // or clamp before calling.
 // REQUIRES nothing else: dims are validated (each used axis >= 1, unused
 // axes 1, dimension 3 or 4). O(voxels): one pass to check, one to write.
+// `origin`: see NrrdOrigin; only for dimension 3 (InvalidArgument
+// otherwise: a 4D file keeps "spacings:", whose time axis the space fields
+// cannot describe), and finite.
 Status WriteNrrd(const std::string& path, int dimension,
                  std::array<uint32_t, 4> dims, VoxelType type,
                  std::span<const double> values,
-                 std::array<double, 4> spacing = {1, 1, 1, 1});
+                 std::array<double, 4> spacing = {1, 1, 1, 1},
+                 NrrdOrigin origin = std::nullopt);
+
+// WriteNrrd up to, not including, the rename: the complete file is in its
+// temporary (`<path>.tmp.<pid>`, flushed by Commit), and nothing is under
+// `path` yet. Commit() puts it in place; dropping the writer removes it. For
+// a command writing several files that should all appear or none (export's
+// time series): prepare every one, then commit them. Same checks and errors
+// as WriteNrrd. Holds one file descriptor until committed or dropped.
+Result<std::unique_ptr<AtomicFileWriter>> PrepareNrrd(const std::string& path, int dimension,
+                                                      std::array<uint32_t, 4> dims,
+                                                      VoxelType type,
+                                                      std::span<const double> values,
+                                                      std::array<double, 4> spacing,
+                                                      NrrdOrigin origin);
 
 // The detached form: the voxels as a headerless file `raw_path` and a NRRD
 // header `nhdr_path` whose "data file:" names it (relative to the header's
@@ -61,6 +93,7 @@ Status WriteNrrd(const std::string& path, int dimension,
 Status WriteRawWithNhdr(const std::string& raw_path, const std::string& nhdr_path,
                         int dimension, std::array<uint32_t, 4> dims,
                         VoxelType type, std::span<const double> values,
-                        std::array<double, 4> spacing = {1, 1, 1, 1});
+                        std::array<double, 4> spacing = {1, 1, 1, 1},
+                        NrrdOrigin origin = std::nullopt);
 
 }  // namespace simplexdb

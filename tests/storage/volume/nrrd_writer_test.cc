@@ -170,6 +170,56 @@ TEST(WriteNrrd, HeaderTextIsPinned) {
   EXPECT_NE(ReadFile(path).find("type: float\n"), std::string::npos);
 }
 
+// With an origin: the space fields instead of "spacings:", pinned too; our
+// reader takes the spacing from the directions.
+TEST(WriteNrrd, OriginWritesSpaceDirectionsAndOrigin) {
+  TempDir dir;
+  const std::string path = dir / "placed.nrrd";
+  ASSERT_TRUE(WriteNrrd(path, 3, {2, 2, 2, 1}, VoxelType::kU8, std::vector<double>(8, 7),
+                        {0.5, 1, 2.5, 1}, std::array<double, 3>{-1.5, 0, 10})
+                  .ok());
+  const std::string expected_header =
+      "NRRD0004\n"
+      "# Written by SimplexDB.\n"
+      "type: uint8\n"
+      "dimension: 3\n"
+      "space dimension: 3\n"
+      "sizes: 2 2 2\n"
+      "space directions: (0.5,0,0) (0,1,0) (0,0,2.5)\n"
+      "space origin: (-1.5,0,10)\n"
+      "kinds: domain domain domain\n"
+      "encoding: raw\n"
+      "\n";
+  EXPECT_EQ(ReadFile(path), expected_header + std::string(8, '\x07'));
+  const Result<VolumeInfo> info = OpenVolume(path);
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->spacing, (std::array<double, 4>{0.5, 1, 2.5, 1}));
+  // 4D keeps "spacings:": the space fields cannot describe its time axis.
+  const Status s = WriteNrrd(dir / "t.nrrd", 4, {2, 2, 2, 2}, VoxelType::kU8,
+                             std::vector<double>(16, 1), {1, 1, 1, 1},
+                             std::array<double, 3>{0, 0, 0});
+  EXPECT_TRUE(s.IsInvalidArgument()) << s.ToString();
+  EXPECT_FALSE(fs::exists(dir / "t.nrrd"));
+}
+
+// PrepareNrrd: nothing under the name until Commit; dropped, nothing at all.
+TEST(PrepareNrrd, NothingAppearsUntilCommit) {
+  TempDir dir;
+  const std::string path = dir / "p.nrrd";
+  {
+    auto file = PrepareNrrd(path, 3, {2, 2, 2, 1}, VoxelType::kU8, std::vector<double>(8, 1),
+                            {1, 1, 1, 1}, std::nullopt);
+    ASSERT_TRUE(file.ok()) << file.status().ToString();
+    EXPECT_FALSE(fs::exists(path));
+  }
+  EXPECT_TRUE(fs::is_empty(dir.path()));
+  auto file = PrepareNrrd(path, 3, {2, 2, 2, 1}, VoxelType::kU8, std::vector<double>(8, 1),
+                          {1, 1, 1, 1}, std::nullopt);
+  ASSERT_TRUE(file.ok()) << file.status().ToString();
+  ASSERT_TRUE((*file)->Commit().ok());
+  EXPECT_EQ(ReadBack(path), std::vector<double>(8, 1));
+}
+
 TEST(WriteRawWithNhdr, RoundTripsAndSurvivesMovingBothFiles) {
   TempDir dir;
   for (VoxelType type : kAllTypes) {

@@ -1,0 +1,108 @@
+#include "storage/volume/vti_writer.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <vector>
+
+#include "util/little_endian.h"
+
+namespace simplexdb {
+namespace {
+
+// Shortest text that reads back as the same double.
+std::string FormatDouble(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, r.ptr);
+}
+
+const char* VtkTypeName(VoxelType type) {
+  switch (type) {
+    case VoxelType::kU8: return "UInt8";
+    case VoxelType::kI8: return "Int8";
+    case VoxelType::kU16: return "UInt16";
+    case VoxelType::kI16: return "Int16";
+    case VoxelType::kF32: return "Float32";
+    case VoxelType::kF64: return "Float64";
+  }
+  return "";
+}
+
+Status CheckInput(const std::string& path, const std::array<uint32_t, 3>& dims, VoxelType type,
+                  std::span<const double> values, const std::array<double, 3>& spacing,
+                  const std::array<double, 3>& origin) {
+  if (!IsValidVoxelType(type)) {
+    return Status::InvalidArgument(path + ": voxel type code " +
+                                   std::to_string(static_cast<int>(type)) +
+                                   " is not one of the six types");
+  }
+  uint64_t count = 1;
+  for (size_t a = 0; a < 3; ++a) {
+    if (dims[a] < 1) return Status::InvalidArgument(path + ": axis " + "xyz"[a] + " has 0 samples");
+    if (!(std::isfinite(spacing[a]) && spacing[a] > 0)) {
+      return Status::InvalidArgument(path + ": spacing " + FormatDouble(spacing[a]) + " along " +
+                                     "xyz"[a] + ", expected a positive finite number");
+    }
+    if (!std::isfinite(origin[a])) return Status::InvalidArgument(path + ": the origin must be finite");
+    count *= dims[a];
+  }
+  if (values.size() != count) {
+    return Status::InvalidArgument(path + ": " + std::to_string(values.size()) + " values for " +
+                                   std::to_string(count) + " voxels");
+  }
+  const auto bad = std::find_if(values.begin(), values.end(),
+                                [&](double v) { return !IsRepresentable(type, v); });
+  if (bad != values.end()) {
+    return Status::InvalidArgument(path + ": value " + FormatDouble(*bad) + " at voxel " +
+                                   std::to_string(bad - values.begin()) +
+                                   " is not representable as " + std::string(VoxelTypeName(type)) +
+                                   " (round or clamp it first)");
+  }
+  return Status::OK();
+}
+
+}  // namespace
+
+Result<std::unique_ptr<AtomicFileWriter>> PrepareVti(const std::string& path,
+                                                     std::array<uint32_t, 3> dims,
+                                                     VoxelType type,
+                                                     std::span<const double> values,
+                                                     std::array<double, 3> spacing,
+                                                     std::array<double, 3> origin) {
+  SDB_RETURN_IF_ERROR(CheckInput(path, dims, type, values, spacing, origin));
+  const std::string extent = "0 " + std::to_string(dims[0] - 1) + " 0 " +
+                             std::to_string(dims[1] - 1) + " 0 " + std::to_string(dims[2] - 1);
+  std::string xml =
+      "<?xml version=\"1.0\"?>\n"
+      "<!-- Written by SimplexDB. -->\n"
+      "<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\" "
+      "header_type=\"UInt64\">\n";
+  xml += "<ImageData WholeExtent=\"" + extent + "\" Origin=\"" + FormatDouble(origin[0]) + " " +
+         FormatDouble(origin[1]) + " " + FormatDouble(origin[2]) + "\" Spacing=\"" +
+         FormatDouble(spacing[0]) + " " + FormatDouble(spacing[1]) + " " +
+         FormatDouble(spacing[2]) + "\">\n";
+  xml += "<Piece Extent=\"" + extent + "\">\n<PointData Scalars=\"field\">\n";
+  xml += "<DataArray type=\"" + std::string(VtkTypeName(type)) +
+         "\" Name=\"field\" format=\"appended\" offset=\"0\"/>\n";
+  xml += "</PointData>\n<CellData/>\n</Piece>\n</ImageData>\n<AppendedData encoding=\"raw\">\n_";
+  SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> file, AtomicFileWriter::Create(path));
+  uint8_t size[8];
+  StoreLittle<uint64_t>(size, static_cast<uint64_t>(values.size()) * VoxelSize(type));
+  SDB_ASSIGN_OR_RETURN(uint64_t at, file->Append(xml));
+  SDB_ASSIGN_OR_RETURN(at, file->Append(std::span<const uint8_t>(size, 8)));
+  constexpr size_t kChunk = 64 * 1024;  // voxels per write
+  std::vector<std::byte> bytes;
+  for (size_t i = 0; i < values.size(); i += kChunk) {
+    const size_t n = std::min(kChunk, values.size() - i);
+    bytes.resize(n * VoxelSize(type));
+    EncodeVoxels(type, ByteOrder::kLittle, values.data() + i, n, bytes.data());
+    SDB_ASSIGN_OR_RETURN(
+        at, file->Append({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}));
+  }
+  SDB_ASSIGN_OR_RETURN(at, file->Append(std::string_view("\n</AppendedData>\n</VTKFile>\n")));
+  (void)at;
+  return file;
+}
+
+}  // namespace simplexdb
