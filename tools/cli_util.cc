@@ -4,6 +4,7 @@
 
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <iostream>
@@ -106,6 +107,13 @@ std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension) {
   return dims;
 }
 
+std::string FormatPlacement(int dimension, const std::array<double, 4>& spacing,
+                            const std::array<double, 4>& origin) {
+  const auto n = static_cast<size_t>(std::clamp(dimension, 0, 4));
+  return fmt::format("spacing {}, origin ({})", fmt::join(spacing.begin(), spacing.begin() + n, " x "),
+                     fmt::join(origin.begin(), origin.begin() + n, ", "));
+}
+
 std::string HumanBytes(uint64_t bytes) {
   static const char* kUnits[] = {"B", "KiB", "MiB", "GiB", "TiB"};
   double v = static_cast<double>(bytes);
@@ -128,9 +136,59 @@ void AddRawInputOptions(CLI::App* cmd, RawInputOptions* raw, const std::string& 
   cmd->add_option("--type", raw->type, "raw input: uint8|int8|uint16|int16|float32|float64");
   cmd->add_option("--endian", raw->endian, "raw input: little|big")->capture_default_str();
   cmd->add_option("--offset", raw->offset, "raw input: header bytes to skip")->capture_default_str();
+  cmd->add_option("--spacing", raw->spacing,
+                  "grid spacing X,Y,Z[,T], positive (stored in the header; replaces the "
+                  "file's)");
+  cmd->add_option("--origin", raw->origin,
+                  "position of grid point 0, X,Y,Z[,T] (stored in the header; replaces the "
+                  "file's)");
 }
 
+namespace {
+
+// The volume the inputs describe, before --spacing and --origin.
+VolumeInfo OpenInputsAsGiven(const std::vector<std::string>& inputs, const RawInputOptions& raw);
+
+// --spacing and --origin, given for a volume of `dimension` axes.
+void ApplyPlacement(const RawInputOptions& raw, VolumeInfo& v) {
+  const auto parse = [&](const std::string& text, const char* option) {
+    const std::vector<double> values = ParseNumberList(text, option, 3, 4);
+    if (static_cast<int>(values.size()) != v.dimension) {
+      throw CommandError(fmt::format("{}: {} numbers for a {}D volume ({}); give {}", option,
+                                     values.size(), v.dimension,
+                                     FormatDims(v.dimension, v.dims), v.dimension),
+                         2);
+    }
+    return values;
+  };
+  if (!raw.spacing.empty()) {
+    const std::vector<double> s = parse(raw.spacing, "--spacing");
+    for (size_t a = 0; a < s.size(); ++a) {
+      if (!(s[a] > 0)) {
+        throw CommandError(fmt::format("--spacing: {} is not positive (in '{}')", s[a],
+                                       raw.spacing),
+                           2);
+      }
+      v.spacing[a] = s[a];
+    }
+  }
+  if (!raw.origin.empty()) {
+    const std::vector<double> o = parse(raw.origin, "--origin");
+    for (size_t a = 0; a < o.size(); ++a) v.origin[a] = o[a];
+  }
+}
+
+}  // namespace
+
 VolumeInfo OpenInputs(const std::vector<std::string>& inputs, const RawInputOptions& raw) {
+  VolumeInfo v = OpenInputsAsGiven(inputs, raw);
+  ApplyPlacement(raw, v);
+  return v;
+}
+
+namespace {
+
+VolumeInfo OpenInputsAsGiven(const std::vector<std::string>& inputs, const RawInputOptions& raw) {
   if (raw.dims.empty()) {
     if (!raw.type.empty() || raw.offset != 0) {
       throw CommandError("--type and --offset describe raw input and need --dims", 2);
@@ -171,6 +229,8 @@ VolumeInfo OpenInputs(const std::vector<std::string>& inputs, const RawInputOpti
                                    inputs[0]);
   return series;
 }
+
+}  // namespace
 
 uint64_t AnonymousResidentBytes() {
   std::ifstream status("/proc/self/status");

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_store.h"
@@ -60,22 +61,36 @@ double ParseAmount(std::string_view text, const char* option, double range);
 std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension);
 
 // How raw input is laid out (--dims, --type, --endian, --offset); empty
-// dims: the inputs describe themselves (NRRD, NIfTI-1).
+// dims: the inputs describe themselves (NRRD, NIfTI-1). --spacing and
+// --origin place the grid ("X,Y,Z[,T]"); empty: the file's own (raw: 1 and
+// 0). Given for a NRRD or NIfTI input they replace the file's values.
 struct RawInputOptions {
   std::string dims;
   std::string type;
   std::string endian = "little";
   uint64_t offset = 0;
+  std::string spacing;
+  std::string origin;
 };
 
-// Adds --dims, --type, --endian and --offset to `cmd`, bound to `raw` (which
-// must outlive the command). `dims_help` says which grids the command takes.
+// Adds --dims, --type, --endian, --offset, --spacing and --origin to `cmd`,
+// bound to `raw` (which must outlive the command). `dims_help` says which
+// grids the command takes.
 void AddRawInputOptions(CLI::App* cmd, RawInputOptions* raw, const std::string& dims_help);
 
 // Opens the input volume: one file, or several 3D files forming a time
-// series (t in the order given). Throws CommandError (exit 2) for raw
-// options that do not fit together, Fail()s with the reader's reason.
+// series (t in the order given), with --spacing and --origin applied.
+// Throws CommandError (exit 2) for raw options that do not fit together
+// (a spacing that is not finite and positive, a count of spacings or
+// origins other than the volume's dimension), Fail()s with the reader's
+// reason.
 VolumeInfo OpenInputs(const std::vector<std::string>& inputs, const RawInputOptions& raw);
+
+// A store's placement for `info`: "spacing 2 x 2 x 2.2, origin (117.855,
+// -35.7229, -7.2488)", the used axes only, each number the shortest text
+// that reads back exactly.
+std::string FormatPlacement(int dimension, const std::array<double, 4>& spacing,
+                            const std::array<double, 4>& origin);
 
 // "1.5 GiB", "312 KiB", "17 B".
 std::string HumanBytes(uint64_t bytes);

@@ -112,6 +112,7 @@ void ConvertDenseToSparse(const std::string& input, const std::string& output,
   Result<VolumeInfo> volume = OpenVolume(field.path());
   if (!volume.ok()) Fail(volume.status());
   volume->description = h.source;  // the dense store's source, not the scratch file
+  volume->origin = h.origin;       // the scratch NRRD carries the spacing only
   DenseBuildOptions options;
   options.memory_bytes = memory_bytes;
   options.quantization = h.quantization;
@@ -189,6 +190,7 @@ void ConvertSparseToDense(const std::string& input, const std::string& output,
   Result<VolumeInfo> volume = OpenVolume(field.path());
   if (!volume.ok()) Fail(volume.status());
   volume->description = h.source;
+  volume->origin = h.origin;  // the scratch NRRD carries the spacing only
   HzBuildOptions options;
   options.quantization = h.quantization;
   options.compression = *c;
@@ -250,6 +252,7 @@ void RunSparseInfo(const std::string& path, bool as_json) {
     j["format_version"] = h.version;
     j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
     j["spacing"] = std::vector<double>(h.spacing.begin(), h.spacing.begin() + h.dimension);
+    j["origin"] = std::vector<double>(h.origin.begin(), h.origin.begin() + h.dimension);
     j["grid_points"] = points;
     j["domain_bits"] = h.domain_bits;
     j["domain_side"] = (uint64_t{1} << h.domain_bits) + 1;
@@ -276,6 +279,7 @@ void RunSparseInfo(const std::string& path, bool as_json) {
              h.version);
   fmt::print("  grid        {} {} ({} points), from {}\n", FormatDims(h.dimension, h.dims),
              VoxelTypeName(h.voxel_type), points, h.source);
+  fmt::print("  placement   {}\n", FormatPlacement(h.dimension, h.spacing, h.origin));
   fmt::print("  domain      side 2^{} + 1 = {}, {} levels\n", h.domain_bits,
              (uint64_t{1} << h.domain_bits) + 1, h.dimension * h.domain_bits);
   fmt::print("  field       {} .. {}; the values of {} kept vertices of {:.4g} ({:.3g}%), {}\n",

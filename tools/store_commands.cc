@@ -231,6 +231,7 @@ void RunHzInfo(const std::string& path, bool as_json) {
              path, h.dimension == 3 ? "HT" : "HP", h.version);
   fmt::print("  grid        {} {} ({} points), from {}\n", FormatDims(h.dimension, h.dims),
              VoxelTypeName(h.voxel_type), points, h.source.empty() ? "?" : h.source);
+  fmt::print("  placement   {}\n", FormatPlacement(h.dimension, h.spacing, h.origin));
   fmt::print("  domain      side 2^{} + 1 = {}, {} levels ({} roots)\n", h.domain_bits,
              (uint64_t{1} << h.domain_bits) + 1, h.leaf_level(), h.dimension == 3 ? 6 : 24);
   fmt::print("  field       {} .. {}\n", h.field_min, h.field_max);

@@ -88,7 +88,8 @@ class DiamondTable {
 
 template <int D>
 Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
-                              const HzBuildOptions& options, Clock::time_point start) {
+                              const HzBuildOptions& options, Clock::time_point start,
+                              const std::array<double, 4>& origin) {
   const DenseHeader& f = f1.header();
   const int k = f.domain_bits;
   const int leaf = f.leaf_level();
@@ -181,6 +182,7 @@ Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
   params.flags = kHzFinestStored;
   params.dims = f.dims;
   params.spacing = f.spacing;
+  params.origin = origin;  // format 1 has none: the caller's
   params.field_min = f.field_min;
   params.field_max = f.field_max;
   params.source = f.source;
@@ -216,6 +218,7 @@ HzHeader ParamsFor(int dimension, const VolumeInfo& input, const HzBuildOptions&
   params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(dimension));
   params.dims = input.dims;
   params.spacing = input.spacing;
+  params.origin = input.origin;
   params.field_min = fmin;
   params.field_max = fmax;
   params.scale_slope = input.scale;
@@ -906,13 +909,14 @@ Status CheckBlockBitmap(int dimension, const std::array<uint32_t, 4>& dims, int 
 }  // namespace
 
 Result<HzBuildReport> ConvertToHz(const DenseStore& f1, const std::string& out_path,
-                                  const HzBuildOptions& options) {
+                                  const HzBuildOptions& options,
+                                  const std::array<double, 4>& origin) {
   const auto start = Clock::now();
   SDB_RETURN_IF_ERROR(CheckBlockBitmap(f1.dimension(), f1.header().dims,
                                        f1.header().domain_bits, options, true, out_path,
                                        f1.path()));
-  if (f1.dimension() == 3) return Convert<3>(f1, out_path, options, start);
-  return Convert<4>(f1, out_path, options, start);
+  if (f1.dimension() == 3) return Convert<3>(f1, out_path, options, start, origin);
+  return Convert<4>(f1, out_path, options, start, origin);
 }
 
 Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& out_path,
@@ -956,7 +960,7 @@ Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& o
   f1.progress = options.progress;
   SDB_RETURN_IF_ERROR(BuildDenseStore(input, scratch.path(), f1).status());
   SDB_ASSIGN_OR_RETURN(auto store, DenseStore::Open(scratch.path()));
-  SDB_ASSIGN_OR_RETURN(HzBuildReport report, ConvertToHz(*store, out_path, options));
+  SDB_ASSIGN_OR_RETURN(HzBuildReport report, ConvertToHz(*store, out_path, options, input.origin));
   report.method = "engine";
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return report;

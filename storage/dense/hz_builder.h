@@ -39,6 +39,7 @@
 // before anything is computed.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -80,8 +81,10 @@ struct HzBuildReport {
 
 // Makes `out_path` from a format-1 store. Exact when `f1` holds float32
 // errors: each diamond stores the largest of its nodes' stored bounds.
+// Spacing is f1's; `origin` is the caller's (format 1 keeps none).
 Result<HzBuildReport> ConvertToHz(const DenseStore& f1, const std::string& out_path,
-                                  const HzBuildOptions& options);
+                                  const HzBuildOptions& options,
+                                  const std::array<double, 4>& origin = {0, 0, 0, 0});
 
 // Builds `out_path` from `input` (3D: HT, 4D: HP).
 Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& out_path,

@@ -138,6 +138,7 @@ class Builder {
     h.tolerance = options_.tolerance_percent ? options_.tolerance / 100 * (fmax_ - fmin_) : options_.tolerance;
     h.block_bits = options_.block_bits > 0 ? options_.block_bits : (D == 3 ? 18 : 20);
     h.spacing = input_.spacing;
+    h.origin = input_.origin;
     h.source = DescribeSource(input_);
     h.source.resize(Utf8PrefixLength(h.source, 1000));
     const double range = fmax_ - fmin_;

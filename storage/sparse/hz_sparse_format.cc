@@ -133,6 +133,7 @@ std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h) {
   j["hierarchy"] = h.dimension == 3 ? "ht" : "hp";
   j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
   j["spacing"] = std::vector<double>(h.spacing.begin(), h.spacing.begin() + h.dimension);
+  j["origin"] = std::vector<double>(h.origin.begin(), h.origin.begin() + h.dimension);
   j["domain_bits"] = h.domain_bits;
   j["voxel_type"] = std::string(VoxelTypeName(h.voxel_type));
   j["quantization"] = std::string(QuantizationName(h.quantization));
@@ -184,6 +185,16 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
     for (int a = 0; a < h.dimension; ++a) {
       if (!std::isfinite(spacing[a]) || !(spacing[a] > 0)) return bad("spacing must be finite and positive");
       h.spacing[a] = spacing[a];
+    }
+    // Optional (an addition within version 4: older readers ignore it,
+    // older stores lack it and read as zeros).
+    if (j.contains("origin")) {
+      const auto origin = j.at("origin").get<std::vector<double>>();
+      if (static_cast<int>(origin.size()) != h.dimension) return bad("origin does not match the hierarchy");
+      for (int a = 0; a < h.dimension; ++a) {
+        if (!std::isfinite(origin[a])) return bad("origin must be finite");
+        h.origin[a] = origin[a];
+      }
     }
     h.domain_bits = j.at("domain_bits").get<int>();
     const int max_bits = h.dimension == 3 ? SimplexCode<3>::kMaxLevel / 3 : SimplexCode<4>::kMaxLevel / 4;

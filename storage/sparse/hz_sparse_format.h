@@ -134,6 +134,9 @@ struct HzSparseHeader {
   int dimension = 3;  // 3: HT, 4: HP
   std::array<uint32_t, 4> dims = {1, 1, 1, 1};
   std::array<double, 4> spacing = {1, 1, 1, 1};  // the input's, per axis (metadata)
+  // Where grid point 0 is (metadata). Optional in the JSON: stores written
+  // before 2026-11-27 have no "origin" and read as zeros.
+  std::array<double, 4> origin = {0, 0, 0, 0};
   int domain_bits = 1;  // the domain [0, 2^k]^D
   VoxelType voxel_type = VoxelType::kU8;
   Quantization quantization = Quantization::kU16;

@@ -131,7 +131,12 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
   build.threads = options.threads;
   build.memory_bytes = options.memory_bytes;
   build.progress = options.progress;
-  SDB_ASSIGN_OR_RETURN(const HzSparseBuildReport built, BuildHzSparseStore(volume, scratch.path(), build));
+  // The store keeps its placement: an update replaces values in a box, and
+  // its input (often raw) may know no spacing or origin.
+  VolumeInfo placed = volume;
+  placed.spacing = old_header.spacing;
+  placed.origin = old_header.origin;
+  SDB_ASSIGN_OR_RETURN(const HzSparseBuildReport built, BuildHzSparseStore(placed, scratch.path(), build));
 
   // Its blocks into the old store, in one write transaction.
   HzSparseUpdateReport report;

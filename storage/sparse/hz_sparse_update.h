@@ -3,7 +3,8 @@
 // the whole update, or none of it, when they next begin one (MVCC).
 //
 // What changes. The store becomes what importing the new volume with the
-// store's tolerance, quantization and block size gives: every block whose
+// store's tolerance, quantization, block size, spacing and origin gives
+// (the new volume's own spacing and origin are not used): every block whose
 // value differs is written, blocks that no longer hold a kept vertex are
 // deleted, the header is replaced; blocks that come out the same are not
 // touched. Outside the box the new volume must be what the store holds

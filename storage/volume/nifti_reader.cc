@@ -31,6 +31,12 @@ constexpr size_t kNiftiPixdim = 76;     // float32 pixdim[8]
 constexpr size_t kNiftiVoxOffset = 108; // float32
 constexpr size_t kNiftiSclSlope = 112;  // float32
 constexpr size_t kNiftiSclInter = 116;  // float32
+constexpr size_t kNiftiXyztUnits = 123; // char
+constexpr size_t kNiftiToffset = 136;   // float32
+constexpr size_t kNiftiQformCode = 252; // int16
+constexpr size_t kNiftiSformCode = 254; // int16
+constexpr size_t kNiftiQuatern = 256;   // float32 quatern_b, c, d, qoffset_x, y, z
+constexpr size_t kNiftiSrow = 280;      // float32 srow_x[4], srow_y[4], srow_z[4]
 constexpr size_t kNiftiMagic = 344;     // char[4]
 
 // Reads integers and floats of the header in its byte order.
@@ -84,6 +90,70 @@ constexpr NiftiDatatype kNiftiDatatypes[] = {
     {1792, "complex128", std::nullopt},  {2048, "complex256", std::nullopt},
     {2304, "rgba32", std::nullopt},
 };
+
+// Millimetres per unit of xyzt_units' space code, seconds per unit of its
+// time code (nifti1.h NIFTI_UNITS_*); 1 for unknown (0) or other codes, so
+// the values stay as stored.
+double NiftiSpaceToMm(int units) {
+  switch (units & 0x07) {
+    case 1: return 1000;   // metre
+    case 3: return 0.001;  // micron
+    default: return 1;     // 2: mm; 0: unknown
+  }
+}
+double NiftiTimeToSeconds(int units) {
+  switch (units & 0x38) {
+    case 16: return 0.001;  // msec
+    case 24: return 1e-6;   // usec
+    default: return 1;      // 8: sec; 0: unknown; Hz, ppm, rad/s: as stored
+  }
+}
+
+// Sets info.origin (x, y, z) from the sform or the qform (sform first, as
+// nibabel and ITK do), and info.dropped when that transform is not a
+// diagonal of positive entries. NIfTI-1 section "3 methods": method 3
+// (sform_code > 0), method 2 (qform_code > 0), method 1 (neither: origin 0).
+void NiftiPlacement(const NiftiFields& f, double to_mm, VolumeInfo& info) {
+  std::array<std::array<double, 3>, 3> m{};  // rotation (times scales, sform)
+  std::array<double, 3> t{};
+  std::string method;
+  if (f.I16(kNiftiSformCode) > 0) {
+    method = "sform";
+    for (size_t r = 0; r < 3; ++r) {
+      for (size_t c = 0; c < 3; ++c) m[r][c] = f.F32(kNiftiSrow + 16 * r + 4 * c);
+      t[r] = f.F32(kNiftiSrow + 16 * r + 12);
+    }
+  } else if (f.I16(kNiftiQformCode) > 0) {
+    method = "qform";
+    // The quaternion (a, b, c, d), a = sqrt(1 - b^2 - c^2 - d^2), and qfac
+    // = pixdim[0] (-1 flips z); nifti1.h, "METHOD 2".
+    const double b = f.F32(kNiftiQuatern), c = f.F32(kNiftiQuatern + 4),
+                 d = f.F32(kNiftiQuatern + 8);
+    const double a = std::sqrt(std::max(0.0, 1 - (b * b + c * c + d * d)));
+    const double qfac = f.F32(kNiftiPixdim) < 0 ? -1 : 1;
+    m = {{{a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)},
+          {2 * (b * c + a * d), a * a + c * c - b * b - d * d, 2 * (c * d - a * b)},
+          {2 * (b * d - a * c), 2 * (c * d + a * b), a * a + d * d - c * c - b * b}}};
+    for (auto& row : m) row[2] *= qfac;
+    for (size_t r = 0; r < 3; ++r) t[r] = f.F32(kNiftiQuatern + 12 + 4 * r);
+  } else {
+    return;
+  }
+  for (size_t r = 0; r < 3; ++r) {
+    if (std::isfinite(t[r])) info.origin[r] = t[r] * to_mm;
+  }
+  bool aligned = true;
+  for (size_t r = 0; r < 3; ++r) {
+    for (size_t c = 0; c < 3; ++c) {
+      if (!std::isfinite(m[r][c]) || (r == c ? !(m[r][c] > 0) : m[r][c] != 0)) aligned = false;
+    }
+  }
+  if (!aligned) {
+    info.dropped = "orientation dropped: the NIfTI " + method +
+                   " is not a diagonal of positive entries (a rotation, flip or permutation); "
+                   "origin is its translation, spacing pixdim";
+  }
+}
 
 }  // namespace
 
@@ -175,6 +245,17 @@ Result<VolumeInfo> OpenNifti(const std::string& path) {
                                 ") is not supported; supported: uint8, int8, uint16, "
                                 "int16, float32, float64");
   }
+  // Lengths in millimetres, times in seconds (xyzt_units).
+  const auto units = static_cast<int>(static_cast<unsigned char>(h[kNiftiXyztUnits]));
+  const double to_mm = NiftiSpaceToMm(units), to_s = NiftiTimeToSeconds(units);
+  for (size_t i = 0; i < 3; ++i) info.spacing[i] *= to_mm;
+  if (dimension == 4) {
+    info.spacing[3] *= to_s;
+    const float toffset = f.F32(kNiftiToffset);
+    if (std::isfinite(toffset)) info.origin[3] = static_cast<double>(toffset) * to_s;
+  }
+  NiftiPlacement(f, to_mm, info);
+
   info.type = *dt->type;
   const int16_t bitpix = f.I16(kNiftiBitpix);
   if (bitpix != static_cast<int16_t>(8 * VoxelSize(info.type))) {

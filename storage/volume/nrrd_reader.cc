@@ -140,35 +140,42 @@ bool IsDomainKind(std::string_view kind) {
          k == "none" || k == "???";
 }
 
-// Parses "(a,b,c) (d,e,f) none ..." into the vector lengths (NaN for none).
-std::optional<std::vector<double>> ParseSpaceDirections(std::string_view s) {
-  std::vector<double> lengths;
+// Parses one NRRD vector "(a,b,c)" starting at s[i]; i moves past it.
+std::optional<std::vector<double>> ParseNrrdVector(std::string_view s, size_t& i) {
+  if (i >= s.size() || s[i] != '(') return std::nullopt;
+  const size_t close = s.find(')', i);
+  if (close == std::string_view::npos) return std::nullopt;
+  std::string_view inner = s.substr(i + 1, close - i - 1);
+  std::vector<double> v;
+  while (true) {
+    const size_t comma = inner.find(',');
+    const auto x = ParseDouble(Trim(inner.substr(0, comma)));
+    if (!x) return std::nullopt;
+    v.push_back(*x);
+    if (comma == std::string_view::npos) break;
+    inner.remove_prefix(comma + 1);
+  }
+  i = close + 1;
+  return v;
+}
+
+// Parses "(a,b,c) (d,e,f) none ..." into the vectors (empty for none).
+std::optional<std::vector<std::vector<double>>> ParseSpaceDirections(std::string_view s) {
+  std::vector<std::vector<double>> vectors;
   size_t i = 0;
   while (true) {
     while (i < s.size() && (s[i] == ' ' || s[i] == '\t')) ++i;
     if (i >= s.size()) break;
     if (s.substr(i, 4) == "none") {
-      lengths.push_back(std::numeric_limits<double>::quiet_NaN());
+      vectors.emplace_back();
       i += 4;
       continue;
     }
-    if (s[i] != '(') return std::nullopt;
-    const size_t close = s.find(')', i);
-    if (close == std::string_view::npos) return std::nullopt;
-    std::string_view inner = s.substr(i + 1, close - i - 1);
-    double sum = 0;
-    while (true) {
-      const size_t comma = inner.find(',');
-      const auto v = ParseDouble(Trim(inner.substr(0, comma)));
-      if (!v) return std::nullopt;
-      sum += *v * *v;
-      if (comma == std::string_view::npos) break;
-      inner.remove_prefix(comma + 1);
-    }
-    lengths.push_back(std::sqrt(sum));
-    i = close + 1;
+    auto v = ParseNrrdVector(s, i);
+    if (!v) return std::nullopt;
+    vectors.push_back(std::move(*v));
   }
-  return lengths;
+  return vectors;
 }
 
 // The byte position just after the first `lines` newlines at or after
@@ -209,7 +216,9 @@ struct NrrdFields {
   int64_t byte_skip = 0;  // -1: the data are the last bytes of the file
   std::vector<std::string> kinds;
   std::vector<double> spacings;
-  std::vector<double> direction_lengths;  // of "space directions:", NaN = none
+  std::vector<std::vector<double>> directions;  // "space directions:", empty = none
+  std::optional<std::vector<double>> space_origin;
+  std::vector<double> axis_mins;
 };
 
 // Parses the magic and every field line. Unknown fields are ignored.
@@ -308,13 +317,24 @@ Result<NrrdFields> ParseNrrdFields(const std::string& path, const NrrdHeaderText
         f.spacings.push_back(*spacing);
       }
     } else if (name == "space directions") {
-      auto lengths = ParseSpaceDirections(value);
-      if (!lengths) return bad("expected vectors like (1,0,0) or 'none'");
-      f.direction_lengths = std::move(*lengths);
+      auto vectors = ParseSpaceDirections(value);
+      if (!vectors) return bad("expected vectors like (1,0,0) or 'none'");
+      f.directions = std::move(*vectors);
+    } else if (name == "space origin") {
+      size_t i = 0;
+      auto origin = ParseNrrdVector(value, i);
+      if (!origin || i != value.size()) return bad("expected a vector like (0,0,0)");
+      f.space_origin = std::move(*origin);
+    } else if (name == "axis mins" || name == "axismins") {
+      for (std::string_view part : SplitWhitespace(value)) {
+        const auto min = ParseDouble(part);
+        if (!min) return bad('\'' + std::string(part) + "' is not a number");
+        f.axis_mins.push_back(*min);
+      }
     }
-    // Every other field (content, space, space origin, centers, units,
-    // labels, axis mins, min, max, ...) says nothing about where the voxels
-    // are or what they mean numerically: ignored.
+    // Every other field (content, space, centers, units, labels, min, max,
+    // ...) says nothing about where the voxels are or what they mean
+    // numerically: ignored.
   }
   return f;
 }
@@ -352,21 +372,58 @@ Result<VolumeInfo> NrrdGrid(const std::string& path, const NrrdFields& f) {
       }
     }
   }
-  // "spacings:" wins over "space directions:" (the specification allows
-  // only one of them).
-  const bool from_spacings = !f.spacings.empty();
-  const std::vector<double>& spacing = from_spacings ? f.spacings : f.direction_lengths;
-  if (!spacing.empty() && spacing.size() != d) {
-    return count_mismatch(from_spacings ? "spacings" : "space directions", spacing.size());
+  if (!f.spacings.empty() && f.spacings.size() != d) {
+    return count_mismatch("spacings", f.spacings.size());
+  }
+  if (!f.directions.empty() && f.directions.size() != d) {
+    return count_mismatch("space directions", f.directions.size());
+  }
+  if (!f.axis_mins.empty() && f.axis_mins.size() != d) {
+    return count_mismatch("axis mins", f.axis_mins.size());
   }
 
   VolumeInfo info;
   info.dimension = *f.dimension;
+  for (size_t i = 0; i < d; ++i) info.dims[i] = static_cast<uint32_t>(f.sizes[i]);
+  // Spacing: the direction vector's length, else "spacings:" (NaN, "none"
+  // and non-positive values: unknown, 1). Origin: "axis mins:", then the
+  // space axes' "space origin:" over it.
+  size_t space_axis = 0;  // the space axes are the ones with a direction
+  std::string oriented;   // why the directions are not the positive axes
   for (size_t i = 0; i < d; ++i) {
-    info.dims[i] = static_cast<uint32_t>(f.sizes[i]);
-    if (!spacing.empty() && std::isfinite(spacing[i]) && spacing[i] > 0) {
-      info.spacing[i] = spacing[i];  // NaN, "none": 1
+    double spacing = std::numeric_limits<double>::quiet_NaN();
+    if (!f.directions.empty() && !f.directions[i].empty()) {
+      const std::vector<double>& v = f.directions[i];
+      double sum = 0;
+      for (double x : v) sum += x * x;
+      spacing = std::sqrt(sum);
+      // The positive axes in order: v has its one non-zero entry, positive,
+      // at the index of this space axis.
+      for (size_t j = 0; j < v.size(); ++j) {
+        if ((j == space_axis) != (v[j] != 0) || v[j] < 0) {
+          if (oriented.empty()) oriented = "axis " + std::to_string(i);
+        }
+      }
+      ++space_axis;
+    } else if (!f.spacings.empty()) {
+      spacing = f.spacings[i];
     }
+    if (std::isfinite(spacing) && spacing > 0) info.spacing[i] = spacing;
+    if (!f.axis_mins.empty() && std::isfinite(f.axis_mins[i])) info.origin[i] = f.axis_mins[i];
+  }
+  if (f.space_origin) {
+    // "space origin:" has one entry per space axis, in the order of the
+    // axes with directions (those are the space axes, x, y, z here).
+    size_t s = 0;
+    for (size_t i = 0; i < d && s < f.space_origin->size(); ++i) {
+      if (!f.directions.empty() && f.directions[i].empty()) continue;
+      if (std::isfinite((*f.space_origin)[s])) info.origin[i] = (*f.space_origin)[s];
+      ++s;
+    }
+  }
+  if (!oriented.empty()) {
+    info.dropped = "orientation dropped: NRRD space directions not the positive axes in order "
+                   "(from " + oriented + "); spacing is their lengths";
   }
   info.type = *f.type;
   info.order = f.endian.value_or(ByteOrder::kLittle);

@@ -100,7 +100,19 @@ struct VolumeInfo {
   // Per-file offsets, replacing `offset` when not empty (OpenTimeSeries of
   // files whose headers differ in length). Use offset_of().
   std::vector<uint64_t> file_offsets;
-  std::array<double, 4> spacing = {1, 1, 1, 1};  // metadata only
+  // Physical placement of grid point i on axis a: origin[a] + i * spacing[a]
+  // (axis 3 is time). Metadata for the stores' headers: the readers never
+  // use them. Unknown: spacing 1, origin 0. Units are not kept: NIfTI
+  // values are converted to millimetres and seconds (xyzt_units), NRRD and
+  // raw values are in whatever units the file or the caller used.
+  std::array<double, 4> spacing = {1, 1, 1, 1};
+  std::array<double, 4> origin = {0, 0, 0, 0};
+  // What the reader read but the placement above cannot say, for the
+  // store's source ("orientation dropped: ..."); empty when nothing was
+  // dropped. SimplexDB grids are axis-aligned: a rotated, flipped or
+  // permuted orientation keeps spacing (the lengths of the axis vectors)
+  // and origin (where voxel 0 is), and says here that it dropped the rest.
+  std::string dropped;
   // Values are scale * stored + shift (NIfTI scl_slope and scl_inter);
   // VolumeReader applies them. Identity (1, 0) for every other format.
   double scale = 1;
@@ -127,7 +139,8 @@ std::string FormatDims(int dimension, const std::array<uint32_t, 4>& dims);
 std::string FormatScaling(const VolumeInfo& info);
 
 // What a store records as its source: the description, with its scaling
-// when it has one: "NIfTI-1 file a.nii (scaled: slope 2.5, intercept -1)".
+// when it has one: "NIfTI-1 file a.nii (scaled: slope 2.5, intercept -1)",
+// and what its reader dropped ("; orientation dropped: ...").
 std::string DescribeSource(const VolumeInfo& info);
 
 // Checks the grid rules above for a volume named `what` (prefixed to the
@@ -155,8 +168,15 @@ Result<VolumeInfo> OpenRawVolume(const std::string& path, int dimension,
 // are honoured ("byte skip: -1", data at the end of the file, for raw only;
 // a non-zero byte skip with gzip is NotSupported). "kinds:" other than
 // domain/space/time/list/none (e.g. "3-vector", "RGB-color") are
-// NotSupported: SimplexDB reads scalar fields. Spacing comes from "spacings:"
-// or the lengths of "space directions:". Other fields and key/value pairs
+// NotSupported: SimplexDB reads scalar fields. Spacing of an axis comes
+// from the length of its "space directions:" vector, else from "spacings:"
+// (so "space directions: (2,0,0) (0,2,0) (0,0,2) none" with "spacings: nan
+// nan nan 0.5" gives a time step of 0.5). Origin comes from "space origin:"
+// (the space axes) and "axis mins:" (every axis "space origin:" does not
+// give). Direction vectors that are not the positive axes in order (a
+// rotation, a flip, a permutation) keep their lengths as spacing and the
+// origin as given, and set VolumeInfo::dropped to say the orientation was
+// dropped. "space units:" are not kept. Other fields and key/value pairs
 // are ignored, as the specification asks of readers that do not use them.
 // For gzip, the gzip trailer (size mod 2^32) is checked against the
 // expected size, and n bytes of gzip data may claim at most 1032 n bytes
@@ -175,15 +195,24 @@ Result<VolumeInfo> OpenNrrd(const std::string& path);
 // scale the values as the NIfTI-1 standard says: value = scl_slope * stored
 // + scl_inter, unless scl_slope is 0 (no scaling); a slope that is not
 // finite means no scaling and an intercept that is not finite means 0 (as
-// nibabel reads them). They become VolumeInfo::scale and shift. The
-// orientation (qform/sform) is ignored; spacing is |pixdim[1..4]|.
+// nibabel reads them). They become VolumeInfo::scale and shift. Spacing
+// is |pixdim[1..4]|, origin the sform's translation when sform_code > 0,
+// else the qform's (qoffset_x, y, z) when qform_code > 0, else 0 (NIfTI
+// method 1); origin[3] is toffset. Lengths are converted to millimetres and
+// times to seconds by xyzt_units (unknown units: as stored), so a TR of
+// 2000 with units ms is spacing[3] = 2 (the shared example4d.nii says
+// seconds for its 2000 ms TR: 2000, as its header says). When the chosen
+// matrix is not diagonal with positive entries (a rotation, a flip such as
+// the usual radiological x, a permutation) the orientation is dropped
+// (VolumeInfo::dropped says so): SimplexDB grids are axis-aligned.
 // .nii.gz is not read (NotSupported from OpenVolume: gunzip it first).
 // O(1): reads the 348-byte header.
 Result<VolumeInfo> OpenNifti(const std::string& path);
 
 // Several 3D volumes (each opened with OpenVolume, any mix of formats) of
 // equal dims, type, byte order and encoding, as one 4D volume whose time
-// axis is their order in `paths`. Spacing is the first volume's (t = 1).
+// axis is their order in `paths`. Spacing and origin are the first
+// volume's (time step 1, time origin 0).
 // Fails with InvalidArgument naming the first mismatching file, the value
 // found and the value expected, or if fewer than 2 paths are given.
 Result<VolumeInfo> OpenTimeSeries(const std::vector<std::string>& paths);

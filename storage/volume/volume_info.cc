@@ -49,8 +49,10 @@ std::string FormatScaling(const VolumeInfo& info) {
 }
 
 std::string DescribeSource(const VolumeInfo& info) {
-  return info.scaled() ? info.description + " (scaled: " + FormatScaling(info) + ")"
-                       : info.description;
+  std::string s = info.scaled() ? info.description + " (scaled: " + FormatScaling(info) + ")"
+                                : info.description;
+  if (!info.dropped.empty()) s += "; " + info.dropped;
+  return s;
 }
 
 Status ValidateGrid(const std::string& what, int dimension,
@@ -110,6 +112,7 @@ void DropSingleTimeStep(VolumeInfo& info) {
   if (info.dimension == 4 && info.dims[3] == 1) {
     info.dimension = 3;
     info.spacing[3] = 1;
+    info.origin[3] = 0;
   }
 }
 

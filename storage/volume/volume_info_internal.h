@@ -17,7 +17,8 @@
 namespace simplexdb::volume_internal {
 
 // A 4D grid with one time step is read as 3D (see volume.h): sets
-// dimension 3 and spacing[3] 1 when dimension is 4 and dims[3] is 1.
+// dimension 3, spacing[3] 1 and origin[3] 0 when dimension is 4 and
+// dims[3] is 1.
 void DropSingleTimeStep(VolumeInfo& info);
 
 // Checks that every data file of `info` exists, is readable and is long

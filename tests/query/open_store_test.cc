@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <fstream>
 #include <string>
 #include <type_traits>
@@ -216,6 +217,62 @@ TEST(OpenStore, RefusesFormatOneSayingToImportAgain) {
   EXPECT_TRUE(sparse.status().IsNotSupported()) << sparse.status().ToString();
   EXPECT_NE(sparse.status().message().find("s1.lmdb"), std::string_view::npos);
   EXPECT_NE(sparse.status().message().find("import the volume again"), std::string_view::npos);
+}
+
+// A NRRD's placement ("space origin:", "space directions:", the time
+// axis's "spacings:" and "axis mins:") goes into every kind of store's
+// header and comes out of AnyStore's SourceInfo: the values written here
+// are the truth.
+TEST(AnyStore, SourceInfoHasTheInputsSpacingAndOrigin) {
+  TempDir dir;
+  struct Case {
+    int dimension;
+    std::string fields;
+    std::array<uint32_t, 4> dims;
+    std::array<double, 4> spacing, origin;
+  };
+  const Case cases[] = {
+      {3,
+       "sizes: 9 7 5\nspace: left-posterior-superior\n"
+       "space directions: (0.5,0,0) (0,0.75,0) (0,0,2.5)\nspace origin: (-10.25,20,3.5)\n",
+       {9, 7, 5, 1}, {0.5, 0.75, 2.5, 1}, {-10.25, 20, 3.5, 0}},
+      {4,
+       "sizes: 5 5 5 3\nkinds: space space space time\nspace: 3D-right-handed\n"
+       "space directions: (2,0,0) (0,2,0) (0,0,2.2) none\nspacings: nan nan nan 0.5\n"
+       "axis mins: nan nan nan 7\nspace origin: (1,2,3)\n",
+       {5, 5, 5, 3}, {2, 2, 2.2, 0.5}, {1, 2, 3, 7}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.dimension);
+    uint64_t n = 1;
+    for (uint32_t d : c.dims) n *= d;
+    std::string voxels(n, '\0'), ones(n, '\1');
+    for (uint64_t i = 0; i < n; ++i) voxels[i] = static_cast<char>(i * 37 % 251);
+    const std::string name = dir.path() + "/v" + std::to_string(c.dimension);
+    std::ofstream(name + ".nrrd", std::ios::binary)
+        << "NRRD0004\ntype: uint8\ndimension: " << c.dimension << "\nencoding: raw\n"
+        << c.fields << "\n" << voxels;
+    std::ofstream(name + "-mask.nrrd", std::ios::binary)
+        << "NRRD0004\ntype: uint8\ndimension: " << c.dimension << "\nencoding: raw\n"
+        << c.fields << "\n" << ones;
+    const Result<VolumeInfo> volume = OpenVolume(name + ".nrrd");
+    ASSERT_TRUE(volume.ok()) << volume.status().ToString();
+    ASSERT_TRUE(BuildHzStore(*volume, name + ".sdb", HzBuildOptions{}).ok());
+    HzBuildOptions masked;  // the format-1 engine's path
+    masked.mask = *OpenVolume(name + "-mask.nrrd");
+    ASSERT_TRUE(BuildHzStore(*volume, name + "-masked.sdb", masked).ok());
+    HzSparseBuildOptions sparse;
+    sparse.tolerance = 3;
+    ASSERT_TRUE(BuildHzSparseStore(*volume, name + ".lmdb", sparse).ok());
+    for (const std::string& store : {name + ".sdb", name + "-masked.sdb", name + ".lmdb"}) {
+      SCOPED_TRACE(store);
+      const Result<AnyStore> opened = AnyStore::Open(store);
+      ASSERT_TRUE(opened.ok()) << opened.status().ToString();
+      EXPECT_EQ(opened->info().dims, c.dims);
+      EXPECT_EQ(opened->info().spacing, c.spacing);
+      EXPECT_EQ(opened->info().origin, c.origin);
+    }
+  }
 }
 
 }  // namespace

@@ -324,5 +324,62 @@ TEST(StoreCli, KilledBuildLeavesNoStore) {
   }
 }
 
+// Raw input placed with --spacing and --origin: info shows them (text and
+// JSON) for the dense and the sparse store, convert carries them both ways,
+// and bad values are refused before anything is written.
+TEST(StoreCli, RawSpacingAndOriginReachTheHeaderAndInfo) {
+  const TempDir dir;
+  const std::string raw = dir.path() + "/v.raw";
+  {
+    std::ofstream out(raw, std::ios::binary);
+    for (int i = 0; i < 9 * 7 * 5 * 3; ++i) out.put(static_cast<char>(i * 37 % 251));
+  }
+  const std::string placed = " --dims 9,7,5,3 --type uint8 --spacing 2,2,2.2,0.5 --origin -90.5,126,-72,7";
+  const std::vector<double> spacing = {2, 2, 2.2, 0.5}, origin = {-90.5, 126, -72, 7};
+  const std::string dense = dir.path() + "/v.sdb", sparse = dir.path() + "/v.lmdb";
+  auto r = RunCli("import " + raw + placed + " -q -o " + dense);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli("import " + raw + placed + " --sparse -q -o " + sparse);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string back_dense = dir.path() + "/back.sdb", back_sparse = dir.path() + "/back.lmdb";
+  r = RunCli("convert " + sparse + " --to dense -q -o " + back_dense);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli("convert " + dense + " --to sparse -q -o " + back_sparse);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const std::string& store : {dense, sparse, back_dense, back_sparse}) {
+    SCOPED_TRACE(store);
+    r = RunCli("info " + store + " --json");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto info = nlohmann::json::parse(r.out);
+    EXPECT_EQ(info["spacing"].get<std::vector<double>>(), spacing);
+    EXPECT_EQ(info["origin"].get<std::vector<double>>(), origin);
+    r = RunCli("info " + store);
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_NE(r.out.find("placement   spacing 2 x 2 x 2.2 x 0.5, origin (-90.5, 126, -72, 7)"),
+              std::string::npos)
+        << r.out;
+  }
+  // Refused, exit 2, naming the option; nothing written.
+  const struct {
+    std::string options, message;
+  } bad[] = {
+      {" --spacing 1,0,1,1", "--spacing: 0 is not positive"},
+      {" --spacing 1,-2,1,1", "--spacing: -2 is not positive"},
+      {" --spacing 1,inf,1,1", "--spacing"},
+      {" --spacing 1,nan,1,1", "--spacing"},
+      {" --spacing 1,1,1", "--spacing: 3 numbers for a 4D volume"},
+      {" --origin 1,2,3", "--origin: 3 numbers for a 4D volume"},
+      {" --origin 1,x,3,4", "--origin"},
+  };
+  for (const auto& b : bad) {
+    SCOPED_TRACE(b.options);
+    const std::string out = dir.path() + "/bad.sdb";
+    r = RunCli("import " + raw + " --dims 9,7,5,3 --type uint8" + b.options + " -q -o " + out);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find(b.message), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
 }  // namespace
 }  // namespace simplexdb

@@ -263,6 +263,48 @@ TEST(HzSparseStore, HeaderValueStep) {
                   .IsCorruption());
 }
 
+// The origin round-trips; a header without it (stores written before it
+// was added, same version) reads as zeros; a wrong count is damage.
+TEST(HzSparseStore, HeaderOriginIsOptional) {
+  HzSparseHeader h;
+  h.dimension = 4;
+  h.dims = {5, 5, 5, 3};
+  h.domain_bits = 2;
+  h.field_max = 255;
+  h.quantum = 2;
+  h.spacing = {2, 2, 2.2, 2};
+  h.origin = {117.855, -35.7229, -7.25, 0.5};
+  const std::vector<uint8_t> value = EncodeHzSparseHeader(h);
+  Result<HzSparseHeader> back = DecodeHzSparseHeader(value, "h");
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->spacing, h.spacing);
+  EXPECT_EQ(back->origin, h.origin);
+  const auto resealed = [](std::string text) {
+    std::vector<uint8_t> out(text.begin(), text.end());
+    const uint64_t sum = Checksum(std::span<const uint8_t>(out.data(), out.size()));
+    for (int i = 0; i < 8; ++i) out.push_back(static_cast<uint8_t>(sum >> (8 * i)));
+    return out;
+  };
+  std::string text(value.begin(), value.end() - 8);
+  const size_t from = text.find("\"origin\"");
+  ASSERT_NE(from, std::string::npos) << text;
+  const size_t to = text.find("],", from);
+  ASSERT_NE(to, std::string::npos);
+  std::string without = text;
+  without.erase(from, to + 2 - from);
+  ASSERT_EQ(without.find("origin"), std::string::npos) << without;
+  back = DecodeHzSparseHeader(resealed(without), "old");
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->origin, (std::array<double, 4>{0, 0, 0, 0}));
+  EXPECT_EQ(back->spacing, h.spacing);
+  std::string three = text;
+  three.replace(from, to + 1 - from, "\"origin\": [1, 2, 3]");
+  back = DecodeHzSparseHeader(resealed(three), "bad");
+  ASSERT_FALSE(back.ok());
+  EXPECT_TRUE(back.status().IsCorruption()) << back.status().ToString();
+  EXPECT_NE(back.status().message().find("origin"), std::string::npos);
+}
+
 TEST(HzSparseStore, RefusesBadInput) {
   TempDir dir;
   const TestVolume v = TestVolume::Random(3, {5, 5, 5, 1}, VoxelType::kU8, 9);

@@ -171,6 +171,11 @@ struct NiftiSpec {
   std::string magic = std::string("n+1\0", 4);
   float scl_slope = 0;  // 0: no scaling
   float scl_inter = 0;
+  uint8_t xyzt_units = 0;
+  float toffset = 0;
+  int16_t qform_code = 0, sform_code = 0;
+  std::array<float, 6> quatern = {};  // b, c, d, qoffset_x, y, z
+  std::array<float, 12> srow = {};    // srow_x, srow_y, srow_z
 };
 
 std::string MakeNifti(const NiftiSpec& s, const std::string& data) {
@@ -189,6 +194,12 @@ std::string MakeNifti(const NiftiSpec& s, const std::string& data) {
   put(108, std::bit_cast<uint32_t>(s.vox_offset), 4);
   put(112, std::bit_cast<uint32_t>(s.scl_slope), 4);
   put(116, std::bit_cast<uint32_t>(s.scl_inter), 4);
+  put(123, s.xyzt_units, 1);
+  put(136, std::bit_cast<uint32_t>(s.toffset), 4);
+  put(252, static_cast<uint16_t>(s.qform_code), 2);
+  put(254, static_cast<uint16_t>(s.sform_code), 2);
+  for (size_t i = 0; i < 6; ++i) put(256 + 4 * i, std::bit_cast<uint32_t>(s.quatern[i]), 4);
+  for (size_t i = 0; i < 12; ++i) put(280 + 4 * i, std::bit_cast<uint32_t>(s.srow[i]), 4);
   std::memcpy(h.data() + 344, s.magic.data(), 4);
   h.resize(static_cast<size_t>(s.vox_offset), '\0');
   return h + data;
@@ -661,6 +672,71 @@ TEST(Nrrd, SpaceDirectionsGiveTheSpacing) {
   EXPECT_DOUBLE_EQ(info->spacing[0], 3);
   EXPECT_DOUBLE_EQ(info->spacing[1], 1);
   EXPECT_DOUBLE_EQ(info->spacing[2], 2.5);
+  // Not the positive axes in order: said, for the store's source.
+  EXPECT_NE(info->dropped.find("orientation dropped"), std::string::npos) << info->dropped;
+  EXPECT_NE(DescribeSource(*info).find("orientation dropped"), std::string::npos);
+}
+
+TEST(Nrrd, SpaceOriginAndDiagonalDirectionsPlaceTheGrid) {
+  TempDir dir;
+  WriteFile(dir / "o.nrrd",
+            NrrdHeader("type: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n"
+                       "space: left-posterior-superior\n"
+                       "space directions: (0.5,0,0) (0,0.75,0) (0,0,2.5)\n"
+                       "space origin: (-10.25,20,3.5)\n\n") +
+                std::string(8, 'a'));
+  auto info = OpenNrrd(dir / "o.nrrd");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->spacing, (std::array<double, 4>{0.5, 0.75, 2.5, 1}));
+  EXPECT_EQ(info->origin, (std::array<double, 4>{-10.25, 20, 3.5, 0}));
+  EXPECT_EQ(info->dropped, "");
+}
+
+TEST(Nrrd, TimeAxisTakesSpacingsAndAxisMinsBesideSpaceDirections) {
+  TempDir dir;
+  WriteFile(dir / "t.nrrd",
+            NrrdHeader("type: uint8\ndimension: 4\nsizes: 2 2 2 3\nencoding: raw\n"
+                       "kinds: space space space time\nspace: 3D-right-handed\n"
+                       "space directions: (2,0,0) (0,2,0) (0,0,2.2) none\n"
+                       "spacings: nan nan nan 0.5\naxis mins: nan nan nan 7\n"
+                       "space origin: (1,2,3)\n\n") +
+                std::string(24, 'a'));
+  auto info = OpenNrrd(dir / "t.nrrd");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->spacing, (std::array<double, 4>{2, 2, 2.2, 0.5}));
+  EXPECT_EQ(info->origin, (std::array<double, 4>{1, 2, 3, 7}));
+}
+
+TEST(Nrrd, SpacingsAndAxisMinsWithoutSpace) {
+  TempDir dir;
+  WriteFile(dir / "m.nrrd",
+            NrrdHeader("type: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n"
+                       "spacings: 1.5 2 3\naxis mins: -1 0.25 100\n\n") +
+                std::string(8, 'a'));
+  auto info = OpenNrrd(dir / "m.nrrd");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->spacing, (std::array<double, 4>{1.5, 2, 3, 1}));
+  EXPECT_EQ(info->origin, (std::array<double, 4>{-1, 0.25, 100, 0}));
+  // A flipped axis: lengths kept, orientation dropped.
+  WriteFile(dir / "f.nrrd",
+            NrrdHeader("type: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n"
+                       "space directions: (-1,0,0) (0,1,0) (0,0,1)\n"
+                       "space origin: (5,6,7)\n\n") +
+                std::string(8, 'a'));
+  info = OpenNrrd(dir / "f.nrrd");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->spacing, (std::array<double, 4>{1, 1, 1, 1}));
+  EXPECT_EQ(info->origin, (std::array<double, 4>{5, 6, 7, 0}));
+  EXPECT_NE(info->dropped.find("orientation dropped"), std::string::npos);
+  // Bad values name the field.
+  WriteFile(dir / "b.nrrd",
+            NrrdHeader("type: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n"
+                       "space origin: 1,2,3\n\n") +
+                std::string(8, 'a'));
+  info = OpenNrrd(dir / "b.nrrd");
+  ASSERT_FALSE(info.ok());
+  EXPECT_NE(info.status().message().find("space origin"), std::string::npos)
+      << info.status().ToString();
 }
 
 TEST(Nrrd, GzipAttachedAndDetachedReadBackInAnyOrder) {
@@ -940,6 +1016,73 @@ TEST(Nifti, EverySupportedDatatypeCode) {
     EXPECT_EQ(info->type, type);
     EXPECT_EQ(ReadAll(*info), values);
   }
+}
+
+TEST(Nifti, SformPlacesTheGridInMillimetresAndSeconds) {
+  TempDir dir;
+  NiftiSpec spec;
+  spec.dim = {4, 2, 2, 2, 2, 1, 1, 1};
+  spec.pixdim = {1, 2, 2, 2.2f, 2000, 1, 1, 1};
+  spec.xyzt_units = 2 | 16;  // mm, ms
+  spec.toffset = 500;        // ms
+  spec.sform_code = 1;
+  spec.srow = {2, 0, 0, -90, 0, 2, 0, 126, 0, 0, 2.2f, -72};
+  spec.qform_code = 1;  // the sform wins
+  spec.quatern = {0, 0, 0, 1, 2, 3};
+  WriteFile(dir / "s.nii", MakeNifti(spec, std::string(32, '\0')));
+  auto info = OpenNifti(dir / "s.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->spacing, (std::array<double, 4>{2, 2, 2.2f, 2}));
+  EXPECT_EQ(info->origin, (std::array<double, 4>{-90, 126, -72, 0.5}));
+  EXPECT_EQ(info->dropped, "");
+}
+
+TEST(Nifti, QformOffsetAndWhatIsDroppedOtherwise) {
+  TempDir dir;
+  NiftiSpec spec;
+  spec.pixdim = {1, 0.001f, 0.002f, 0.003f, 1, 1, 1, 1};
+  spec.xyzt_units = 1;  // metres
+  spec.qform_code = 1;
+  spec.quatern = {0, 0, 0, 0.5f, -0.25f, 1};  // identity rotation
+  WriteFile(dir / "q.nii", MakeNifti(spec, std::string(16, '\0')));
+  auto info = OpenNifti(dir / "q.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_DOUBLE_EQ(info->spacing[0], 1000 * double{0.001f});
+  EXPECT_DOUBLE_EQ(info->origin[0], 500);
+  EXPECT_DOUBLE_EQ(info->origin[1], -250);
+  EXPECT_DOUBLE_EQ(info->origin[2], 1000);
+  EXPECT_EQ(info->dropped, "");
+  // qfac -1 flips z: the origin stays, the orientation is dropped.
+  spec.pixdim[0] = -1;
+  WriteFile(dir / "flip.nii", MakeNifti(spec, std::string(16, '\0')));
+  info = OpenNifti(dir / "flip.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_DOUBLE_EQ(info->origin[0], 500);
+  EXPECT_NE(info->dropped.find("qform"), std::string::npos) << info->dropped;
+  // No qform or sform: method 1, origin 0.
+  spec.qform_code = 0;
+  WriteFile(dir / "none.nii", MakeNifti(spec, std::string(16, '\0')));
+  info = OpenNifti(dir / "none.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->origin, (std::array<double, 4>{0, 0, 0, 0}));
+  EXPECT_EQ(info->dropped, "");
+}
+
+TEST(SharedData, FmriSpacingIsTheReadmeVoxelSizeAndTr) {
+  SKIP_WITHOUT_SHARED_DATA();
+  auto info = OpenNifti(kSharedData + "/fmri_example4d/example4d.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_DOUBLE_EQ(info->spacing[0], 2);
+  EXPECT_DOUBLE_EQ(info->spacing[1], 2);
+  EXPECT_NEAR(info->spacing[2], 2.2, 1e-5);
+  // The TR is 2000 ms, but the header's xyzt_units is 10 (mm, seconds) with
+  // pixdim[4] 2000: kept as the header says, not guessed at.
+  EXPECT_DOUBLE_EQ(info->spacing[3], 2000);
+  // The sform's translation (nibabel's affine[:3, 3]); its x is flipped.
+  EXPECT_NEAR(info->origin[0], 117.855, 1e-3);
+  EXPECT_NEAR(info->origin[1], -35.7229, 1e-3);
+  EXPECT_NEAR(info->origin[2], -7.2488, 1e-3);
+  EXPECT_NE(info->dropped.find("sform"), std::string::npos) << info->dropped;
 }
 
 TEST(Nifti, SingleTimeStepIsThreeD) {
