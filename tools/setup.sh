@@ -23,12 +23,15 @@ set -euo pipefail
 #   libgtest-dev, libgmock-dev     the test suites
 #   libbenchmark-dev               the benchmark suites
 #   python3-vtk9                   tests read the files we write with VTK itself
+#   pybind11-dev, python3-dev      the Python package (python/)
+#   python3-numpy                  its arrays
+#   python3-pytest                 its tests
 PACKAGES=(
   cmake ninja-build g++ pkg-config
   libboost-dev libzstd-dev liblmdb-dev libxxhash-dev zlib1g-dev
   libfmt-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3-vtk9
+  python3-vtk9 pybind11-dev python3-dev python3-numpy python3-pytest
 )
 
 install_missing_packages() {
