@@ -194,8 +194,9 @@ TEST_F(ExtractCli, ReportsTheCacheWithinItsBudget) {
   EXPECT_LE(j["anonymous_memory_bytes"].get<uint64_t>(), j["peak_memory_bytes"].get<uint64_t>());
 }
 
-// A grid that is not 2^k + 1 on a side, with a physical spacing: the mesh
-// VTK reads covers the real grid in physical units, no more.
+// A grid that is not 2^k + 1 on a side, with a physical spacing (the
+// NRRD's) and origin (given on import): the mesh VTK reads covers the real
+// grid in physical units, no more.
 TEST(ExtractCliPadded, VtuCoversTheRealGridInPhysicalUnits) {
   const std::string python = PythonWithVtk();
   if (python.empty()) GTEST_SKIP() << "no python3 that can import VTK (Debian: apt-get install python3-vtk9)";
@@ -207,7 +208,7 @@ TEST(ExtractCliPadded, VtuCoversTheRealGridInPhysicalUnits) {
     out << "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 20 13 27\nspacings: 0.5 2 1.5\nencoding: raw\n\n";
     for (double x : v.values) out.put(static_cast<char>(static_cast<uint8_t>(x)));
   }
-  ASSERT_EQ(RunCli("import " + nrrd + " -o " + store + " -q").exit_code, 0);
+  ASSERT_EQ(RunCli("import " + nrrd + " --origin -5,10,2.5 -o " + store + " -q").exit_code, 0);
   for (const std::string criteria : {"--error 0", "--error 10%", "--error 100%",
                                      "--error 1% --units physical --box 2,2,2,4,20,30"}) {
     SCOPED_TRACE(criteria);
@@ -215,15 +216,15 @@ TEST(ExtractCliPadded, VtuCoversTheRealGridInPhysicalUnits) {
     auto r = RunCli("extract " + store + " " + criteria + " -o " + vtu);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto vtk = ReadWithVtk(python, vtu);
-    EXPECT_EQ(vtk["bounds"], nlohmann::json::parse("[0, 9.5, 0, 24, 0, 39]"));
+    EXPECT_EQ(vtk["bounds"], nlohmann::json::parse("[-5, 4.5, 10, 34, 2.5, 41.5]"));
     EXPECT_NEAR(vtk["volume"].get<double>(), 9.5 * 24 * 39, 1e-6);
     EXPECT_NEAR(vtk["signed_volume"].get<double>(), 9.5 * 24 * 39, 1e-6);
     EXPECT_EQ(vtk["negative_cells"], 0);
   }
   // A box in physical units outside the grid names both.
-  auto r = RunCli("extract " + store + " --error 1% --units physical --box 0,0,40,9,24,50");
+  auto r = RunCli("extract " + store + " --error 1% --units physical --box 0,0,45,9,24,50");
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("z from 40 to 50 misses the grid, whose z runs from 0 to 39 (physical units)"),
+  EXPECT_NE(r.err.find("z from 45 to 50 misses the grid, whose z runs from 2.5 to 41.5 (physical units)"),
             std::string::npos)
       << r.err;
   // The same box in grid units meets the grid.
@@ -272,6 +273,17 @@ TEST(ExtractCliHp, TimeSlicesReadByVtk) {
     EXPECT_EQ(vtk["negative_cells"], 0) << file;
     EXPECT_EQ(vtk["file"]["compressor"], "vtkZLibDataCompressor") << file;  // the same writer as .vtu
   }
+  // Placed physically: points and the collection's times, and --slices in
+  // physical units with --units physical.
+  const std::string placed = dir.path() + "/placed.sdb";
+  ASSERT_EQ(RunCli("import " + nrrd + " --spacing 1,1,1,2 --origin 0,0,-4,10 -o " + placed + " -q").exit_code, 0);
+  r = RunCli("extract " + placed + " --error 5% --units physical --slices 10,15 -o " + dir.path() + "/placed.pvd");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string placed_pvd = ReadWholeFile(dir.path() + "/placed.pvd");
+  EXPECT_NE(placed_pvd.find("timestep=\"10\" part=\"0\" file=\"placed_0.vtu\""), std::string::npos) << placed_pvd;
+  EXPECT_NE(placed_pvd.find("timestep=\"15\" part=\"0\" file=\"placed_1.vtu\""), std::string::npos) << placed_pvd;
+  vtk = ReadWithVtk(python, dir.path() + "/placed_1.vtu");
+  EXPECT_EQ(vtk["bounds"], nlohmann::json::parse("[0, 8, 0, 8, -4, 4]"));
   r = RunCli("extract " + store + " --error 5% --format vtu -o " + dir.path() + "/x.vtu");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--time"), std::string::npos) << r.err;
