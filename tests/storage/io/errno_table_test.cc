@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -88,12 +89,14 @@ class ErrnoFromWriters : public ::testing::Test {
     auto volume = OpenVolume(nrrd);
     ASSERT_TRUE(volume.ok()) << volume.status().ToString();
     volume_ = *volume;
-    // One tetrahedron 300 times: more than 4 KiB of arrays.
+    // One tetrahedron 2,000 times with random errors: more than 4 KiB of
+    // arrays even zlib-compressed (.vtu compresses them).
     mesh_.points = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
     mesh_.field = {0, 1, 2, 3};
-    for (int i = 0; i < 300; ++i) {
+    std::mt19937_64 rng(1);
+    for (int i = 0; i < 2000; ++i) {
       mesh_.connectivity.insert(mesh_.connectivity.end(), {0, 1, 2, 3});
-      mesh_.error.push_back(0.5);
+      mesh_.error.push_back(std::uniform_real_distribution<double>(0, 1)(rng));
       mesh_.level.push_back(0);
       mesh_.code.push_back(SimplexCode<3>::Root(0).key());
     }
