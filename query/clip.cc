@@ -168,6 +168,14 @@ void PlacePhysically(TetMeshData& mesh, const SourceInfo& info) {
   for (size_t p = 0; p < mesh.points.size(); p += 3) {
     for (int a = 0; a < 3; ++a) mesh.points[p + a] = info.origin[a] + mesh.points[p + a] * info.spacing[a];
   }
+  // An odd number of flipped axes mirrors space, and every tetrahedron with
+  // it: swapping two vertices turns each positive again.
+  const int flips = (info.spacing[0] < 0) + (info.spacing[1] < 0) + (info.spacing[2] < 0);
+  if (flips % 2 == 1) {
+    for (size_t c = 0; c + 3 < mesh.connectivity.size(); c += 4) {
+      std::swap(mesh.connectivity[c + 2], mesh.connectivity[c + 3]);
+    }
+  }
 }
 
 }  // namespace simplexdb

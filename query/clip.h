@@ -41,7 +41,10 @@ namespace simplexdb {
 TetMeshData ClipToGrid(TetMeshData mesh, const std::array<uint32_t, 4>& dims);
 
 // Moves points from grid units to physical ones: x = origin + x * spacing
-// per axis (info.spacing and info.origin, axes 0..2).
+// per axis (info.spacing and info.origin, axes 0..2). A negative spacing
+// (a flipped axis) mirrors the mesh; when an odd number of axes is flipped
+// two vertices of every cell are swapped, so cells stay positive. O(points
+// + cells).
 void PlacePhysically(TetMeshData& mesh, const SourceInfo& info);
 
 }  // namespace simplexdb

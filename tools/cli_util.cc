@@ -137,8 +137,8 @@ void AddRawInputOptions(CLI::App* cmd, RawInputOptions* raw, const std::string& 
   cmd->add_option("--endian", raw->endian, "raw input: little|big")->capture_default_str();
   cmd->add_option("--offset", raw->offset, "raw input: header bytes to skip")->capture_default_str();
   cmd->add_option("--spacing", raw->spacing,
-                  "grid spacing X,Y,Z[,T], positive (stored in the header; replaces the "
-                  "file's)");
+                  "grid spacing X,Y,Z[,T]; a negative X, Y or Z flips that axis, as "
+                  "--spacing=-2,2,2.2 (stored in the header; replaces the file's)");
   cmd->add_option("--origin", raw->origin,
                   "position of grid point 0, X,Y,Z[,T] (stored in the header; replaces the "
                   "file's)");
@@ -164,8 +164,10 @@ void ApplyPlacement(const RawInputOptions& raw, VolumeInfo& v) {
   if (!raw.spacing.empty()) {
     const std::vector<double> s = parse(raw.spacing, "--spacing");
     for (size_t a = 0; a < s.size(); ++a) {
-      if (!(s[a] > 0)) {
-        throw CommandError(fmt::format("--spacing: {} is not positive (in '{}')", s[a],
+      // x, y, z may be negative (a flipped axis); time runs forwards.
+      if (a < 3 ? s[a] == 0 : !(s[a] > 0)) {
+        throw CommandError(fmt::format("--spacing: {} is not {} (in '{}')", s[a],
+                                       a < 3 ? "non-zero" : "positive, as time's must be",
                                        raw.spacing),
                            2);
       }

@@ -1,11 +1,13 @@
 // `simplexdb extract`: selective refinement over any store (query/), and
 // `simplexdb conformity`: the geometric conformity check of a mesh given as
 // leaf codes.
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <new>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -140,7 +142,7 @@ std::string ResolveFormat(const ExtractArgs& a) {
 
 // The units --box, --time and --slices are given in: grid units (the
 // contract's: point i of an axis is at i) or physical ones (the store's
-// origin + i * spacing).
+// origin + i * spacing; a flipped axis's spacing is negative).
 struct AxisUnits {
   bool physical = false;
   const SourceInfo* info = nullptr;
@@ -165,9 +167,15 @@ void CheckCriteriaMeetTheGrid(const CriteriaSpec& spec, const std::string& box_t
       const double last = static_cast<double>(info.dims[k]) - 1;
       if (hi < 0 || lo > last) {
         const int axis = static_cast<int>(k);
+        // In the units given, smaller first (a flipped axis runs backwards).
+        const auto span = [&](double from, double to) {
+          return std::minmax({units.FromGrid(axis, from), units.FromGrid(axis, to)});  // by value
+        };
+        const auto [box_lo, box_hi] = span(lo, hi);
+        const auto [grid_lo, grid_hi] = span(0, last);
         throw CommandError(fmt::format("--box {}: {} from {} to {} misses the grid, whose {} runs from {} to {} ({})",
-                                       box_text, "xyzt"[k], units.FromGrid(axis, lo), units.FromGrid(axis, hi),
-                                       "xyzt"[k], units.FromGrid(axis, 0), units.FromGrid(axis, last), units.name()),
+                                       box_text, "xyzt"[k], box_lo, box_hi, "xyzt"[k], grid_lo, grid_hi,
+                                       units.name()),
                            2);
       }
     }
@@ -204,6 +212,10 @@ void Extract(Source& source, const ExtractArgs& given, const HzStore* hz = nullp
   if (!a.box.empty()) {
     std::vector<double> box = ParseNumberList(a.box, "--box", 6, 8);
     for (size_t i = 0; i < box.size(); ++i) box[i] = units.ToGrid(i < 6 ? static_cast<int>(i % 3) : 3, box[i]);
+    // A flipped axis (negative spacing) runs the other way in grid units.
+    for (size_t k = 0; k < 3 && units.physical; ++k) {
+      if (info.spacing[k] < 0) std::swap(box[k], box[k + 3]);
+    }
     spec.box = std::move(box);
   }
   spec.iso = a.iso;

@@ -104,15 +104,15 @@ void ConvertDenseToSparse(const std::string& input, const std::string& output,
       Fail(Status::NotSupported(input + ": the field has missing values (NaN); the sparse store "
                                         "does not take them yet (keep the dense store)"));
     }
-    if (Status s = WriteNrrd(field.path(), h.dimension, h.dims, h.voxel_type, values, h.spacing);
-        !s.ok()) {
+    if (Status s = WriteNrrd(field.path(), h.dimension, h.dims, h.voxel_type, values); !s.ok()) {
       Fail(s);
     }
   }
   Result<VolumeInfo> volume = OpenVolume(field.path());
   if (!volume.ok()) Fail(volume.status());
   volume->description = h.source;  // the dense store's source, not the scratch file
-  volume->origin = h.origin;       // the scratch NRRD carries the spacing only
+  volume->spacing = h.spacing;     // and its placement (the scratch NRRD has none)
+  volume->origin = h.origin;
   DenseBuildOptions options;
   options.memory_bytes = memory_bytes;
   options.quantization = h.quantization;
@@ -181,8 +181,7 @@ void ConvertSparseToDense(const std::string& input, const std::string& output,
     } else {
       ReadSparseField<4>(*sparse, values, line, output);
     }
-    if (Status s = WriteNrrd(field.path(), h.dimension, h.dims, h.voxel_type, values, h.spacing);
-        !s.ok()) {
+    if (Status s = WriteNrrd(field.path(), h.dimension, h.dims, h.voxel_type, values); !s.ok()) {
       line.Finish();
       Fail(s);
     }
@@ -190,7 +189,8 @@ void ConvertSparseToDense(const std::string& input, const std::string& output,
   Result<VolumeInfo> volume = OpenVolume(field.path());
   if (!volume.ok()) Fail(volume.status());
   volume->description = h.source;
-  volume->origin = h.origin;  // the scratch NRRD carries the spacing only
+  volume->spacing = h.spacing;  // the store's placement (the scratch NRRD has none)
+  volume->origin = h.origin;
   HzBuildOptions options;
   options.quantization = h.quantization;
   options.compression = *c;

@@ -409,6 +409,30 @@ ExportGeometry GeometryOf(const HzHeader& h, const ExportBox& box, int dimension
   return g;
 }
 
+// An image of a store with flipped axes (negative spacing), written so that
+// every reader places it right: VTK's NRRD reader, and so ParaView, keeps a
+// space direction's length and drops its sign. Each flipped axis of
+// `values` (x fastest, `dims`) is reversed and `g` moved to its last sample
+// with a positive spacing: the same voxels at the same places. O(values).
+void WriteFlippedAxesForwards(std::vector<double>& values, const std::array<uint32_t, 4>& dims,
+                              ExportGeometry& g) {
+  const size_t nx = dims[0], ny = dims[1];
+  for (size_t c = 0; c < 3; ++c) {
+    if (!(g.spacing[c] < 0)) continue;
+    g.origin[c] += static_cast<double>(dims[c] - 1) * g.spacing[c];
+    g.spacing[c] = -g.spacing[c];
+    const size_t stride = c == 0 ? 1 : c == 1 ? nx : nx * ny;
+    const size_t n = dims[c];
+    for (size_t start = 0; start < values.size(); ++start) {
+      // Each line along axis c starts where its index on c is 0.
+      if ((start / stride) % n != 0) continue;
+      for (size_t i = 0, j = n - 1; i < j; ++i, --j) {
+        std::swap(values[start + i * stride], values[start + j * stride]);
+      }
+    }
+  }
+}
+
 // A 4D store without --time, to OUT.nrrd or OUT.pvd: one 3D image per time
 // step, OUT_t<t>.nrrd (VTK's NRRD reader, Slicer, ITK) or OUT_t<t>.vti
 // (ParaView's .pvd reader opens VTK XML files only), t the grid time (four
@@ -434,8 +458,9 @@ void ExportTimeSeries(const HzStore& store, const ExportArgs& a, const ExportBox
   for (int64_t t = box.lo[3]; t <= box.hi[3]; t += box.step) {
     ExportBox one = box;
     one.lo[3] = one.hi[3] = t;
-    const std::vector<double> values = ReadExportBox<4>(store, one, &dims);
-    const ExportGeometry g = GeometryOf(h, one, 4);
+    std::vector<double> values = ReadExportBox<4>(store, one, &dims);
+    ExportGeometry g = GeometryOf(h, one, 4);
+    WriteFlippedAxesForwards(values, dims, g);
     const std::string name = fmt::format("{}_t{:0{}}.{}", stem, t, width, ext);
     const std::string path = CheckOutput(name, {a.store}, a.force);
     const std::array<double, 3> origin = {g.origin[0], g.origin[1], g.origin[2]};
@@ -481,13 +506,12 @@ void ExportField(const HzStore& store, const ExportArgs& a) {
     return;
   }
   std::array<uint32_t, 4> dims{};
-  const std::vector<double> values = ReadExportBox<D>(store, box, &dims);
+  std::vector<double> values = ReadExportBox<D>(store, box, &dims);
   // One time step of an HP is a 3D image; a 4D raw export stays 4D.
   const int dimension = D == 4 && !a.time.empty() ? 3 : D;
-  const ExportGeometry g = GeometryOf(h, box, D);
-  const NrrdOrigin origin =
-      dimension == 3 ? NrrdOrigin(std::array<double, 3>{g.origin[0], g.origin[1], g.origin[2]})
-                     : std::nullopt;
+  ExportGeometry g = GeometryOf(h, box, D);
+  WriteFlippedAxesForwards(values, dims, g);
+  const NrrdOrigin origin = std::array<double, 3>{g.origin[0], g.origin[1], g.origin[2]};
   std::array<double, 4> spacing = g.spacing;
   if (dimension == 3) spacing[3] = 1;
   Status s;

@@ -166,9 +166,11 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
     }
     h.spacing[i] = LoadLittle<double>(b + kOffSpacing + 8 * i);
     h.origin[i] = LoadLittle<double>(b + kOffOrigin + 8 * i);
-    if (!std::isfinite(h.spacing[i]) || !(h.spacing[i] > 0) || !std::isfinite(h.origin[i])) {
+    // A space axis may be flipped (negative spacing); time runs forwards.
+    const bool spacing_ok = i < 3 ? h.spacing[i] != 0 : h.spacing[i] > 0;
+    if (!std::isfinite(h.spacing[i]) || !spacing_ok || !std::isfinite(h.origin[i])) {
       return corrupt("axis " + std::to_string(i) + ": spacing and origin must be finite, "
-                     "spacing positive");
+                     "spacing non-zero (positive for time)");
     }
   }
   h.field_min = LoadLittle<double>(b + kOffFieldMin);

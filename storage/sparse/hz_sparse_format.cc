@@ -183,7 +183,10 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
     const auto spacing = j.at("spacing").get<std::vector<double>>();
     if (static_cast<int>(spacing.size()) != h.dimension) return bad("spacing does not match the hierarchy");
     for (int a = 0; a < h.dimension; ++a) {
-      if (!std::isfinite(spacing[a]) || !(spacing[a] > 0)) return bad("spacing must be finite and positive");
+      // A space axis may be flipped (negative spacing); time runs forwards.
+      if (!std::isfinite(spacing[a]) || !(a < 3 ? spacing[a] != 0 : spacing[a] > 0)) {
+        return bad("spacing must be finite and non-zero (positive for time)");
+      }
       h.spacing[a] = spacing[a];
     }
     // Optional (an addition within version 4: older readers ignore it,

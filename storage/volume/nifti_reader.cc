@@ -110,9 +110,10 @@ double NiftiTimeToSeconds(int units) {
 }
 
 // Sets info.origin (x, y, z) from the sform or the qform (sform first, as
-// nibabel and ITK do), and info.dropped when that transform is not a
-// diagonal of positive entries. NIfTI-1 section "3 methods": method 3
-// (sform_code > 0), method 2 (qform_code > 0), method 1 (neither: origin 0).
+// nibabel and ITK do), negates info.spacing of the axes it flips, and sets
+// info.dropped when it is not axis-aligned (NearestAxisAlignment). NIfTI-1
+// section "3 methods": method 3 (sform_code > 0), method 2 (qform_code > 0),
+// method 1 (neither: origin 0, every axis forwards).
 void NiftiPlacement(const NiftiFields& f, double to_mm, VolumeInfo& info) {
   std::array<std::array<double, 3>, 3> m{};  // rotation (times scales, sform)
   std::array<double, 3> t{};
@@ -142,17 +143,13 @@ void NiftiPlacement(const NiftiFields& f, double to_mm, VolumeInfo& info) {
   for (size_t r = 0; r < 3; ++r) {
     if (std::isfinite(t[r])) info.origin[r] = t[r] * to_mm;
   }
-  bool aligned = true;
+  std::array<std::array<double, 3>, 3> axes{};  // the matrix's columns
   for (size_t r = 0; r < 3; ++r) {
-    for (size_t c = 0; c < 3; ++c) {
-      if (!std::isfinite(m[r][c]) || (r == c ? !(m[r][c] > 0) : m[r][c] != 0)) aligned = false;
-    }
+    for (size_t c = 0; c < 3; ++c) axes[c][r] = m[r][c];
   }
-  if (!aligned) {
-    info.dropped = "orientation dropped: the NIfTI " + method +
-                   " is not a diagonal of positive entries (a rotation, flip or permutation); "
-                   "origin is its translation, spacing pixdim";
-  }
+  const volume_internal::AxisAlignment alignment = volume_internal::NearestAxisAlignment(axes);
+  for (size_t c = 0; c < 3; ++c) info.spacing[c] *= alignment.sign[c];
+  info.dropped = volume_internal::DescribeDroppedOrientation("the NIfTI " + method, alignment);
 }
 
 }  // namespace

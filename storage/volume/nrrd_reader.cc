@@ -388,23 +388,14 @@ Result<VolumeInfo> NrrdGrid(const std::string& path, const NrrdFields& f) {
   // Spacing: the direction vector's length, else "spacings:" (NaN, "none"
   // and non-positive values: unknown, 1). Origin: "axis mins:", then the
   // space axes' "space origin:" over it.
-  size_t space_axis = 0;  // the space axes are the ones with a direction
-  std::string oriented;   // why the directions are not the positive axes
+  std::vector<size_t> space_axes;  // the axes with a direction, in order
   for (size_t i = 0; i < d; ++i) {
     double spacing = std::numeric_limits<double>::quiet_NaN();
     if (!f.directions.empty() && !f.directions[i].empty()) {
-      const std::vector<double>& v = f.directions[i];
       double sum = 0;
-      for (double x : v) sum += x * x;
+      for (double x : f.directions[i]) sum += x * x;
       spacing = std::sqrt(sum);
-      // The positive axes in order: v has its one non-zero entry, positive,
-      // at the index of this space axis.
-      for (size_t j = 0; j < v.size(); ++j) {
-        if ((j == space_axis) != (v[j] != 0) || v[j] < 0) {
-          if (oriented.empty()) oriented = "axis " + std::to_string(i);
-        }
-      }
-      ++space_axis;
+      space_axes.push_back(i);
     } else if (!f.spacings.empty()) {
       spacing = f.spacings[i];
     }
@@ -421,9 +412,22 @@ Result<VolumeInfo> NrrdGrid(const std::string& path, const NrrdFields& f) {
       ++s;
     }
   }
-  if (!oriented.empty()) {
-    info.dropped = "orientation dropped: NRRD space directions not the positive axes in order "
-                   "(from " + oriented + "); spacing is their lengths";
+  if (!space_axes.empty()) {
+    // The directions as the columns of a 3 x 3 matrix: x, y, z must be the
+    // space axes, in a space of 3 dimensions, for an orientation to be kept.
+    std::array<std::array<double, 3>, 3> axes{};
+    bool three = space_axes.size() == 3;
+    for (size_t c = 0; c < space_axes.size() && three; ++c) {
+      const std::vector<double>& v = f.directions[space_axes[c]];
+      three = space_axes[c] == c && v.size() == 3;
+      if (three) std::copy(v.begin(), v.end(), axes[c].begin());
+    }
+    const volume_internal::AxisAlignment alignment =
+        three ? volume_internal::NearestAxisAlignment(axes)
+              : volume_internal::AxisAlignment{.unusable = true};
+    for (size_t c = 0; c < 3; ++c) info.spacing[c] *= alignment.sign[c];
+    info.dropped =
+        volume_internal::DescribeDroppedOrientation("the NRRD space directions", alignment);
   }
   info.type = *f.type;
   info.order = f.endian.value_or(ByteOrder::kLittle);

@@ -25,10 +25,6 @@ Status CheckInput(const std::string& path, int dimension,
                   const std::array<uint32_t, 4>& dims, VoxelType type,
                   std::span<const double> values,
                   const std::array<double, 4>& spacing, const NrrdOrigin& origin) {
-  if (origin && dimension != 3) {
-    return Status::InvalidArgument(path + ": a space origin is written for 3D grids only, not " +
-                                   std::to_string(dimension) + "D");
-  }
   if (origin && !std::all_of(origin->begin(), origin->end(),
                              [](double v) { return std::isfinite(v); })) {
     return Status::InvalidArgument(path + ": the space origin must be finite");
@@ -52,6 +48,8 @@ Status CheckInput(const std::string& path, int dimension,
       return Status::InvalidArgument(path + ": unused axis " + "xyzt"[i] + " has " +
                                      std::to_string(dims[a]) + " samples, expected 1");
     }
+    // Positive: VTK's NRRD reader (so ParaView) takes a space direction's
+    // length and drops its sign, so a flipped axis is written reversed.
     if (i < dimension && !(std::isfinite(spacing[a]) && spacing[a] > 0)) {
       return Status::InvalidArgument(path + ": spacing " + FormatDouble(spacing[a]) +
                                      " along " + "xyzt"[i] +
@@ -76,8 +74,9 @@ Status CheckInput(const std::string& path, int dimension,
 }
 
 // The header up to and including its last field line.
-// With an origin (3D only, checked): the space fields instead of
-// "spacings:" (the specification allows one or the other per axis).
+// With an origin: the space fields for x, y, z instead of "spacings:" (the
+// specification allows one or the other per axis), and a 4D file's time
+// axis in "spacings:" with "nan" for the space axes.
 std::string NrrdHeader(int dimension, const std::array<uint32_t, 4>& dims,
                        VoxelType type, const std::array<double, 4>& spacing,
                        const NrrdOrigin& origin) {
@@ -91,13 +90,19 @@ std::string NrrdHeader(int dimension, const std::array<uint32_t, 4>& dims,
       directions += ' ';
     }
     sizes += std::to_string(dims[a]);
-    spacings += FormatDouble(spacing[a]);
     kinds += "domain";
-    directions += '(';
-    for (int j = 0; j < 3; ++j) {
-      directions += (j > 0 ? "," : "") + FormatDouble(i == j ? spacing[a] : 0.0);
+    if (i < 3) {
+      directions += '(';
+      for (int j = 0; j < 3; ++j) {
+        directions += (j > 0 ? "," : "") + FormatDouble(i == j ? spacing[a] : 0.0);
+      }
+      directions += ')';
+      // An axis with a direction has no spacing of its own.
+      spacings += origin ? "nan" : FormatDouble(spacing[a]);
+    } else {
+      directions += "none";  // time: not a space axis
+      spacings += FormatDouble(spacing[a]);
     }
-    directions += ')';
   }
   std::string h = "NRRD0004\n# Written by SimplexDB.\n";
   h += "type: " + std::string(NrrdTypeName(type)) + "\n";
@@ -108,9 +113,9 @@ std::string NrrdHeader(int dimension, const std::array<uint32_t, 4>& dims,
     h += "space directions: " + directions + "\n";
     h += "space origin: (" + FormatDouble((*origin)[0]) + "," + FormatDouble((*origin)[1]) + "," +
          FormatDouble((*origin)[2]) + ")\n";
-  } else {
-    h += "spacings: " + spacings + "\n";
   }
+  // With the space fields, only a 4D file's time axis has a spacing left.
+  if (!origin || dimension == 4) h += "spacings: " + spacings + "\n";
   h += "kinds: " + kinds + "\n";
   // "endian:" is required exactly when the type has more than one byte.
   if (VoxelSize(type) > 1) h += "endian: little\n";

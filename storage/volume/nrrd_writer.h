@@ -1,8 +1,8 @@
 // Writing volumes as NRRD, for `simplexdb generate` and `simplexdb export`.
 //
 // Output is always NRRD0004, encoding raw, little endian, with "spacings:"
-// or, for a 3D grid given an origin, "space directions:" and "space origin:"
-// (so OpenNrrd, teem, VTK, ITK and 3D Slicer read it). VTK's vtkNrrdReader
+// or, for a grid given an origin, "space directions:" and "space origin:"
+// for x, y, z (so OpenNrrd, teem, VTK, ITK and 3D Slicer read it). VTK's vtkNrrdReader
 // reads no 4D file as 4D (it takes the first axis for vector components, as
 // it does an x axis of 9 samples or fewer): write a time series as one 3D
 // file per step (PrepareNrrd, for all-or-nothing). Files appear
@@ -17,8 +17,9 @@
 // Errors (every message names the file, never a temporary):
 //   InvalidArgument    bad dims, values.size() not the voxel count, a value
 //                      not representable as `type` (the first one is named
-//                      with its voxel index), a non-positive spacing, an
-//                      origin for a 4D grid or not finite.
+//                      with its voxel index), a non-positive spacing (VTK's
+//                      reader drops a direction's sign: write a flipped
+//                      axis reversed), an origin not finite.
 //   NotFound           the output folder does not exist (or a component of
 //                      the path is a regular file).
 //   ResourceExhausted  the disk or quota is full.
@@ -45,11 +46,13 @@
 
 namespace simplexdb {
 
-// Where a 3D grid sits in space. Without it a file says only "spacings:"
-// (the voxel sizes); with it the file says "space dimension: 3", "space
-// directions:" (the axes, scaled by the spacing, no rotation) and "space
-// origin:" (the position of voxel 0), which VTK's vtkNrrdReader, ParaView,
-// ITK and 3D Slicer take as the image's origin.
+// Where a grid sits in space. Without it a file says only "spacings:" (the
+// voxel sizes); with it the file says "space dimension: 3", "space
+// directions:" (the axes x, y, z scaled by their spacing, no rotation;
+// "none" for time) and "space origin:" (the
+// position of voxel 0), which VTK's vtkNrrdReader, ParaView, ITK and 3D
+// Slicer take as the image's origin; a 4D file's time step stays in
+// "spacings: nan nan nan dt".
 using NrrdOrigin = std::optional<std::array<double, 3>>;
 
 // Writes `values` (x fastest, then y, z, t) converted to `type` as one NRRD
@@ -62,9 +65,7 @@ using NrrdOrigin = std::optional<std::array<double, 3>>;
 // or clamp before calling.
 // REQUIRES nothing else: dims are validated (each used axis >= 1, unused
 // axes 1, dimension 3 or 4). O(voxels): one pass to check, one to write.
-// `origin`: see NrrdOrigin; only for dimension 3 (InvalidArgument
-// otherwise: a 4D file keeps "spacings:", whose time axis the space fields
-// cannot describe), and finite.
+// `origin`: see NrrdOrigin; finite.
 Status WriteNrrd(const std::string& path, int dimension,
                  std::array<uint32_t, 4> dims, VoxelType type,
                  std::span<const double> values,

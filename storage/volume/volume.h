@@ -102,16 +102,20 @@ struct VolumeInfo {
   std::vector<uint64_t> file_offsets;
   // Physical placement of grid point i on axis a: origin[a] + i * spacing[a]
   // (axis 3 is time). Metadata for the stores' headers: the readers never
-  // use them. Unknown: spacing 1, origin 0. Units are not kept: NIfTI
+  // use them. Unknown: spacing 1, origin 0. A negative spacing (x, y or z
+  // only; time runs forwards) is a flipped axis: voxel i lies i * |spacing|
+  // before the origin, as NIfTI's qfac -1 and radiological x say. Units are not kept: NIfTI
   // values are converted to millimetres and seconds (xyzt_units), NRRD and
   // raw values are in whatever units the file or the caller used.
   std::array<double, 4> spacing = {1, 1, 1, 1};
   std::array<double, 4> origin = {0, 0, 0, 0};
   // What the reader read but the placement above cannot say, for the
-  // store's source ("orientation dropped: ..."); empty when nothing was
-  // dropped. SimplexDB grids are axis-aligned: a rotated, flipped or
-  // permuted orientation keeps spacing (the lengths of the axis vectors)
-  // and origin (where voxel 0 is), and says here that it dropped the rest.
+  // store's source ("oblique orientation dropped: ..."); empty when nothing
+  // was dropped. SimplexDB grids are axis-aligned: a flip is kept (negative
+  // spacing); an oblique orientation keeps its nearest axis-aligned one
+  // (each axis's flip, the origin where voxel 0 is, the axes' lengths as
+  // spacing) and says here how many degrees of rotation it dropped; a
+  // permutation keeps the lengths and the origin, every axis forwards.
   std::string dropped;
   // Values are scale * stored + shift (NIfTI scl_slope and scl_inter);
   // VolumeReader applies them. Identity (1, 0) for every other format.
@@ -140,7 +144,7 @@ std::string FormatScaling(const VolumeInfo& info);
 
 // What a store records as its source: the description, with its scaling
 // when it has one: "NIfTI-1 file a.nii (scaled: slope 2.5, intercept -1)",
-// and what its reader dropped ("; orientation dropped: ...").
+// and what its reader dropped ("; oblique orientation dropped: ...").
 std::string DescribeSource(const VolumeInfo& info);
 
 // Checks the grid rules above for a volume named `what` (prefixed to the
@@ -173,10 +177,11 @@ Result<VolumeInfo> OpenRawVolume(const std::string& path, int dimension,
 // (so "space directions: (2,0,0) (0,2,0) (0,0,2) none" with "spacings: nan
 // nan nan 0.5" gives a time step of 0.5). Origin comes from "space origin:"
 // (the space axes) and "axis mins:" (every axis "space origin:" does not
-// give). Direction vectors that are not the positive axes in order (a
-// rotation, a flip, a permutation) keep their lengths as spacing and the
-// origin as given, and set VolumeInfo::dropped to say the orientation was
-// dropped. "space units:" are not kept. Other fields and key/value pairs
+// give). A direction along its own axis backwards, (0,-2,0) for y, is a
+// flip: spacing -2. Directions that are turned from the axes keep their
+// nearest axis-aligned orientation, and a permutation (or a space other
+// than 3D) keeps their lengths only; VolumeInfo::dropped says what went.
+// "space units:" are not kept. Other fields and key/value pairs
 // are ignored, as the specification asks of readers that do not use them.
 // For gzip, the gzip trailer (size mod 2^32) is checked against the
 // expected size, and n bytes of gzip data may claim at most 1032 n bytes
@@ -196,15 +201,19 @@ Result<VolumeInfo> OpenNrrd(const std::string& path);
 // + scl_inter, unless scl_slope is 0 (no scaling); a slope that is not
 // finite means no scaling and an intercept that is not finite means 0 (as
 // nibabel reads them). They become VolumeInfo::scale and shift. Spacing
-// is |pixdim[1..4]|, origin the sform's translation when sform_code > 0,
+// is |pixdim[1..4]|, negated for an axis the matrix below flips; origin
+// the sform's translation when sform_code > 0,
 // else the qform's (qoffset_x, y, z) when qform_code > 0, else 0 (NIfTI
 // method 1); origin[3] is toffset. Lengths are converted to millimetres and
 // times to seconds by xyzt_units (unknown units: as stored), so a TR of
 // 2000 with units ms is spacing[3] = 2 (the shared example4d.nii says
-// seconds for its 2000 ms TR: 2000, as its header says). When the chosen
-// matrix is not diagonal with positive entries (a rotation, a flip such as
-// the usual radiological x, a permutation) the orientation is dropped
-// (VolumeInfo::dropped says so): SimplexDB grids are axis-aligned.
+// seconds for its 2000 ms TR: 2000, as its header says). The chosen
+// matrix (sform, else qform with qfac) places the grid: a flip (a negative
+// diagonal entry, such as the usual radiological x, or qfac -1 for z) is
+// kept as a negative spacing; a rotation keeps the nearest axis-aligned
+// orientation and a permutation none, and VolumeInfo::dropped says what
+// was dropped (SimplexDB grids are axis-aligned). Both shared NIfTI files
+// are oblique: the fMRI by 9.3 degrees about x, with x flipped.
 // .nii.gz is not read (NotSupported from OpenVolume: gunzip it first).
 // O(1): reads the 348-byte header.
 Result<VolumeInfo> OpenNifti(const std::string& path);

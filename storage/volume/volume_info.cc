@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cassert>
 #include <charconv>
+#include <cmath>
+#include <cstdio>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <utility>
 
@@ -230,6 +233,53 @@ void SetOffsets(VolumeInfo& info, std::vector<uint64_t> offsets) {
   info.offset = offsets.empty() ? 0 : offsets.front();
   info.file_offsets.clear();
   if (!same) info.file_offsets = std::move(offsets);
+}
+
+std::string AxisAlignment::FlippedAxes() const {
+  std::string axes;
+  for (size_t c = 0; c < 3; ++c) {
+    if (sign[c] < 0) axes += std::string(axes.empty() ? "flipped " : ", ") + "xyz"[c];
+  }
+  return axes;
+}
+
+AxisAlignment NearestAxisAlignment(const std::array<std::array<double, 3>, 3>& axes) {
+  AxisAlignment a;
+  for (size_t c = 0; c < 3; ++c) {
+    const std::array<double, 3>& v = axes[c];
+    double length2 = 0;
+    size_t nearest = 0;
+    for (size_t r = 0; r < 3; ++r) {
+      if (!std::isfinite(v[r])) a.unusable = true;
+      length2 += v[r] * v[r];
+      if (std::fabs(v[r]) > std::fabs(v[nearest])) nearest = r;
+    }
+    if (a.unusable || !(length2 > 0) || !std::isfinite(length2) || nearest != c) {
+      return AxisAlignment{.unusable = true};
+    }
+    a.sign[c] = v[c] < 0 ? -1 : 1;
+    const double cosine = std::min(1.0, std::fabs(v[c]) / std::sqrt(length2));
+    a.oblique_degrees = std::max(a.oblique_degrees, std::acos(cosine) * 180 / std::numbers::pi);
+  }
+  return a;
+}
+
+std::string DescribeDroppedOrientation(const std::string& source, const AxisAlignment& alignment) {
+  // Below a thousandth of a degree the turn is float32 rounding of an
+  // aligned matrix (a quaternion's entries), not an oblique acquisition.
+  constexpr double kAlignedDegrees = 1e-3;
+  if (alignment.unusable) {
+    return "orientation dropped: " + source +
+           " permutes the axes or is degenerate; spacing is the axes' lengths, origin its "
+           "translation, every axis forwards";
+  }
+  if (alignment.oblique_degrees < kAlignedDegrees) return "";
+  char angle[32];
+  std::snprintf(angle, sizeof angle, "%.2g", alignment.oblique_degrees);
+  const std::string flips = alignment.FlippedAxes();
+  return "oblique orientation dropped: " + source + " turns the grid up to " + angle +
+         " degrees from the axes; kept the nearest axis-aligned orientation (" +
+         (flips.empty() ? std::string("no axis flipped") : flips) + ")";
 }
 
 }  // namespace volume_internal

@@ -6,6 +6,7 @@
 // Thread safety: reentrant (no shared state); CheckDataFiles opens files.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -53,5 +54,33 @@ Status TruncatedData(std::string_view msg);
 // Sets info.offset and info.file_offsets from one offset per data file,
 // keeping just info.offset when all are the same, as in most volumes.
 void SetOffsets(VolumeInfo& info, std::vector<uint64_t> offsets);
+
+// What an axis-aligned grid keeps of an orientation: grid axis c runs
+// along space axis c, forwards (sign +1) or backwards (-1, a flipped axis:
+// a NIfTI qfac of -1, a negative sform or NRRD direction entry).
+struct AxisAlignment {
+  std::array<int, 3> sign = {1, 1, 1};
+  // How far the orientation is from that: the largest angle, in degrees,
+  // between a grid axis and the space axis it is given (0 when axis-aligned).
+  double oblique_degrees = 0;
+  // Grid axis c runs nearest to another space axis than c (a permutation,
+  // e.g. a sagittal acquisition), or an entry is not finite or an axis has
+  // length 0: nothing of the orientation is kept (signs +1).
+  bool unusable = false;
+  // "flipped y, z", "" when no axis is: for messages.
+  std::string FlippedAxes() const;
+};
+
+// The nearest axis-aligned orientation of `axes`, whose c-th entry is grid
+// axis c's direction in space (any length; a NIfTI matrix's columns, the
+// NRRD "space directions:" vectors), as radiology viewers place an oblique
+// volume: each grid axis keeps the sign of its own space component.
+// REQUIRES: each axes[c] has 3 entries. O(1).
+AxisAlignment NearestAxisAlignment(const std::array<std::array<double, 3>, 3>& axes);
+
+// The text VolumeInfo::dropped gets for an orientation that is not exactly
+// axis-aligned ("" when it is): `source` names the matrix ("the NIfTI
+// sform"), `alignment` is what NearestAxisAlignment kept.
+std::string DescribeDroppedOrientation(const std::string& source, const AxisAlignment& alignment);
 
 }  // namespace simplexdb::volume_internal

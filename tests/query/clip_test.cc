@@ -208,5 +208,35 @@ TEST(PlacePhysically, MovesPointsByOriginAndSpacing) {
   EXPECT_EQ(m.points, want);
 }
 
+// Flipped axes mirror the mesh once per flip: every cell stays positive
+// and keeps its volume, whatever the number of flips.
+TEST(PlacePhysically, FlippedAxesKeepCellsPositive) {
+  const std::vector<double> points = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+  const std::vector<int64_t> cells = {0, 1, 2, 3, 1, 2, 3, 4};  // both positive
+  for (const std::array<double, 4>& spacing :
+       {std::array<double, 4>{2, 3, 4, 1}, {-2, 3, 4, 1}, {2, -3, 4, 1}, {-2, 3, -4, 1}, {-2, -3, -4, 1}}) {
+    SCOPED_TRACE(spacing[0] * spacing[1] * spacing[2]);
+    TetMeshData m;
+    m.points = points;
+    m.field = {0, 1, 2, 3, 4};
+    m.connectivity = cells;
+    SourceInfo info;
+    info.spacing = spacing;
+    PlacePhysically(m, info);
+    for (size_t c = 0; c < m.connectivity.size(); c += 4) {
+      std::array<std::array<double, 3>, 3> e{};
+      for (int i = 0; i < 3; ++i) {
+        for (int a = 0; a < 3; ++a) {
+          e[i][a] = m.points[3 * m.connectivity[c + i + 1] + a] - m.points[3 * m.connectivity[c] + a];
+        }
+      }
+      const double in_grid_units = c == 0 ? 1 : 2;  // the two cells' determinants before
+      EXPECT_NEAR(Det3(e), in_grid_units * 2 * 3 * 4, 1e-12) << "cell " << c / 4;
+    }
+    // Points stay where the spacing puts them; only cells are reordered.
+    for (size_t p = 0; p < points.size(); ++p) EXPECT_EQ(m.points[p], points[p] * spacing[p % 3]);
+  }
+}
+
 }  // namespace
 }  // namespace simplexdb

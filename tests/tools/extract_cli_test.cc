@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -33,8 +35,11 @@ size_t Lines(const std::string& text) {
 std::string PythonWithVtk() { return testing::FindPythonWithVtk("vtkmodules.vtkIOXML"); }
 
 // Reads `vtu` with VTK (tests/query/vtk_read_vtu.py).
-nlohmann::json ReadWithVtk(const std::string& python, const std::string& vtu) {
-  FILE* p = popen((python + " " SIMPLEXDB_QUERY_TEST_DIR "/vtk_read_vtu.py " + vtu).c_str(), "r");
+// With `arrays`, also every array's values (vtk_read_vtu.py --arrays).
+nlohmann::json ReadWithVtk(const std::string& python, const std::string& vtu, bool arrays = false) {
+  FILE* p = popen((python + " " SIMPLEXDB_QUERY_TEST_DIR "/vtk_read_vtu.py " + vtu + (arrays ? " --arrays" : ""))
+                      .c_str(),
+                  "r");
   if (p == nullptr) throw std::runtime_error("cannot run " + python);
   std::string out;
   char buf[4096];
@@ -232,6 +237,95 @@ TEST(ExtractCliPadded, VtuCoversTheRealGridInPhysicalUnits) {
   r = RunCli("extract " + store + " --error 1% --units metres");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--units metres: expected grid or physical"), std::string::npos) << r.err;
+}
+
+// Flipped axes (negative NRRD space directions, as NIfTI's qfac -1 and
+// radiological x): the grid lies where the directions say, every cell
+// positive, every grid point's field the voxel VTK finds there; an export
+// of it is written forwards, the same voxels at the same places.
+TEST(ExtractCliPadded, FlippedAxesLandWhereTheDirectionsSay) {
+  const std::string python = PythonWithVtk();
+  if (python.empty()) GTEST_SKIP() << "no python3 that can import VTK (Debian: apt-get install python3-vtk9)";
+  const TempDir dir;
+  const std::array<uint32_t, 3> n = {20, 13, 27};
+  const testing::TestVolume v = testing::TestVolume::Random(3, {n[0], n[1], n[2], 1}, VoxelType::kU8, 9);
+  const auto voxel = [&](int64_t i, int64_t j, int64_t k) { return v.values[i + n[0] * (j + n[1] * k)]; };
+  // x flipped (one flip: cells are mirrored and must be turned back), then
+  // x and z (two). The grid's box is the same both times.
+  const struct {
+    const char* directions;
+    const char* origin;
+    std::array<double, 3> spacing;
+  } cases[] = {{"(-0.5,0,0) (0,2,0) (0,0,1.5)", "(4.5,10,2.5)", {-0.5, 2, 1.5}},
+               {"(-0.5,0,0) (0,2,0) (0,0,-1.5)", "(4.5,10,41.5)", {-0.5, 2, -1.5}}};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.directions);
+    const std::string nrrd = dir.path() + "/f.nrrd", store = dir.path() + "/f.sdb";
+    {
+      std::ofstream out(nrrd, std::ios::binary | std::ios::trunc);
+      out << "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 20 13 27\nspace dimension: 3\nspace directions: "
+          << c.directions << "\nspace origin: " << c.origin << "\nencoding: raw\n\n";
+      for (double x : v.values) out.put(static_cast<char>(static_cast<uint8_t>(x)));
+    }
+    ASSERT_EQ(RunCli("import " + nrrd + " -o " + store + " -q --force").exit_code, 0);
+    auto r = RunCli("info " + store + " --json");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["spacing"].get<std::vector<double>>(),
+              std::vector<double>(c.spacing.begin(), c.spacing.end()));
+    for (const std::string criteria : {"--error 0", "--error 10%", "--error 1% --units physical --box 2,2,2,4,20,30"}) {
+      SCOPED_TRACE(criteria);
+      const std::string vtu = dir.path() + "/m.vtu";
+      r = RunCli("extract " + store + " " + criteria + " -o " + vtu);
+      ASSERT_EQ(r.exit_code, 0) << r.err;
+      const auto vtk = ReadWithVtk(python, vtu, criteria == "--error 0");
+      EXPECT_EQ(vtk["bounds"], nlohmann::json::parse("[-5, 4.5, 10, 34, 2.5, 41.5]"));
+      EXPECT_NEAR(vtk["signed_volume"].get<double>(), 9.5 * 24 * 39, 1e-6);
+      EXPECT_EQ(vtk["negative_cells"], 0);
+      if (criteria != "--error 0") continue;
+      // At error 0 the field at every mesh point on the grid is the voxel's:
+      // the point's grid index is (position - origin) / spacing.
+      const std::vector<uint64_t> bits = vtk["values"]["points"], field = vtk["values"]["field"];
+      const std::array<double, 3> origin = {4.5, 10, c.spacing[2] < 0 ? 41.5 : 2.5};
+      int on_grid = 0;
+      for (size_t p = 0; p < field.size(); ++p) {
+        std::array<double, 3> g{};
+        bool grid_point = true;
+        for (int a = 0; a < 3; ++a) {
+          g[a] = (std::bit_cast<double>(bits[3 * p + a]) - origin[a]) / c.spacing[a];
+          grid_point = grid_point && std::fabs(g[a] - std::round(g[a])) < 1e-9;
+        }
+        if (!grid_point) continue;
+        ++on_grid;
+        ASSERT_EQ(std::bit_cast<double>(field[p]),
+                  voxel(std::llround(g[0]), std::llround(g[1]), std::llround(g[2])))
+            << "point " << p << " at grid (" << g[0] << ", " << g[1] << ", " << g[2] << ")";
+      }
+      // Nearly all: a diamond whose centre the coarser cells interpolate
+      // exactly has error 0 and is not split even at error 0.
+      EXPECT_GT(on_grid, 20 * 13 * 27 * 99 / 100);
+    }
+    // The export reads back with positive spacing and its voxels where the
+    // store has them: x (and z) reversed.
+    const std::string exported = dir.path() + "/e.nrrd";
+    r = RunCli("export " + store + " -o " + exported + " --force");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const Result<VolumeInfo> e = OpenVolume(exported);
+    ASSERT_TRUE(e.ok()) << e.status().ToString();
+    EXPECT_EQ(e->spacing, (std::array<double, 4>{0.5, 2, 1.5, 1}));
+    EXPECT_EQ(e->origin, (std::array<double, 4>{-5, 10, 2.5, 0}));
+    std::vector<double> back(v.values.size());
+    auto reader = VolumeReader::Open(*e);
+    ASSERT_TRUE(reader.ok()) << reader.status().ToString();
+    ASSERT_TRUE((*reader)->Read(0, back.size(), back.data()).ok());
+    for (int64_t k = 0; k < n[2]; ++k) {
+      for (int64_t j = 0; j < n[1]; ++j) {
+        for (int64_t i = 0; i < n[0]; ++i) {
+          const int64_t kk = c.spacing[2] < 0 ? n[2] - 1 - k : k;
+          ASSERT_EQ(back[i + n[0] * (j + n[1] * k)], voxel(n[0] - 1 - i, j, kk)) << i << " " << j << " " << k;
+        }
+      }
+    }
+  }
 }
 
 TEST(ExtractCliHp, TimeSlicesReadByVtk) {

@@ -194,12 +194,25 @@ TEST(WriteNrrd, OriginWritesSpaceDirectionsAndOrigin) {
   const Result<VolumeInfo> info = OpenVolume(path);
   ASSERT_TRUE(info.ok()) << info.status().ToString();
   EXPECT_EQ(info->spacing, (std::array<double, 4>{0.5, 1, 2.5, 1}));
-  // 4D keeps "spacings:": the space fields cannot describe its time axis.
-  const Status s = WriteNrrd(dir / "t.nrrd", 4, {2, 2, 2, 2}, VoxelType::kU8,
-                             std::vector<double>(16, 1), {1, 1, 1, 1},
-                             std::array<double, 3>{0, 0, 0});
+  // 4D: the space fields for x, y, z, time in "spacings:".
+  const std::string path4 = dir / "t.nrrd";
+  ASSERT_TRUE(WriteNrrd(path4, 4, {2, 2, 2, 2}, VoxelType::kU8, std::vector<double>(16, 1),
+                        {0.5, 1, 2.5, 3}, std::array<double, 3>{1, 2, 3})
+                  .ok());
+  const std::string text = ReadFile(path4);
+  EXPECT_NE(text.find("space directions: (0.5,0,0) (0,1,0) (0,0,2.5) none\n"), std::string::npos)
+      << text;
+  EXPECT_NE(text.find("spacings: nan nan nan 3\n"), std::string::npos) << text;
+  const Result<VolumeInfo> info4 = OpenVolume(path4);
+  ASSERT_TRUE(info4.ok()) << info4.status().ToString();
+  EXPECT_EQ(info4->spacing, (std::array<double, 4>{0.5, 1, 2.5, 3}));
+  EXPECT_EQ(info4->origin, (std::array<double, 4>{1, 2, 3, 0}));
+  EXPECT_EQ(info4->dropped, "");
+  // A negative spacing is refused: VTK's reader would drop its sign.
+  const Status s = WriteNrrd(dir / "f.nrrd", 3, {2, 2, 2, 1}, VoxelType::kU8,
+                             std::vector<double>(8, 1), {1, -1, 1, 1}, std::array<double, 3>{0, 0, 0});
   EXPECT_TRUE(s.IsInvalidArgument()) << s.ToString();
-  EXPECT_FALSE(fs::exists(dir / "t.nrrd"));
+  EXPECT_FALSE(fs::exists(dir / "f.nrrd"));
 }
 
 // PrepareNrrd: nothing under the name until Commit; dropped, nothing at all.

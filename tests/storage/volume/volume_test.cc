@@ -717,17 +717,32 @@ TEST(Nrrd, SpacingsAndAxisMinsWithoutSpace) {
   ASSERT_TRUE(info.ok()) << info.status().ToString();
   EXPECT_EQ(info->spacing, (std::array<double, 4>{1.5, 2, 3, 1}));
   EXPECT_EQ(info->origin, (std::array<double, 4>{-1, 0.25, 100, 0}));
-  // A flipped axis: lengths kept, orientation dropped.
+  // A flipped axis is kept: a negative spacing, nothing dropped.
   WriteFile(dir / "f.nrrd",
             NrrdHeader("type: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n"
-                       "space directions: (-1,0,0) (0,1,0) (0,0,1)\n"
+                       "space directions: (-1,0,0) (0,1.5,0) (0,0,-2)\n"
                        "space origin: (5,6,7)\n\n") +
                 std::string(8, 'a'));
   info = OpenNrrd(dir / "f.nrrd");
   ASSERT_TRUE(info.ok()) << info.status().ToString();
-  EXPECT_EQ(info->spacing, (std::array<double, 4>{1, 1, 1, 1}));
+  EXPECT_EQ(info->spacing, (std::array<double, 4>{-1, 1.5, -2, 1}));
   EXPECT_EQ(info->origin, (std::array<double, 4>{5, 6, 7, 0}));
-  EXPECT_NE(info->dropped.find("orientation dropped"), std::string::npos);
+  EXPECT_EQ(info->dropped, "");
+  // Turned 30 degrees about z (and y flipped): the nearest axis-aligned
+  // orientation is kept, the turn is said.
+  WriteFile(dir / "o.nrrd",
+            NrrdHeader("type: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n"
+                       "space directions: (0.8660254037844387,0.5,0) (0.5,-0.8660254037844387,0) "
+                       "(0,0,3)\n\n") +
+                std::string(8, 'a'));
+  info = OpenNrrd(dir / "o.nrrd");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_DOUBLE_EQ(info->spacing[0], 1);
+  EXPECT_DOUBLE_EQ(info->spacing[1], -1);
+  EXPECT_DOUBLE_EQ(info->spacing[2], 3);
+  EXPECT_NE(info->dropped.find("oblique orientation dropped"), std::string::npos) << info->dropped;
+  EXPECT_NE(info->dropped.find(" 30 degrees"), std::string::npos) << info->dropped;
+  EXPECT_NE(info->dropped.find("flipped y)"), std::string::npos) << info->dropped;
   // Bad values name the field.
   WriteFile(dir / "b.nrrd",
             NrrdHeader("type: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n"
@@ -1052,13 +1067,44 @@ TEST(Nifti, QformOffsetAndWhatIsDroppedOtherwise) {
   EXPECT_DOUBLE_EQ(info->origin[1], -250);
   EXPECT_DOUBLE_EQ(info->origin[2], 1000);
   EXPECT_EQ(info->dropped, "");
-  // qfac -1 flips z: the origin stays, the orientation is dropped.
+  // qfac -1 flips z: kept as a negative spacing, the origin stays.
   spec.pixdim[0] = -1;
   WriteFile(dir / "flip.nii", MakeNifti(spec, std::string(16, '\0')));
   info = OpenNifti(dir / "flip.nii");
   ASSERT_TRUE(info.ok()) << info.status().ToString();
   EXPECT_DOUBLE_EQ(info->origin[0], 500);
-  EXPECT_NE(info->dropped.find("qform"), std::string::npos) << info->dropped;
+  EXPECT_DOUBLE_EQ(info->spacing[0], 1000 * double{0.001f});
+  EXPECT_DOUBLE_EQ(info->spacing[2], -1000 * double{0.003f});
+  EXPECT_EQ(info->dropped, "");
+  // A quaternion of 180 degrees about z (b, c, d = 0, 0, 1) flips x and y.
+  spec.pixdim[0] = 1;
+  spec.quatern = {0, 0, 1, 0, 0, 0};
+  WriteFile(dir / "turn.nii", MakeNifti(spec, std::string(16, '\0')));
+  info = OpenNifti(dir / "turn.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_LT(info->spacing[0], 0);
+  EXPECT_LT(info->spacing[1], 0);
+  EXPECT_GT(info->spacing[2], 0);
+  EXPECT_EQ(info->dropped, "");
+  // A 90-degree turn about z permutes x and y: nothing of it is kept.
+  spec.quatern = {0, 0, 0.70710678f, 0, 0, 0};
+  WriteFile(dir / "perm.nii", MakeNifti(spec, std::string(16, '\0')));
+  info = OpenNifti(dir / "perm.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_GT(info->spacing[0], 0);
+  EXPECT_GT(info->spacing[1], 0);
+  EXPECT_NE(info->dropped.find("qform permutes the axes"), std::string::npos) << info->dropped;
+  // The sform comes first: x flipped, z scaled, no turn.
+  spec.sform_code = 1;
+  spec.srow = {-0.002f, 0, 0, 1, 0, 0.002f, 0, 2, 0, 0, 0.003f, 3};
+  WriteFile(dir / "s.nii", MakeNifti(spec, std::string(16, '\0')));
+  info = OpenNifti(dir / "s.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_LT(info->spacing[0], 0);
+  EXPECT_GT(info->spacing[1], 0);
+  EXPECT_DOUBLE_EQ(info->origin[0], 1000);
+  EXPECT_EQ(info->dropped, "");
+  spec.sform_code = 0;
   // No qform or sform: method 1, origin 0.
   spec.qform_code = 0;
   WriteFile(dir / "none.nii", MakeNifti(spec, std::string(16, '\0')));
@@ -1072,7 +1118,7 @@ TEST(SharedData, FmriSpacingIsTheReadmeVoxelSizeAndTr) {
   SKIP_WITHOUT_SHARED_DATA();
   auto info = OpenNifti(kSharedData + "/fmri_example4d/example4d.nii");
   ASSERT_TRUE(info.ok()) << info.status().ToString();
-  EXPECT_DOUBLE_EQ(info->spacing[0], 2);
+  EXPECT_DOUBLE_EQ(info->spacing[0], -2);  // the sform flips x
   EXPECT_DOUBLE_EQ(info->spacing[1], 2);
   EXPECT_NEAR(info->spacing[2], 2.2, 1e-5);
   // The TR is 2000 ms, but the header's xyzt_units is 10 (mm, seconds) with
@@ -1082,7 +1128,10 @@ TEST(SharedData, FmriSpacingIsTheReadmeVoxelSizeAndTr) {
   EXPECT_NEAR(info->origin[0], 117.855, 1e-3);
   EXPECT_NEAR(info->origin[1], -35.7229, 1e-3);
   EXPECT_NEAR(info->origin[2], -7.2488, 1e-3);
-  EXPECT_NE(info->dropped.find("sform"), std::string::npos) << info->dropped;
+  // Its y and z axes are turned 9.3 degrees about x (atan(0.3232 / 1.9737)).
+  EXPECT_NE(info->dropped.find("the NIfTI sform turns the grid up to 9.3 degrees"),
+            std::string::npos)
+      << info->dropped;
 }
 
 TEST(Nifti, SingleTimeStepIsThreeD) {
