@@ -304,6 +304,18 @@ TEST(ExtractCliPadded, FlippedAxesLandWhereTheDirectionsSay) {
       // exactly has error 0 and is not split even at error 0.
       EXPECT_GT(on_grid, 20 * 13 * 27 * 99 / 100);
     }
+    // The sparse store keeps the flips too.
+    const std::string sparse = dir.path() + "/f" + std::to_string(c.spacing[2] < 0) + ".lmdb";
+    ASSERT_EQ(RunCli("import " + nrrd + " --sparse -o " + sparse + " -q").exit_code, 0);
+    r = RunCli("info " + sparse + " --json");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["spacing"].get<std::vector<double>>(),
+              std::vector<double>(c.spacing.begin(), c.spacing.end()));
+    r = RunCli("extract " + sparse + " --error 5% -o " + dir.path() + "/s.vtu");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto vtk = ReadWithVtk(python, dir.path() + "/s.vtu");
+    EXPECT_EQ(vtk["bounds"], nlohmann::json::parse("[-5, 4.5, 10, 34, 2.5, 41.5]"));
+    EXPECT_EQ(vtk["negative_cells"], 0);
     // The export reads back with positive spacing and its voxels where the
     // store has them: x (and z) reversed.
     const std::string exported = dir.path() + "/e.nrrd";
