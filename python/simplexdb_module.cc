@@ -27,6 +27,7 @@
 #include "query/open_store.h"
 #include "query/refine.h"
 #include "query/slice.h"
+#include "query/store_info.h"
 
 namespace py = pybind11;
 
@@ -51,21 +52,12 @@ py::array_t<T> Hand(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
   return py::array_t<T>(shape, owned->data(), free);
 }
 
+// The store's description as `simplexdb info --json` prints it (one
+// builder, query/store_info.h), through Python's json so the dict holds
+// exactly what a script reading the command's output gets.
 py::dict InfoDict(const AnyStore& store) {
-  const SourceInfo& i = store.info();
-  py::dict d;
-  d["path"] = i.path;
-  d["kind"] = StoreKindName(store.kind());
-  d["hierarchy"] = i.dimension == 3 ? "ht" : "hp";
-  d["dimension"] = i.dimension;
-  d["dims"] = std::vector<uint32_t>(i.dims.begin(), i.dims.begin() + i.dimension);
-  d["spacing"] = std::vector<double>(i.spacing.begin(), i.spacing.begin() + i.dimension);
-  d["origin"] = std::vector<double>(i.origin.begin(), i.origin.begin() + i.dimension);
-  d["domain_bits"] = i.domain_bits;
-  d["field_min"] = i.field_min;
-  d["field_max"] = i.field_max;
-  d["error_max"] = i.error_max;
-  return d;
+  const std::string text = StoreInfoJson(store).dump();
+  return py::module_::import("json").attr("loads")(text);
 }
 
 // What a query hands back before it becomes numpy arrays.
