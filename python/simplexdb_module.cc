@@ -25,6 +25,7 @@
 #include "query/mesh.h"
 #include "query/mesh_io.h"
 #include "query/open_store.h"
+#include "query/pvd_writer.h"
 #include "query/refine.h"
 #include "query/slice.h"
 #include "query/store_info.h"
@@ -173,6 +174,24 @@ void SaveVtu(const std::string& path, py::array_t<double, py::array::c_style | p
   if (!s.ok()) Raise(s);
 }
 
+// A ParaView collection naming (time, file) pairs, by the writer `simplexdb
+// extract -o X.pvd` uses.
+void SavePvd(const std::string& path, const std::vector<std::pair<double, std::string>>& datasets) {
+  std::vector<PvdDataSet> sets;
+  for (const auto& [time, file] : datasets) {
+    if (file.find('/') != std::string::npos) {
+      throw py::value_error(path + ": a .pvd names files beside it, not " + file);
+    }
+    sets.push_back({time, file});
+  }
+  Status s;
+  {
+    py::gil_scoped_release unlocked;
+    s = WritePvd(sets, path);
+  }
+  if (!s.ok()) Raise(s);
+}
+
 template <int D>
 std::string CodeString(uint64_t key) {
   return SimplexCode<D>::FromKey(key).ToString();
@@ -206,6 +225,7 @@ PYBIND11_MODULE(_simplexdb, m) {
   m.def("extract", &Extract, py::arg("store"), py::arg("error"), py::arg("box"), py::arg("iso"), py::arg("time"),
         py::arg("algorithm"), py::arg("budget"), py::arg("mesh"));
   m.def("save_vtu", &SaveVtu);
+  m.def("save_pvd", &SavePvd);
   m.def("code_string", [](int dimension, uint64_t key) {
     if (dimension == 3) return CodeString<3>(key);
     if (dimension == 4) return CodeString<4>(key);

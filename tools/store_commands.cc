@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "query/open_store.h"
+#include "query/pvd_writer.h"
 #include "query/store_info.h"
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/brick_codec.h"
@@ -383,7 +384,7 @@ void ExportTimeSeries(const HzStore& store, const ExportArgs& a, const ExportBox
   const size_t slash = stem.find_last_of('/');
   const int width = std::max<int>(4, static_cast<int>(std::to_string(h.dims[3] - 1).size()));
   std::vector<std::unique_ptr<AtomicFileWriter>> files;
-  std::vector<std::pair<double, std::string>> steps;  // time, file name without folder
+  std::vector<PvdDataSet> steps;  // time, file name without folder
   uint64_t count = 0;
   std::array<uint32_t, 4> dims{};
   for (int64_t t = box.lo[3]; t <= box.hi[3]; t += box.step) {
@@ -401,21 +402,15 @@ void ExportTimeSeries(const HzStore& store, const ExportArgs& a, const ExportBox
                           g.spacing, origin);
     if (!file.ok()) Fail(file.status());
     files.push_back(*std::move(file));
-    steps.emplace_back(g.origin[3], slash == std::string::npos ? name : name.substr(slash + 1));
+    steps.push_back({g.origin[3], slash == std::string::npos ? name : name.substr(slash + 1)});
     count += values.size();
   }
   for (auto& f : files) {
     if (const Status st = f->Commit(); !st.ok()) Fail(st);
   }
   files.clear();
-  std::string pvd =
-      "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n<Collection>\n";
-  for (const auto& [time, name] : steps) {
-    pvd += fmt::format("<DataSet timestep=\"{}\" part=\"0\" file=\"{}\"/>\n", time, name);
-  }
-  pvd += "</Collection>\n</VTKFile>\n";
   const std::string pvd_path = CheckOutput(stem + ".pvd", {a.store}, a.force);
-  if (const Status st = WriteFileAtomically(pvd_path, pvd); !st.ok()) Fail(st);
+  if (const Status st = WritePvd(steps, pvd_path); !st.ok()) Fail(st);
   fmt::print("{}: {} {} values ({} in {} time steps) written to {}_t*.{} and {}.pvd\n", a.store,
              count, VoxelTypeName(h.voxel_type), FormatDims(3, dims), steps.size(), stem, ext, stem);
 }
