@@ -30,7 +30,7 @@ REPOSITORY = pathlib.Path(__file__).resolve().parent.parent
 # The tooth: 103 x 94 x 161 uint8, x fastest (../shared/data/README.md).
 TOOTH = pathlib.Path("tooth/tooth_103x94x161_uint8.raw")
 DIMS = (103, 94, 161)
-THRESHOLDS = ("2%", "8%")
+THRESHOLDS = ("5%", "15%")  # of the field range: fine and coarse
 
 
 def simplexdb_command():
@@ -84,9 +84,9 @@ def cut(mesh, store, z):
     a = corners[:, [e[0] for e in edges]]
     b = corners[:, [e[1] for e in edges]]
     with np.errstate(divide="ignore", invalid="ignore"):
-        s = (z - a[:, :, 2]) / (b[:, :, 2] - a[:, :, 2])
+        s = (z - a[:, :, 2]) / (b[:, :, 2] - a[:, :, 2])  # edges in the plane's direction: nan, no hit
+        xy = a[:, :, :2] + s[:, :, None] * (b[:, :, :2] - a[:, :, :2])
     hits = (s > 0) & (s < 1)
-    xy = a[:, :, :2] + s[:, :, None] * (b[:, :, :2] - a[:, :, :2])
     polygons = []
     for cell_xy, cell_hits in zip(xy, hits):
         p = cell_xy[cell_hits]  # 3 or 4 points of a convex polygon
