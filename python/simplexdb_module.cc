@@ -25,8 +25,10 @@
 #include "query/mesh.h"
 #include "query/mesh_io.h"
 #include "query/open_store.h"
+#include "query/pvd_writer.h"
 #include "query/refine.h"
 #include "query/slice.h"
+#include "query/store_info.h"
 
 namespace py = pybind11;
 
@@ -51,21 +53,12 @@ py::array_t<T> Hand(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
   return py::array_t<T>(shape, owned->data(), free);
 }
 
+// The store's description as `simplexdb info --json` prints it (one
+// builder, query/store_info.h), through Python's json so the dict holds
+// exactly what a script reading the command's output gets.
 py::dict InfoDict(const AnyStore& store) {
-  const SourceInfo& i = store.info();
-  py::dict d;
-  d["path"] = i.path;
-  d["kind"] = StoreKindName(store.kind());
-  d["hierarchy"] = i.dimension == 3 ? "ht" : "hp";
-  d["dimension"] = i.dimension;
-  d["dims"] = std::vector<uint32_t>(i.dims.begin(), i.dims.begin() + i.dimension);
-  d["spacing"] = std::vector<double>(i.spacing.begin(), i.spacing.begin() + i.dimension);
-  d["origin"] = std::vector<double>(i.origin.begin(), i.origin.begin() + i.dimension);
-  d["domain_bits"] = i.domain_bits;
-  d["field_min"] = i.field_min;
-  d["field_max"] = i.field_max;
-  d["error_max"] = i.error_max;
-  return d;
+  const std::string text = StoreInfoJson(store).dump();
+  return py::module_::import("json").attr("loads")(text);
 }
 
 // What a query hands back before it becomes numpy arrays.
@@ -181,6 +174,24 @@ void SaveVtu(const std::string& path, py::array_t<double, py::array::c_style | p
   if (!s.ok()) Raise(s);
 }
 
+// A ParaView collection naming (time, file) pairs, by the writer `simplexdb
+// extract -o X.pvd` uses.
+void SavePvd(const std::string& path, const std::vector<std::pair<double, std::string>>& datasets) {
+  std::vector<PvdDataSet> sets;
+  for (const auto& [time, file] : datasets) {
+    if (file.find('/') != std::string::npos) {
+      throw py::value_error(path + ": a .pvd names files beside it, not " + file);
+    }
+    sets.push_back({time, file});
+  }
+  Status s;
+  {
+    py::gil_scoped_release unlocked;
+    s = WritePvd(sets, path);
+  }
+  if (!s.ok()) Raise(s);
+}
+
 template <int D>
 std::string CodeString(uint64_t key) {
   return SimplexCode<D>::FromKey(key).ToString();
@@ -214,6 +225,7 @@ PYBIND11_MODULE(_simplexdb, m) {
   m.def("extract", &Extract, py::arg("store"), py::arg("error"), py::arg("box"), py::arg("iso"), py::arg("time"),
         py::arg("algorithm"), py::arg("budget"), py::arg("mesh"));
   m.def("save_vtu", &SaveVtu);
+  m.def("save_pvd", &SavePvd);
   m.def("code_string", [](int dimension, uint64_t key) {
     if (dimension == 3) return CodeString<3>(key);
     if (dimension == 4) return CodeString<4>(key);

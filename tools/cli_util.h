@@ -27,20 +27,7 @@
 
 namespace simplexdb::tools {
 
-// Sets j[key] to `bytes` (a path, a store's source, a line of stdin) in
-// JSON output. JSON text is UTF-8 and a POSIX path is any bytes, so when
-// `bytes` is not valid UTF-8 j[key] holds it with each invalid byte replaced
-// by U+FFFD (readable) and j[key + "_hex"] holds all of its bytes in hex
-// (exact: the value to reuse). Valid UTF-8 is stored as is, with no "_hex".
-template <class Json>
-void SetJsonBytes(Json& j, const std::string& key, std::string_view bytes) {
-  if (IsValidUtf8(bytes)) {
-    j[key] = std::string(bytes);
-  } else {
-    j[key] = ToValidUtf8(bytes);
-    j[key + "_hex"] = HexBytes(bytes);
-  }
-}
+// SetJsonBytes (a path or other bytes in JSON output) is in util/utf8.h.
 
 // Throws `status` as a CommandError (exit 1), its message as the reason.
 [[noreturn]] inline void Fail(const Status& status) {

@@ -19,6 +19,7 @@
 #include "query/mesh.h"
 #include "query/mesh_io.h"
 #include "query/open_store.h"
+#include "query/pvd_writer.h"
 #include "query/refine.h"
 #include "query/slice.h"
 #include "query/source.h"
@@ -101,19 +102,17 @@ void WriteSliceSeries(const Mesh<4>& mesh, Source& source, const std::vector<dou
   const std::string stem = output.size() > 4 && output.ends_with(".pvd") ? output.substr(0, output.size() - 4) : output;
   const SourceInfo& info = source.info();
   const double scale = std::ldexp(1.0, kCoordBits<4> - info.domain_bits);
-  std::string pvd = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n<Collection>\n";
+  std::vector<PvdDataSet> pvd;
   for (size_t i = 0; i < times.size(); ++i) {
     const std::string file = fmt::format("{}_{}.vtu", stem, i);
     Result<TetMeshData> data = SliceHpMesh(mesh, source, times[i] * scale);
     if (!data.ok()) Fail(data.status());
     WriteMeshOnGrid(std::move(*data), info, file);
     const size_t slash = file.find_last_of('/');
-    pvd += fmt::format("<DataSet timestep=\"{}\" part=\"0\" file=\"{}\"/>\n",
-                       info.origin[3] + times[i] * info.spacing[3],
-                       slash == std::string::npos ? file : file.substr(slash + 1));
+    pvd.push_back({info.origin[3] + times[i] * info.spacing[3],
+                   slash == std::string::npos ? file : file.substr(slash + 1)});
   }
-  pvd += "</Collection>\n</VTKFile>\n";
-  if (Status st = WriteFileAtomically(output, pvd); !st.ok()) Fail(st);
+  if (Status st = WritePvd(pvd, output); !st.ok()) Fail(st);
 }
 
 // The format an output file's extension names, or "" for another one.

@@ -26,12 +26,13 @@ set -euo pipefail
 #   pybind11-dev, python3-dev      the Python package (python/)
 #   python3-numpy                  its arrays
 #   python3-pytest                 its tests
+#   python3-matplotlib             examples/python_thresholds.py (and its test)
 PACKAGES=(
   cmake ninja-build g++ pkg-config
   libboost-dev libzstd-dev liblmdb-dev libxxhash-dev zlib1g-dev
   libfmt-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3-vtk9 pybind11-dev python3-dev python3-numpy python3-pytest
+  python3-vtk9 pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
 )
 
 install_missing_packages() {

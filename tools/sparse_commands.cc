@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "query/open_store.h"
+#include "query/store_info.h"
 #include "storage/dense/hz_builder.h"
 #include "storage/dense/hz_lattice.h"
 #include "storage/dense/hz_store.h"
@@ -245,34 +246,9 @@ void RunSparseInfo(const std::string& path, bool as_json) {
   const uint64_t bytes = store->file_bytes();
   const double domain_vertices = DomainVertices(h);
   if (as_json) {
-    json j;
-    SetJsonBytes(j, "store", path);
-    j["kind"] = SparseKind(h.dimension);
-    j["hierarchy"] = h.dimension == 3 ? "ht" : "hp";
-    j["format_version"] = h.version;
-    j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
-    j["spacing"] = std::vector<double>(h.spacing.begin(), h.spacing.begin() + h.dimension);
-    j["origin"] = std::vector<double>(h.origin.begin(), h.origin.begin() + h.dimension);
-    j["grid_points"] = points;
-    j["domain_bits"] = h.domain_bits;
-    j["domain_side"] = (uint64_t{1} << h.domain_bits) + 1;
-    j["leaf_level"] = h.dimension * h.domain_bits;
-    j["voxel_type"] = VoxelTypeName(h.voxel_type);
-    j["quantization"] = QuantizationName(h.quantization);
-    j["quantum"] = h.quantum;
-    j["field_min"] = h.field_min;
-    j["field_max"] = h.field_max;
-    j["error_max"] = h.error_max;
-    j["tolerance"] = h.tolerance;
-    j["value_step"] = h.value_step;
-    j["block_bits"] = h.block_bits;
-    j["blocks"] = h.blocks;
-    j["kept"] = h.kept;
-    j["domain_vertices"] = domain_vertices;
-    j["file_bytes"] = bytes;
-    j["bytes_per_grid_point"] = static_cast<double>(bytes) / static_cast<double>(points);
-    SetJsonBytes(j, "source", h.source);
-    std::cout << j.dump() << "\n";
+    // The library's description (query/store_info.h), which the Python
+    // package's Store.info is too.
+    std::cout << StoreInfoJson(*store, path).dump() << "\n";
     return;
   }
   fmt::print("{}: sparse {} store (LMDB, format {})\n", path, h.dimension == 3 ? "HT" : "HP",

@@ -19,6 +19,8 @@
 #include <nlohmann/json.hpp>
 
 #include "query/open_store.h"
+#include "query/pvd_writer.h"
+#include "query/store_info.h"
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/brick_codec.h"
 #include "storage/dense/hz_builder.h"
@@ -167,65 +169,19 @@ void RunHzInfo(const std::string& path, bool as_json) {
   const auto opened = OpenHzStore(path);
   const HzStore& store = *opened;
   const HzHeader& h = store.header();
-  uint64_t points = 1;
-  for (int a = 0; a < h.dimension; ++a) points *= h.dims[a];
-  uint64_t raw = 0, zstd = 0;
-  for (uint64_t i = 0; i < h.stored_blocks; ++i) {
-    ++(store.entry(i).encoding == static_cast<uint8_t>(BlockEncoding::kRaw) ? raw : zstd);
-  }
-  // Bricks by coding (1 raw, 2 zstd, 3 zstd of Lorenzo residuals), and the
-  // bytes of each kind stored.
-  uint64_t codings[4] = {0, 0, 0, 0}, error_bytes = 0, field_bytes = 0, brick_voxels = 0;
-  for (uint64_t i = 0; i < h.stored_blocks; ++i) error_bytes += store.entry(i).stored_size;
-  for (uint64_t b = 0; b < h.bricks; ++b) {
-    const HzIndexEntry e = store.brick_entry(b);
-    ++codings[e.encoding & 3];
-    field_bytes += e.stored_size;
-    brick_voxels += BrickVoxels(h.dimension, store.grid().Place(b).extent);
-  }
-  const uint64_t logical =
-      h.stored_blocks * store.block_bytes() + brick_voxels * VoxelSize(h.voxel_type);
-  const double per_point = static_cast<double>(h.file_size) / static_cast<double>(points);
+  // The counts are the library's (query/store_info.h), so the text and the
+  // JSON (and the Python package's Store.info) say the same.
+  const json j = StoreInfoJson(store, path);
   if (as_json) {
-    json j;
-    SetJsonBytes(j, "store", path);
-    j["kind"] = h.dimension == 3 ? "ht-dense" : "hp-dense";
-    j["hierarchy"] = HierarchyName(h.dimension);
-    j["format_version"] = h.version;
-    j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
-    j["grid_points"] = points;
-    j["spacing"] = std::vector<double>(h.spacing.begin(), h.spacing.begin() + h.dimension);
-    j["origin"] = std::vector<double>(h.origin.begin(), h.origin.begin() + h.dimension);
-    j["domain_bits"] = h.domain_bits;
-    j["domain_side"] = (uint64_t{1} << h.domain_bits) + 1;
-    j["leaf_level"] = h.leaf_level();
-    j["voxel_type"] = VoxelTypeName(h.voxel_type);
-    j["quantization"] = QuantizationName(h.quantization);
-    j["quantum"] = h.quantum;
-    j["field_min"] = h.field_min;
-    j["field_max"] = h.field_max;
-    j["error_max"] = h.error_max;
-    j["block_records"] = h.block_records();
-    j["virtual_blocks"] = h.virtual_blocks;
-    j["stored_blocks"] = h.stored_blocks;
-    j["blocks_raw"] = raw;
-    j["blocks_zstd"] = zstd;
-    j["finest_errors"] = h.finest_stored() ? "stored" : "computed";
-    j["error_bytes"] = error_bytes;
-    j["brick_side"] = uint64_t{1} << h.brick_bits;
-    j["bricks"] = h.bricks;
-    j["bricks_raw"] = codings[1];
-    j["bricks_zstd"] = codings[2];
-    j["bricks_predicted"] = codings[3];
-    j["field_bytes"] = field_bytes;
-    j["file_bytes"] = h.file_size;
-    j["logical_bytes"] = logical;
-    j["compression_ratio"] = static_cast<double>(logical) / static_cast<double>(h.file_size);
-    j["bytes_per_grid_point"] = per_point;
-    SetJsonBytes(j, "source", h.source);
     std::cout << j.dump() << "\n";
     return;
   }
+  const auto n = [&](const char* key) { return j[key].get<uint64_t>(); };
+  const uint64_t points = n("grid_points"), error_bytes = n("error_bytes"), field_bytes = n("field_bytes");
+  const uint64_t raw = n("blocks_raw"), zstd = n("blocks_zstd");
+  const uint64_t codings[4] = {0, n("bricks_raw"), n("bricks_zstd"), n("bricks_predicted")};
+  const uint64_t logical = n("logical_bytes");
+  const double per_point = j["bytes_per_grid_point"].get<double>();
   fmt::print("{}: dense {} store (format 2, version {}: diamond errors in hierarchical Z-order, "
              "the field in octave bricks)\n",
              path, h.dimension == 3 ? "HT" : "HP", h.version);
@@ -452,7 +408,7 @@ void ExportTimeSeries(const HzStore& store, const ExportArgs& a, const ExportBox
   const size_t slash = stem.find_last_of('/');
   const int width = std::max<int>(4, static_cast<int>(std::to_string(h.dims[3] - 1).size()));
   std::vector<std::unique_ptr<AtomicFileWriter>> files;
-  std::vector<std::pair<double, std::string>> steps;  // time, file name without folder
+  std::vector<PvdDataSet> steps;  // time, file name without folder
   uint64_t count = 0;
   std::array<uint32_t, 4> dims{};
   for (int64_t t = box.lo[3]; t <= box.hi[3]; t += box.step) {
@@ -471,21 +427,15 @@ void ExportTimeSeries(const HzStore& store, const ExportArgs& a, const ExportBox
                           g.spacing, origin);
     if (!file.ok()) Fail(file.status());
     files.push_back(*std::move(file));
-    steps.emplace_back(g.origin[3], slash == std::string::npos ? name : name.substr(slash + 1));
+    steps.push_back({g.origin[3], slash == std::string::npos ? name : name.substr(slash + 1)});
     count += values.size();
   }
   for (auto& f : files) {
     if (const Status st = f->Commit(); !st.ok()) Fail(st);
   }
   files.clear();
-  std::string pvd =
-      "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n<Collection>\n";
-  for (const auto& [time, name] : steps) {
-    pvd += fmt::format("<DataSet timestep=\"{}\" part=\"0\" file=\"{}\"/>\n", time, name);
-  }
-  pvd += "</Collection>\n</VTKFile>\n";
   const std::string pvd_path = CheckOutput(stem + ".pvd", {a.store}, a.force);
-  if (const Status st = WriteFileAtomically(pvd_path, pvd); !st.ok()) Fail(st);
+  if (const Status st = WritePvd(steps, pvd_path); !st.ok()) Fail(st);
   fmt::print("{}: {} {} values ({} in {} time steps) written to {}_t*.{} and {}.pvd\n", a.store,
              count, VoxelTypeName(h.voxel_type), FormatDims(3, dims), steps.size(), stem, ext, stem);
 }

@@ -102,4 +102,21 @@ inline std::string HexBytes(std::string_view s) {
   return out;
 }
 
+// Sets j[key] to `bytes` (a path, a store's source, a line of stdin) in
+// JSON output. JSON text is UTF-8 and a POSIX path is any bytes, so when
+// `bytes` is not valid UTF-8 j[key] holds it with each invalid byte replaced
+// by U+FFFD (readable) and j[key + "_hex"] holds all of its bytes in hex
+// (exact: the value to reuse). Valid UTF-8 is stored as is, with no "_hex".
+// A template over the JSON type so util/ needs no JSON library; query/ (a
+// store's info) and tools/ (every command's --json) both write through it.
+template <class Json>
+void SetJsonBytes(Json& j, const std::string& key, std::string_view bytes) {
+  if (IsValidUtf8(bytes)) {
+    j[key] = std::string(bytes);
+  } else {
+    j[key] = ToValidUtf8(bytes);
+    j[key + "_hex"] = HexBytes(bytes);
+  }
+}
+
 }  // namespace simplexdb

@@ -6,7 +6,9 @@ arrays, hand them to VTK or write them for ParaView.
     mesh = store.extract("3%")              # or an error in field units: 7.5
     mesh.points, mesh.cells, mesh.field     # numpy arrays (physical coordinates)
     mesh.save("tooth_3.vtu")                # VTK's XML format, as `simplexdb extract` writes
+    mesh.save("tooth_3.pvd")                # the same, in a ParaView collection with its time
     grid = mesh.to_vtk()                    # a vtkUnstructuredGrid (needs VTK)
+    grid = mesh.to_pyvista()                # the same as PyVista's grid (needs PyVista)
 
 Stores are the files `simplexdb import` writes (dense .sdb or sparse LMDB,
 HT for 3D volumes, HP for 3D fields over time). Errors raise ValueError for
@@ -57,6 +59,8 @@ class Mesh:
     error       numpy float64, M: each cell's stored error bound
     level       numpy uint8, M: each cell's level in the hierarchy
     stats       dict: the query's statistics (as `extract --format json`)
+    time        an HP time slice's physical time (origin[3] + time x spacing[3]);
+                None for an HT
 
     For an HT the tetrahedra are the leaves, clipped to the real grid; for an
     HP they are the time slice `time=` (without it, points and cells are None
@@ -73,6 +77,9 @@ class Mesh:
         self.error = result.get("error")
         self.level = result.get("level")
         self.cell_codes = result.get("cell_codes")
+        # An HP time slice's physical time (origin[3] + time x spacing[3]);
+        # None for an HT and for pentatopes without a slice.
+        self.time = result.get("time")
 
     def __repr__(self):
         tets = "no tetrahedra" if self.cells is None else f"{len(self.cells):,} tetrahedra"
@@ -87,12 +94,40 @@ class Mesh:
             raise ValueError(f"{what}: an HP mesh has tetrahedra only as a time slice: extract(..., time=T)")
 
     def save(self, path):
-        """Writes the tetrahedra as a VTK XML unstructured grid (.vtu)."""
+        """Writes the tetrahedra for VTK and ParaView, the format named by
+        the extension:
+            .vtu  a VTK XML unstructured grid, as `simplexdb extract -o X.vtu`
+            .pvd  a ParaView collection (the writer of `simplexdb extract -o
+                  X.pvd`) naming X.vtu, written beside it (replacing it), at
+                  the mesh's time: an HP slice's physical time, 0 for an HT.
+        ValueError for another extension; OSError when writing fails (then
+        nothing is left under the name being written)."""
         self._require_tetrahedra("save")
         path = _os.fspath(path)
-        if not path.endswith(".vtu"):
-            raise ValueError(f"{path}: save writes .vtu files")
-        _simplexdb.save_vtu(path, self.points, self.cells, self.field, self.error, self.level, self.cell_codes)
+        if path.endswith(".vtu"):
+            vtu = path
+        elif path.endswith(".pvd"):
+            vtu = path[:-4] + ".vtu"
+        else:
+            raise ValueError(f"{path}: save writes .vtu (an unstructured grid) or .pvd (a ParaView "
+                             f"collection of one .vtu), named by the extension")
+        _simplexdb.save_vtu(vtu, self.points, self.cells, self.field, self.error, self.level, self.cell_codes)
+        if vtu != path:
+            # The .vtu first: the collection never names a missing file.
+            _simplexdb.save_pvd(path, [(0.0 if self.time is None else self.time, _os.path.basename(vtu))])
+
+    def to_pyvista(self):
+        """The tetrahedra as a pyvista.UnstructuredGrid: pyvista.wrap of
+        to_vtk(). Needs PyVista (pip install pyvista; Debian has no package
+        of it): ImportError saying so without it."""
+        self._require_tetrahedra("to_pyvista")
+        try:
+            import pyvista
+        except ImportError as e:
+            raise ImportError("Mesh.to_pyvista needs PyVista, which is not installed: pip install pyvista "
+                              "(Debian has no package of it); Mesh.to_vtk() gives the same grid as VTK's "
+                              "vtkUnstructuredGrid") from e
+        return pyvista.wrap(self.to_vtk())
 
     def to_vtk(self):
         """The tetrahedra as a vtkUnstructuredGrid with point data "field" and
@@ -156,6 +191,8 @@ class Store:
                                     0 if budget is None else int(budget), bool(mesh))
         result["stats"]["threshold"] = threshold
         result["stats"]["hierarchy"] = self.info["hierarchy"]
+        if time is not None and self.dimension == 4:
+            result["time"] = self.origin[3] + float(time) * self.spacing[3]
         return Mesh(self.dimension, result)
 
 

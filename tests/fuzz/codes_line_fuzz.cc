@@ -41,7 +41,7 @@ template <class Code>
 void Check(std::string_view text) {
   const Result<Code> code = Code::Parse(text);
   nlohmann::json j;
-  simplexdb::tools::SetJsonBytes(j, "code", text);
+  simplexdb::SetJsonBytes(j, "code", text);
   if (!code.ok()) {
     if (code.status().message().empty()) Broken("a rejection without a reason", text);
     j["error"] = simplexdb::ToValidUtf8(code.status().message());

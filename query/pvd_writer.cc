@@ -1,0 +1,54 @@
+#include "query/pvd_writer.h"
+
+#include <cassert>
+#include <charconv>
+#include <cmath>
+
+#include "storage/io/file.h"
+
+namespace simplexdb {
+namespace {
+
+// `text` as an XML attribute value (in double quotes).
+std::string XmlEscaped(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<std::string> PvdText(std::span<const PvdDataSet> datasets) {
+  std::string pvd = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"1.0\">\n<Collection>\n";
+  for (const PvdDataSet& d : datasets) {
+    assert(d.file.find('/') == std::string::npos);
+    if (!std::isfinite(d.timestep)) {
+      return Status::InvalidArgument(d.file + ": the time step of a .pvd's data set must be finite, not " +
+                                     std::to_string(d.timestep));
+    }
+    char time[64];
+    // Shortest round-trip text, as fmt's "{}" gives (what the collections
+    // always held).
+    const auto [end, ec] = std::to_chars(time, time + sizeof time, d.timestep);
+    assert(ec == std::errc());
+    pvd += "<DataSet timestep=\"" + std::string(time, end) + "\" part=\"0\" file=\"" + XmlEscaped(d.file) + "\"/>\n";
+  }
+  pvd += "</Collection>\n</VTKFile>\n";
+  return pvd;
+}
+
+Status WritePvd(std::span<const PvdDataSet> datasets, const std::string& path) {
+  SDB_ASSIGN_OR_RETURN(const std::string text, PvdText(datasets));
+  return WriteFileAtomically(path, text);
+}
+
+}  // namespace simplexdb
