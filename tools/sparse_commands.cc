@@ -138,10 +138,15 @@ void ReadSparseField(const HzSparseStore& store, std::vector<double>& values, Pr
     }
     Result<double> v = reader.Field(p);
     if (!v.ok()) Fail(v.status());
-    // A dropped vertex of an integer field is rebuilt as a mean: rounded to
-    // the type (within t + 0.5 of the input; means of values in the type's
-    // range stay in it).
-    values[i] = IsFloatType(h.voxel_type) ? *v : std::round(*v);
+    // A dropped vertex of an integer field is rebuilt from its neighbours,
+    // within t of the input: rounded to the type and clamped to its range
+    // (a rebuilt 0 of uint8 may come out as -1; the input was in range, so
+    // clamping only brings the value nearer to it).
+    values[i] = IsFloatType(h.voxel_type) ? *v : WithVoxelCppType(h.voxel_type, [&](auto zero) {
+      using T = decltype(zero);
+      return std::clamp(std::round(*v), static_cast<double>(std::numeric_limits<T>::lowest()),
+                        static_cast<double>(std::numeric_limits<T>::max()));
+    });
     if ((i & 0xFFFFF) == 0) {
       line.Update(fmt::format("{}: field {}/{}", output, i, values.size()));
     }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -62,6 +63,44 @@ TEST(SparseCli, ImportConvertInfoVerifyRoundTrip) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_LT(Json(r)["kept"].get<uint64_t>(), info["kept"].get<uint64_t>());
   EXPECT_NEAR(Json(r)["tolerance"].get<double>(), 0.1 * (info["field_max"].get<double>() - info["field_min"].get<double>()), 1e-9);
+}
+
+// A lossy store of an integer field converts back to its type: values
+// rebuilt beyond the type's range (a 0 rebuilt as -1) are clamped, and
+// every voxel stays within the tolerance (+ 0.5 for rounding) of the input.
+TEST(SparseCli, LossyIntegerStoreConvertsToDense) {
+  const TempDir dir;
+  const std::string in = dir.path() + "/v.nrrd";
+  // Values pinned at 0 and 255 over wide regions, with noise: rebuilt
+  // vertices there overshoot the type's range.
+  const std::array<uint32_t, 3> n = {24, 20, 18};
+  std::vector<double> v(n[0] * n[1] * n[2]);
+  uint32_t state = 12345;
+  for (size_t i = 0; i < v.size(); ++i) {
+    state = state * 1664525u + 1013904223u;
+    const size_t x = i % n[0];
+    const double base = x < 8 ? 0 : x < 16 ? 128 : 255;
+    v[i] = std::clamp(base + static_cast<double>(state >> 28) - 7, 0.0, 255.0);
+  }
+  {
+    std::ofstream out(in, std::ios::binary);
+    out << "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 24 20 18\nencoding: raw\n\n";
+    for (double x : v) out.put(static_cast<char>(static_cast<uint8_t>(x)));
+  }
+  for (const char* tolerance : {"4", "20"}) {
+    SCOPED_TRACE(tolerance);
+    const std::string sparse = dir.path() + "/s" + tolerance + ".lmdb", dense = dir.path() + "/d" + tolerance + ".sdb",
+                      back = dir.path() + "/b" + tolerance + ".nrrd";
+    ASSERT_EQ(RunCli("import " + in + " --sparse --tolerance " + tolerance + " -o " + sparse + " -q").exit_code, 0);
+    auto r = RunCli("convert " + sparse + " --to dense -o " + dense + " -q");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    ASSERT_EQ(RunCli("export " + dense + " -o " + back).exit_code, 0);
+    const std::vector<double> got = ReadVolumeValues(back);
+    ASSERT_EQ(got.size(), v.size());
+    double worst = 0;
+    for (size_t i = 0; i < v.size(); ++i) worst = std::max(worst, std::fabs(got[i] - v[i]));
+    EXPECT_LE(worst, std::stod(tolerance) + 0.5);
+  }
 }
 
 TEST(SparseCli, WrongInputSaysWhat) {
