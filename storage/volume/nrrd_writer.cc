@@ -10,24 +10,25 @@
 #include <vector>
 
 #include "storage/io/file.h"
+#include "storage/volume/writer_internal.h"
 
 namespace simplexdb {
-namespace {
 
-// Shortest text that reads back as the same double.
+namespace volume_internal {
+
 std::string FormatDouble(double v) {
   char buf[64];
   const auto r = std::to_chars(buf, buf + sizeof(buf), v);
   return std::string(buf, r.ptr);
 }
 
-Status CheckInput(const std::string& path, int dimension,
-                  const std::array<uint32_t, 4>& dims, VoxelType type,
-                  std::span<const double> values,
-                  const std::array<double, 4>& spacing, const NrrdOrigin& origin) {
+Status CheckImage(const std::string& path, int dimension, const std::array<uint32_t, 4>& dims,
+                  VoxelType type, std::span<const double> values,
+                  const std::array<double, 4>& spacing,
+                  const std::optional<std::array<double, 3>>& origin) {
   if (origin && !std::all_of(origin->begin(), origin->end(),
                              [](double v) { return std::isfinite(v); })) {
-    return Status::InvalidArgument(path + ": the space origin must be finite");
+    return Status::InvalidArgument(path + ": the origin must be finite");
   }
   if (!IsValidVoxelType(type)) {
     return Status::InvalidArgument(path + ": voxel type code " +
@@ -49,7 +50,7 @@ Status CheckInput(const std::string& path, int dimension,
                                      std::to_string(dims[a]) + " samples, expected 1");
     }
     // Positive: VTK's NRRD reader (so ParaView) takes a space direction's
-    // length and drops its sign, so a flipped axis is written reversed.
+    // length and drops its sign; callers write a flipped axis reversed.
     if (i < dimension && !(std::isfinite(spacing[a]) && spacing[a] > 0)) {
       return Status::InvalidArgument(path + ": spacing " + FormatDouble(spacing[a]) +
                                      " along " + "xyzt"[i] +
@@ -72,6 +73,13 @@ Status CheckInput(const std::string& path, int dimension,
   }
   return Status::OK();
 }
+
+}  // namespace volume_internal
+
+namespace {
+
+using volume_internal::CheckImage;
+using volume_internal::FormatDouble;
 
 // The header up to and including its last field line.
 // With an origin: the space fields for x, y, z instead of "spacings:" (the
@@ -171,7 +179,7 @@ Result<std::unique_ptr<AtomicFileWriter>> PrepareNrrd(const std::string& path, i
                                                       std::span<const double> values,
                                                       std::array<double, 4> spacing,
                                                       NrrdOrigin origin) {
-  SDB_RETURN_IF_ERROR(CheckInput(path, dimension, dims, type, values, spacing, origin));
+  SDB_RETURN_IF_ERROR(CheckImage(path, dimension, dims, type, values, spacing, origin));
   // A blank line ends an attached header; the voxels follow it.
   const std::string header = NrrdHeader(dimension, dims, type, spacing, origin) + "\n";
   SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> file, AtomicFileWriter::Create(path));
@@ -194,7 +202,7 @@ Status WriteRawWithNhdr(const std::string& raw_path, const std::string& nhdr_pat
                         int dimension, std::array<uint32_t, 4> dims,
                         VoxelType type, std::span<const double> values,
                         std::array<double, 4> spacing, NrrdOrigin origin) {
-  SDB_RETURN_IF_ERROR(CheckInput(nhdr_path, dimension, dims, type, values, spacing, origin));
+  SDB_RETURN_IF_ERROR(CheckImage(nhdr_path, dimension, dims, type, values, spacing, origin));
   SDB_ASSIGN_OR_RETURN(const std::string data_file, DataFileName(raw_path, nhdr_path));
   {
     SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> raw, AtomicFileWriter::Create(raw_path));

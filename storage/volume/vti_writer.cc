@@ -5,17 +5,13 @@
 #include <cmath>
 #include <vector>
 
+#include "storage/volume/writer_internal.h"
 #include "util/little_endian.h"
 
 namespace simplexdb {
 namespace {
 
-// Shortest text that reads back as the same double.
-std::string FormatDouble(double v) {
-  char buf[64];
-  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
-  return std::string(buf, r.ptr);
-}
+using volume_internal::FormatDouble;
 
 const char* VtkTypeName(VoxelType type) {
   switch (type) {
@@ -29,39 +25,6 @@ const char* VtkTypeName(VoxelType type) {
   return "";
 }
 
-Status CheckInput(const std::string& path, const std::array<uint32_t, 3>& dims, VoxelType type,
-                  std::span<const double> values, const std::array<double, 3>& spacing,
-                  const std::array<double, 3>& origin) {
-  if (!IsValidVoxelType(type)) {
-    return Status::InvalidArgument(path + ": voxel type code " +
-                                   std::to_string(static_cast<int>(type)) +
-                                   " is not one of the six types");
-  }
-  uint64_t count = 1;
-  for (size_t a = 0; a < 3; ++a) {
-    if (dims[a] < 1) return Status::InvalidArgument(path + ": axis " + "xyz"[a] + " has 0 samples");
-    if (!(std::isfinite(spacing[a]) && spacing[a] > 0)) {
-      return Status::InvalidArgument(path + ": spacing " + FormatDouble(spacing[a]) + " along " +
-                                     "xyz"[a] + ", expected a positive finite number");
-    }
-    if (!std::isfinite(origin[a])) return Status::InvalidArgument(path + ": the origin must be finite");
-    count *= dims[a];
-  }
-  if (values.size() != count) {
-    return Status::InvalidArgument(path + ": " + std::to_string(values.size()) + " values for " +
-                                   std::to_string(count) + " voxels");
-  }
-  const auto bad = std::find_if(values.begin(), values.end(),
-                                [&](double v) { return !IsRepresentable(type, v); });
-  if (bad != values.end()) {
-    return Status::InvalidArgument(path + ": value " + FormatDouble(*bad) + " at voxel " +
-                                   std::to_string(bad - values.begin()) +
-                                   " is not representable as " + std::string(VoxelTypeName(type)) +
-                                   " (round or clamp it first)");
-  }
-  return Status::OK();
-}
-
 }  // namespace
 
 Result<std::unique_ptr<AtomicFileWriter>> PrepareVti(const std::string& path,
@@ -70,7 +33,8 @@ Result<std::unique_ptr<AtomicFileWriter>> PrepareVti(const std::string& path,
                                                      std::span<const double> values,
                                                      std::array<double, 3> spacing,
                                                      std::array<double, 3> origin) {
-  SDB_RETURN_IF_ERROR(CheckInput(path, dims, type, values, spacing, origin));
+  SDB_RETURN_IF_ERROR(volume_internal::CheckImage(path, 3, {dims[0], dims[1], dims[2], 1}, type, values,
+                                                  {spacing[0], spacing[1], spacing[2], 1}, origin));
   const std::string extent = "0 " + std::to_string(dims[0] - 1) + " 0 " +
                              std::to_string(dims[1] - 1) + " 0 " + std::to_string(dims[2] - 1);
   std::string xml =
