@@ -8,13 +8,19 @@ arrays, hand them to VTK or write them for ParaView.
     mesh.save("tooth_3.vtu")                # VTK's XML format, as `simplexdb extract` writes
     grid = mesh.to_vtk()                    # a vtkUnstructuredGrid (needs VTK)
 
+    store = simplexdb.import_volume(array, "v.sdb")   # numpy (Z, Y, X) C order, or a file
+    store.export(roi=None, step=1)          # the grid as a (Z, Y, X) array: the array back
+    store.field_at(points)                  # N x 3 (HP: N x 4) physical coordinates
+    simplexdb.codes("ht", ["2:10011"])      # what `simplexdb codes` prints, as dicts
+
 Stores are the files `simplexdb import` writes (dense .sdb or sparse LMDB,
 HT for 3D volumes, HP for 3D fields over time). Errors raise ValueError for
 bad arguments and OSError for files that are missing, unreadable or
 damaged, with SimplexDB's message.
 
 Threads: a store may be queried from several threads at once; the GIL is
-released while a store opens and while a query runs.
+released while a store opens, while a query runs and while import_volume
+builds.
 
 Arrays: every array of a Mesh is a numpy view of the buffer the C++ query
 filled, handed over without a copy; numpy owns it from then on.
