@@ -19,12 +19,14 @@
 // field lookups.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "hierarchy/geometry.h"
 #include "hierarchy/simplex_code.h"

@@ -255,7 +255,8 @@ def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compre
         not copied. x is the axis adjacent in memory: a C-order array has
         shape (Z, Y, X) or (T, Z, Y, X), as np.fromfile(f, t).reshape(nz, ny,
         nx) gives; a Fortran-order array has shape (X, Y, Z) or (X, Y, Z, T),
-        as nibabel gives. Both import the same as a raw file of dims X,Y,Z.
+        as nibabel gives. Both import the same as a raw file of dims X,Y,Z
+        (and, as for files, 4 axes with one time step are a 3D volume).
         Or a path: NRRD (.nrrd, .nhdr) or NIfTI-1 (.nii), or a raw file with
         `dims` (X, Y, Z[, T], x fastest) and `dtype` (a numpy dtype; '>u2'
         for big-endian), after `offset` header bytes.
