@@ -15,6 +15,8 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -195,7 +197,6 @@ std::string CodeString(uint64_t key) {
   return SimplexCode<D>::FromKey(key).ToString();
 }
 
-
 // --- import_volume, export, field_at (simplexdb/__init__.py checks the
 // arguments' shapes and types first; these check what only C++ knows) ---
 
@@ -237,7 +238,9 @@ void ImportVolumeCore(const py::object& input, const std::string& output,
                       std::optional<std::string> source, std::optional<std::vector<uint32_t>> dims,
                       const std::string& type, const std::string& endian, uint64_t offset,
                       int threads) {
-  if (threads < 0) throw py::value_error("threads: expected a count >= 0 (0: one per core), not " + std::to_string(threads));
+  if (threads < 0) {
+    throw py::value_error("threads: expected a count >= 0 (0: one per core), not " + std::to_string(threads));
+  }
   ImportOptions options;
   options.threads = threads;
   options.hierarchy = hierarchy;
@@ -248,21 +251,29 @@ void ImportVolumeCore(const py::object& input, const std::string& output,
   Result<Compression> c = ParseCompression(compression);
   if (!c.ok()) throw py::value_error("compression: " + std::string(c.status().message()));
   options.compression = *c;
-  Result<VolumeInfo> volume = Status::OK();
-  const bool is_array = py::isinstance<py::array>(input);
-  if (is_array) {
-    volume = ArrayVolume(input.cast<py::array>(), *dims, type, endian,
-                         source ? *source : "numpy array");
-  } else if (dims) {
-    Result<VoxelType> t = ParseVoxelType(type);
-    if (!t.ok()) throw py::value_error("dtype: " + std::string(t.status().message()));
-    std::array<uint32_t, 4> d = {1, 1, 1, 1};
-    std::copy(dims->begin(), dims->end(), d.begin());
-    volume = OpenRawVolume(input.cast<std::string>(), static_cast<int>(dims->size()), d, *t,
-                           endian == "big" ? ByteOrder::kBig : ByteOrder::kLittle, offset);
-  } else {
-    volume = OpenVolume(input.cast<std::string>());
+  if (dims && dims->size() != 3 && dims->size() != 4) {
+    throw py::value_error("dims: expected X, Y, Z[, T], got " + std::to_string(dims->size()) + " numbers");
   }
+  const bool is_array = py::isinstance<py::array>(input);
+  Result<VolumeInfo> volume = [&]() -> Result<VolumeInfo> {
+    if (is_array) {
+      std::array<uint32_t, 4> d = {1, 1, 1, 1};
+      std::copy(dims->begin(), dims->end(), d.begin());
+      return ArrayVolume(input.cast<py::array>(), *dims, type, endian,
+                         source ? *source
+                                : "numpy array (" + type + ", " +
+                                      FormatDims(static_cast<int>(dims->size()), d) + ")");
+    }
+    if (dims) {
+      Result<VoxelType> t = ParseVoxelType(type);
+      if (!t.ok()) throw py::value_error("dtype: " + std::string(t.status().message()));
+      std::array<uint32_t, 4> d = {1, 1, 1, 1};
+      std::copy(dims->begin(), dims->end(), d.begin());
+      return OpenRawVolume(input.cast<std::string>(), static_cast<int>(dims->size()), d, *t,
+                           endian == "big" ? ByteOrder::kBig : ByteOrder::kLittle, offset);
+    }
+    return OpenVolume(input.cast<std::string>());
+  }();
   if (!volume.ok()) Raise(volume.status());
   if (source && !is_array) volume->description = *source;
   // spacing and origin: one number per axis, x first (as --spacing, --origin).
@@ -278,7 +289,9 @@ void ImportVolumeCore(const py::object& input, const std::string& output,
     for (size_t a = 0; a < v.size(); ++a) {
       const bool spacing_axis = std::string(name) == "spacing";
       if (!std::isfinite(v[a]) || (spacing_axis && !(v[a] > 0))) {
-        throw py::value_error(std::string(name) + ": " + std::to_string(v[a]) + " on axis " +
+        char number[32];
+        std::snprintf(number, sizeof number, "%g", v[a]);
+        throw py::value_error(std::string(name) + ": " + number + " on axis " +
                               std::to_string(a) + " is not " +
                               (spacing_axis ? "a finite number > 0" : "a finite number"));
       }
@@ -298,11 +311,10 @@ void ImportVolumeCore(const py::object& input, const std::string& output,
       drawn = true;
     };
   }
-  Result<ImportReport> report = Status::OK();
-  {
+  const Result<ImportReport> report = [&] {
     py::gil_scoped_release unlocked;  // `input` stays referenced by the caller's frame
-    report = ImportVolume(*volume, *resolved, options);
-  }
+    return ImportVolume(*volume, *resolved, options);
+  }();
   if (drawn) std::fprintf(stderr, "\r\033[K");
   if (!report.ok()) Raise(report.status());
 }
@@ -326,11 +338,10 @@ py::array_t<double> ExportField(const std::shared_ptr<AnyStore>& store,
       box.hi[c] = (*roi)[d + c];
     }
   }
-  Result<std::vector<double>> values = Status::OK();
-  {
+  Result<std::vector<double>> values = [&] {
     py::gil_scoped_release unlocked;
-    values = ReadGridBox(*store, box);
-  }
+    return ReadGridBox(*store, box);
+  }();
   if (!values.ok()) Raise(values.status());
   const std::array<uint32_t, 4> dims = ExportDims(box, d);
   std::vector<py::ssize_t> shape;

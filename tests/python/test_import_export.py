@@ -114,6 +114,7 @@ def test_spacing_and_origin_are_kept(tmp_path):
     assert store.origin == (-3.0, 4.0, 5.5, 100.0)
     info = json.loads(run("info", tmp_path / "p.sdb", "--json"))
     assert info["spacing"] == [0.5, 2.0, 1.25, 0.1] and info["origin"] == [-3.0, 4.0, 5.5, 100.0]
+    assert info["source"] == "numpy array (float32, 6x5x4x3)"
     # A NRRD's own spacing is kept, and replaced when spacing= is given.
     raw = tmp_path / "v.raw"
     voxels("uint8", SHAPES["ht"]).tofile(raw)
