@@ -328,7 +328,8 @@ def codes(hierarchy, codes):  # noqa: A002 (the CLI's name)
     them; a string that is not a code raises ValueError naming it."""
     import json
     single = isinstance(codes, str)
-    out = [json.loads(_simplexdb.describe_code(str(hierarchy), c)) for c in ([codes] if single else codes)]
+    name = str(hierarchy).lower()  # the CLI takes any case
+    out = [json.loads(_simplexdb.describe_code(name, str(c))) for c in ([codes] if single else codes)]
     return out[0] if single else out
 
 

@@ -210,6 +210,7 @@ def test_codes_are_the_cli_objects():
         printed = run("codes", "--hierarchy", hierarchy, stdin="\n".join(codes) + "\n").splitlines()
         assert simplexdb.codes(hierarchy, codes) == [json.loads(line) for line in printed]
         assert simplexdb.codes(hierarchy, codes[0]) == json.loads(printed[0])
+        assert simplexdb.codes(hierarchy.upper(), codes[:1]) == [json.loads(printed[0])]
     with pytest.raises(ValueError, match="not a location code"):
         simplexdb.codes("ht", ["0:", "banana"])
     with pytest.raises(ValueError, match="expected ht, hp, tri-icosahedron"):
