@@ -3,7 +3,6 @@
 // sparse_commands.cc).
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cmath>
 #include <iostream>
 #include <limits>
@@ -24,7 +23,6 @@
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/brick_codec.h"
 #include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_lattice.h"
 #include "storage/dense/hz_store.h"
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
