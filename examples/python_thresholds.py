@@ -1,25 +1,20 @@
 #!/usr/bin/env python3
 """SimplexDB from Python on a real volume: the tooth CT of ../shared/data
-(the volume the demo uses), imported into a store, extracted at two error
-thresholds, and drawn with matplotlib:
+(the volume the demo uses), imported from a numpy array into a store,
+extracted at two error thresholds, and drawn with matplotlib:
 
   mesh_sizes.png   the meshes' tetrahedra and points per threshold
-  slice.png        the volume cut by a plane z = const, with the cells of each
-                   mesh that cross that plane drawn over it (where the mesh is
-                   fine the field changes fast)
+  slice.png        the store's field on a plane z = const (store.field_at),
+                   with the cells of each mesh that cross that plane drawn
+                   over it (where the mesh is fine the field changes fast)
 
     PYTHONPATH=build/release/python python3 examples/python_thresholds.py [OUT]
 
 OUT defaults to out/python-example (ignored by git). Needs numpy and
-matplotlib (Debian: python3-numpy, python3-matplotlib); the store is built by
-simplexdb.import_volume when the package has it, else by the `simplexdb`
-command ($SIMPLEXDB_CLI, else on PATH, else build/release/tools/simplexdb).
+matplotlib (Debian: python3-numpy, python3-matplotlib).
 """
 import argparse
-import os
 import pathlib
-import shutil
-import subprocess
 import sys
 
 import numpy as np
@@ -33,41 +28,13 @@ DIMS = (103, 94, 161)
 THRESHOLDS = ("5%", "15%")  # of the field range: fine and coarse
 
 
-def simplexdb_command():
-    for candidate in (os.environ.get("SIMPLEXDB_CLI"), shutil.which("simplexdb"),
-                      REPOSITORY / "build/release/tools/simplexdb"):
-        if candidate and pathlib.Path(candidate).is_file():
-            return str(candidate)
-    sys.exit("python_thresholds.py: no `simplexdb` command: set SIMPLEXDB_CLI, put it on PATH "
-             "or build it (cmake --build --preset release)")
-
-
 def import_tooth(raw, out):
-    """The store of the tooth at `out`. The raw file does not describe itself,
-    so a NRRD header beside the store names it with its layout: a path that
-    import_volume and `simplexdb import` both read as is."""
-    header = out.with_suffix(".nhdr")
-    header.write_text("NRRD0004\ntype: uint8\ndimension: 3\nsizes: {} {} {}\nencoding: raw\n"
-                      "data file: {}\n\n".format(*DIMS, raw.resolve()))
-    if hasattr(simplexdb, "import_volume"):
-        simplexdb.import_volume(str(header), str(out))
-    else:
-        # Before the package could import (simplexdb.import_volume), the
-        # command built stores; the store is the same either way.
-        subprocess.run([simplexdb_command(), "import", str(header), "-o", str(out), "-q", "--force"],
-                       check=True)
-    return simplexdb.open(out)
-
-
-def volume_of(store, raw):
-    """The voxels as a z, y, x array: store.export() when the package has it,
-    else the raw file itself (the same voxels: the store is lossless)."""
-    if hasattr(store, "export"):
-        try:
-            return np.asarray(store.export(), dtype=np.float64).reshape(DIMS[::-1])
-        except TypeError:
-            pass  # an export that wants arguments this script does not know
-    return np.fromfile(raw, dtype=np.uint8).reshape(DIMS[::-1]).astype(np.float64)
+    """The store of the tooth at `out`, built from the raw file read as a
+    numpy array (C order: z, y, x), which import_volume reads in place."""
+    if out.exists():
+        out.unlink()  # a store from an earlier run
+    voxels = np.fromfile(raw, dtype=np.uint8).reshape(DIMS[::-1])
+    return simplexdb.import_volume(voxels, out, progress=False)
 
 
 def cut(mesh, store, z):
@@ -135,12 +102,13 @@ def main():
     fig.savefig(sizes_png, dpi=100)
     plt.close(fig)
 
-    # The plane half-way between two grid planes: no mesh point lies on it, and
-    # the field there is the mean of the two planes (trilinear interpolation).
-    k = DIMS[2] // 2
-    z = k + 0.5
-    volume = volume_of(store, raw)
-    image = 0.5 * (volume[k] + volume[k + 1])
+    # The plane half-way between two grid planes (no mesh point lies on it),
+    # and the store's full-resolution field there, as the hierarchy
+    # interpolates it.
+    z = DIMS[2] // 2 + 0.5
+    y, x = np.mgrid[0:DIMS[1], 0:DIMS[0]]
+    plane = np.stack([x.ravel(), y.ravel(), np.full(x.size, z)], axis=1).astype(np.float64)
+    image = store.field_at(plane, units="grid").reshape(DIMS[1], DIMS[0])
     fig, axes = plt.subplots(1, len(THRESHOLDS), figsize=(6 * len(THRESHOLDS), 5.5))
     for ax, (t, mesh) in zip(np.atleast_1d(axes), meshes.items()):
         ax.imshow(image, origin="lower", cmap="gray", extent=(-0.5, DIMS[0] - 0.5, -0.5, DIMS[1] - 0.5))

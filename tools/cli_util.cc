@@ -1,5 +1,6 @@
 #include "tools/cli_util.h"
 
+#include "query/import_volume.h"
 #include "storage/io/file.h"
 
 #include <sys/resource.h>
@@ -277,10 +278,7 @@ std::unique_ptr<DenseStore> OpenDenseStore(const std::string& path) {
 
 std::function<void(const BuildProgress&)> ProgressTo(ProgressLine& line,
                                                          const std::string& output) {
-  return [&line, output](const BuildProgress& p) {
-    line.Update(fmt::format("{}: {} {}/{} ({:.0f}%), {:.1f} s", output, p.phase, p.done, p.total,
-                            p.total ? 100.0 * p.done / p.total : 100.0, p.seconds));
-  };
+  return [&line, output](const BuildProgress& p) { line.Update(DescribeProgress(output, p)); };
 }
 
 }  // namespace simplexdb::tools

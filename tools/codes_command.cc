@@ -18,6 +18,7 @@
 #include "hierarchy/tri_code.h"
 #include "hierarchy/tri_geometry.h"
 #include "hierarchy/tri_neighbors.h"
+#include "query/code_json.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 
@@ -40,80 +41,10 @@ constexpr const char* kHierarchyHelp =
     "tri-icosahedron, tri-octahedron, tri-tetrahedron: triangle quadtrees on\n"
     "the sphere over that solid's faces (codes F:bits, two bits per level)";
 
-template <class Code>
-json CodeOrNull(Code c) {
-  return c.is_none() ? json(nullptr) : json(c.ToString());
-}
-
-template <int D>
-double UnitCoordinate(int32_t x) {
-  return static_cast<double>(x) / static_cast<double>(kDomainSide<D>);
-}
-
-// The "parent" and "children" of a line: null for a root's parent, and for
-// the children of a code at the maximum level (no deeper level fits in the
-// 64-bit key).
-template <class Code>
-void AddParentAndChildren(json& j, Code code, int children) {
-  j["parent"] = code.level() > 0 ? json(code.parent().ToString()) : json(nullptr);
-  if (code.level() < Code::kMaxLevel) {
-    json list = json::array();
-    for (int i = 0; i < children; ++i) list.push_back(code.child(i).ToString());
-    j["children"] = std::move(list);
-  } else {
-    j["children"] = nullptr;
-  }
-}
-
-// One line of the `codes` contract.
-template <int D>
-json DescribeJson(SimplexCode<D> code) {
-  json j;
-  j["code"] = code.ToString();
-  j["level"] = code.level();
-  json vertices = json::array();
-  for (const Point<D>& p : Vertices(code)) {
-    json xyz = json::array();
-    for (int32_t x : p) xyz.push_back(UnitCoordinate<D>(x));
-    vertices.push_back(std::move(xyz));
-  }
-  j["vertices"] = std::move(vertices);
-  json neighbors = json::array();
-  for (int k = 1; k <= D + 1; ++k) neighbors.push_back(CodeOrNull(Neighbor(code, k)));
-  j["neighbors"] = std::move(neighbors);
-  AddParentAndChildren(j, code, 2);
-  json cluster = json::array();
-  for (const SimplexCode<D> m : Cluster(code)) cluster.push_back(m.ToString());
-  j["cluster"] = std::move(cluster);
-  return j;
-}
-
 std::string_view Trim(std::string_view s) {
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
   return s;
-}
-
-// One line of the `codes` contract for a triangle quadtree: vertices
-// (apex, left, right) on the solid inscribed in the unit sphere, neighbors
-// left, right, vertical (a closed surface: never null), four children, no
-// cluster (triangles are not bisected).
-template <Polyhedron P>
-json DescribeJson(TriCode<P> code) {
-  json j;
-  j["code"] = code.ToString();
-  j["level"] = code.level();
-  json vertices = json::array();
-  for (const Vec3& p : PolyhedronVertices(code)) vertices.push_back({p[0], p[1], p[2]});
-  j["vertices"] = std::move(vertices);
-  json neighbors = json::array();
-  for (int d = 0; d < kTriDirections; ++d) {
-    neighbors.push_back(CodeOrNull(TriNeighbor(code, static_cast<TriDirection>(d))));
-  }
-  j["neighbors"] = std::move(neighbors);
-  AddParentAndChildren(j, code, 4);
-  j["cluster"] = json::array();
-  return j;
 }
 
 // Far longer than any code ("T:" and at most 56 bits): a longer line is
@@ -146,7 +77,7 @@ void RunCodes() {
       std::cerr << fmt::format("simplexdb codes: line {}: {}\n", line_number, why);
       continue;
     }
-    std::cout << DescribeJson(*code).dump() << '\n';
+    std::cout << CodeJson(*code) << '\n';
   }
   std::cout.flush();
   if (bad > 0) {

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "query/import_volume.h"
 #include "query/open_store.h"
 #include "query/store_info.h"
 #include "storage/dense/hz_builder.h"
@@ -296,9 +297,10 @@ void ImportSparse(const VolumeInfo& input, const std::string& output, const Dens
                        "import a dense store",
                        2);
   }
-  HzSparseBuildOptions options;
+  ImportOptions options;  // the builder ImportVolume runs (query/import_volume.h)
+  options.sparse = true;
   options.quantization = common.quantization;
-  if (common.zstd_level > 0) options.zstd_level = common.zstd_level;
+  options.zstd_level = common.zstd_level;
   options.memory_bytes = common.memory_bytes;
   options.threads = common.threads;
   options.tolerance_percent = !tolerance.empty() && tolerance.back() == '%';
@@ -306,9 +308,10 @@ void ImportSparse(const VolumeInfo& input, const std::string& output, const Dens
   options.tolerance = ParseAmount(tolerance, "--tolerance", 100.0);
   ProgressLine line(!quiet && !as_json);
   options.progress = ProgressTo(line, output);
-  const Result<HzSparseBuildReport> built = BuildHzSparseStore(input, output, options);
+  const Result<ImportReport> imported = ImportVolume(input, output, options);
   line.Finish();
-  if (!built.ok()) Fail(built.status());
+  if (!imported.ok()) Fail(imported.status());
+  const HzSparseBuildReport* built = &*imported->sparse;
   PrintSparseReport(*built, output, as_json, quiet);
   if (input.scaled() && !quiet && !as_json) {
     fmt::print("  scaled: {} -> {}\n", FormatScaling(input),

@@ -3,7 +3,6 @@
 // sparse_commands.cc).
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cmath>
 #include <iostream>
 #include <limits>
@@ -18,13 +17,14 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "query/import_volume.h"
 #include "query/open_store.h"
 #include "query/pvd_writer.h"
+#include "query/read_grid.h"
 #include "query/store_info.h"
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/brick_codec.h"
 #include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_lattice.h"
 #include "storage/dense/hz_store.h"
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
@@ -61,21 +61,23 @@ struct ImportArgs {
   bool force = false;
 };
 
-// The dense store (format 2, storage/dense/hz_builder.h).
+// The dense store (format 2, storage/dense/hz_builder.h), built by
+// ImportVolume (query/import_volume.h, shared with the Python package).
 // `common`: the options import sets for either store.
 void ImportDense(const VolumeInfo& input, const ImportArgs& a, const DenseBuildOptions& common) {
-  HzBuildOptions options;
+  ImportOptions options;
   options.quantization = common.quantization;
   options.compression = common.compression;
-  if (common.zstd_level > 0) options.zstd_level = common.zstd_level;
+  options.zstd_level = common.zstd_level;
   options.memory_bytes = common.memory_bytes;
   options.threads = common.threads;
   options.mask = common.mask;
   ProgressLine line(!a.quiet);
   options.progress = ProgressTo(line, a.output);
-  const Result<HzBuildReport> built = BuildHzStore(input, a.output, options);
+  const Result<ImportReport> imported = ImportVolume(input, a.output, options);
   line.Finish();
-  if (!built.ok()) Fail(built.status());
+  if (!imported.ok()) Fail(imported.status());
+  const HzBuildReport* built = &*imported->dense;
   const HzHeader& h = built->header;
   const double points_per_second = built->grid_points / std::max(built->seconds, 1e-9);
   const uint64_t peak = PeakResidentBytes();
@@ -120,12 +122,12 @@ void ImportDense(const VolumeInfo& input, const ImportArgs& a, const DenseBuildO
 void RunImport(ImportArgs a) {
   if (!a.sparse && a.tolerance != "0") throw CommandError("--tolerance needs --sparse", 2);
   const VolumeInfo input = OpenInputs(a.inputs, a.raw);
-  const std::string expected = HierarchyName(input.dimension);
-  if (!a.hierarchy.empty() && a.hierarchy != expected) {
-    throw CommandError(fmt::format("--hierarchy {} needs a {}D volume; {} is {}D ({})", a.hierarchy,
-                                   a.hierarchy == "ht" ? 3 : 4, input.description,
-                                   input.dimension, FormatDims(input.dimension, input.dims)),
-                       2);
+  {
+    ImportOptions hierarchy;  // CheckImport's message starts with the option's name
+    hierarchy.hierarchy = a.hierarchy;
+    if (const Status s = CheckImport(input, hierarchy); !s.ok()) {
+      throw CommandError("--" + std::string(s.message()), 2);
+    }
   }
   DenseBuildOptions options;
   Result<Quantization> q = ParseQuantization(a.quantization);
@@ -251,12 +253,6 @@ struct ExportArgs {
   bool force = false;
 };
 
-// A box of the grid, inclusive, and the step between the points read.
-struct ExportBox {
-  std::array<int64_t, 4> lo = {0, 0, 0, 0}, hi = {0, 0, 0, 0};
-  int step = 1;
-};
-
 bool EndsWith(const std::string& s, std::string_view suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
@@ -311,42 +307,16 @@ ExportBox ResolveExportBox(const HzStore& store, const ExportArgs& a) {
 }
 
 // The points of `box` (every box.step-th, x fastest; along t too, unless
-// the box is one time step) as read from the store; `dims` gets the count
-// per axis.
+// the box is one time step) as read from the store (ReadGridBox,
+// query/read_grid.h, which Store.export in Python reads through too);
+// `dims` gets the count per axis.
 template <int D>
 std::vector<double> ReadExportBox(const HzStore& store, const ExportBox& box,
                                   std::array<uint32_t, 4>* dims) {
-  const HzHeader& h = store.header();
-  *dims = {1, 1, 1, 1};
-  for (int c = 0; c < D; ++c) {
-    (*dims)[c] = static_cast<uint32_t>((box.hi[c] - box.lo[c]) / box.step + 1);
-  }
-  uint64_t count = 1;
-  for (uint32_t d : *dims) count *= d;
-  std::vector<double> values(count);
-  // A power-of-two step from a multiple of it: one lattice's bricks (a
-  // coarse read decodes only them); otherwise point by point.
-  const int lattice = std::countr_zero(static_cast<uint64_t>(box.step));
-  bool read = (box.step & (box.step - 1)) == 0 && lattice <= h.domain_bits;
-  for (int c = 0; c < D; ++c) read = read && box.lo[c] % box.step == 0;
-  if (read) {
-    const Status st = ReadLattice(store, lattice, box.lo, box.hi, values.data());
-    if (!st.ok()) Fail(st);
-    return values;
-  }
-  HzStore::Reader<D> reader(store);
-  std::array<int64_t, D> p{};
-  for (uint64_t i = 0; i < count; ++i) {
-    uint64_t rest = i;
-    for (int c = 0; c < D; ++c) {
-      p[c] = box.lo[c] + static_cast<int64_t>(rest % (*dims)[c]) * box.step;
-      rest /= (*dims)[c];
-    }
-    const Result<double> v = reader.Field(p);
-    if (!v.ok()) Fail(v.status());
-    values[i] = *v;
-  }
-  return values;
+  *dims = ExportDims(box, D);
+  Result<std::vector<double>> values = ReadGridBox(store, box);
+  if (!values.ok()) Fail(values.status());
+  return *std::move(values);
 }
 
 // The physical placement of a box: voxel size (the store's spacing times the

@@ -10,19 +10,26 @@ arrays, hand them to VTK or write them for ParaView.
     grid = mesh.to_vtk()                    # a vtkUnstructuredGrid (needs VTK)
     grid = mesh.to_pyvista()                # the same as PyVista's grid (needs PyVista)
 
+    store = simplexdb.import_volume(array, "v.sdb")   # numpy (Z, Y, X) C order, or a file
+    store.export(roi=None, step=1)          # the grid as a (Z, Y, X) array: the array back
+    store.field_at(points)                  # N x 3 (HP: N x 4) physical coordinates
+    simplexdb.codes("ht", ["2:10011"])      # what `simplexdb codes` prints, as dicts
+
 Stores are the files `simplexdb import` writes (dense .sdb or sparse LMDB,
 HT for 3D volumes, HP for 3D fields over time). Errors raise ValueError for
 bad arguments and OSError for files that are missing, unreadable or
 damaged, with SimplexDB's message.
 
 Threads: a store may be queried from several threads at once; the GIL is
-released while a store opens and while a query runs.
+released while a store opens, while a query runs and while import_volume
+builds.
 
 Arrays: every array of a Mesh is a numpy view of the buffer the C++ query
 filled, handed over without a copy; numpy owns it from then on.
 """
 
 import os as _os
+import sys as _sys
 
 from . import _simplexdb
 
@@ -195,9 +202,173 @@ class Store:
             result["time"] = self.origin[3] + float(time) * self.spacing[3]
         return Mesh(self.dimension, result)
 
+    def export(self, roi=None, step=1):
+        """The field on the grid, as `simplexdb export` writes it: a C-order
+        numpy array of shape (Z, Y, X) (HP: (T, Z, Y, X)), of the store's
+        voxel type, so that export() of a store import_volume built from a
+        C-order array `a` equals `a`. `roi` is a box of grid indices,
+        inclusive, x first: (x0, y0, z0, x1, y1, z1) (HP: (x0, y0, z0, t0,
+        x1, y1, z1, t1)); `step` takes every step-th point along each axis.
+        A sparse store gives its rebuilt values (exact when lossless; integer
+        types rounded)."""
+        import numpy as np
+        if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
+            raise ValueError(f"step: expected a whole number >= 1, not {step!r}")
+        if roi is not None:
+            roi = list(roi)
+            if any(isinstance(x, bool) or not isinstance(x, (int, np.integer)) for x in roi):
+                raise ValueError(f"roi: expected whole grid indices, not {roi!r}")
+            roi = [int(x) for x in roi]
+        values = _simplexdb.export(self._core, roi, int(step))
+        dtype = np.dtype(_simplexdb.voxel_type(self._core))
+        if dtype.kind in "iu":
+            values = np.rint(values)
+        return values.astype(dtype)
+
+    def field_at(self, points, units="physical"):
+        """The field at `points`, an N x 3 (HP: N x 4) array of x, y, z[, t]
+        in physical coordinates (origin + spacing x grid, as Mesh.points) or,
+        with units="grid", in grid indices; numpy float64 of length N. The
+        field is the store's full-resolution one, interpolated linearly over
+        the finest simplex of the hierarchy that holds the point: exact at
+        grid points, between a grid cell's corner values inside it. A point
+        outside the grid raises ValueError naming it and the range."""
+        import numpy as np
+        if units not in ("physical", "grid"):
+            raise ValueError(f"units: expected 'physical' or 'grid', not {units!r}")
+        p = np.array(points, dtype=np.float64, ndmin=2)
+        if p.ndim != 2 or p.shape[1] != self.dimension:
+            raise ValueError(f"points: expected an N x {self.dimension} array, got shape {p.shape}")
+        if units == "physical":
+            origin, spacing = np.asarray(self.origin), np.asarray(self.spacing)
+            grid = (p - origin) / spacing
+            last = origin + spacing * (np.asarray(self.dims) - 1)
+            outside = ~np.all((grid >= -1e-9) & (grid <= np.asarray(self.dims) - 1 + 1e-9), axis=1)
+            if outside.any():
+                bad = tuple(float(x) for x in p[np.argmax(outside)])
+                # Smaller first: a flipped axis (negative spacing) runs backwards.
+                ranges = ", ".join(f"{min(lo, hi):g}..{max(lo, hi):g}" for lo, hi in zip(origin, last))
+                raise ValueError(f"{self.info['path']}: point {bad} is outside the grid ({ranges}, physical units)")
+            p = grid
+            # Physical coordinates of grid points round-trip to within an ulp.
+            near = np.rint(p)
+            p = np.where(np.abs(p - near) <= 1e-9 * np.maximum(1, np.abs(near)), near, p)
+        return _simplexdb.field_at(self._core, p)
+
 
 def open(path, cache_mb=256, in_memory=False):  # noqa: A001 (the package's verb, as io.open)
     """Opens the store at `path` (dense or sparse, HT or HP). `cache_mb`
     bounds the decoded blocks kept; `in_memory` decodes a dense store whole
     at open (in-core queries)."""
     return Store(_simplexdb.open(_os.fspath(path), float(cache_mb), bool(in_memory)))
+
+
+_DTYPES = {"uint8", "int8", "uint16", "int16", "float32", "float64"}
+
+
+def _array_layout(a):
+    """(contiguous array, dims x first): x is the axis adjacent in memory —
+    the last of a C-order array (shape (Z, Y, X) or (T, Z, Y, X)), the first
+    of a Fortran-order one (shape (X, Y, Z) or (X, Y, Z, T)). Other layouts
+    (strided or flipped views) are copied in the order their strides are
+    nearer to."""
+    import numpy as np
+    if a.flags.c_contiguous:
+        return a, [int(n) for n in reversed(a.shape)]
+    if a.flags.f_contiguous:
+        return a, [int(n) for n in a.shape]
+    if abs(a.strides[0]) < abs(a.strides[-1]):
+        return np.asfortranarray(a), [int(n) for n in a.shape]
+    return np.ascontiguousarray(a), [int(n) for n in reversed(a.shape)]
+
+
+def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compression="zstd",
+                  spacing=None, origin=None, sparse=False, progress=True, *, dims=None, dtype=None,
+                  offset=0, source=None, threads=0):
+    """Builds the store `out` as `simplexdb import` does and returns it opened
+    (a Store).
+
+    array_or_path: a numpy array of voxels (uint8, int8, uint16, int16,
+        float32 or float64; 3 axes for an HT, 4 for an HP), read in place,
+        not copied. x is the axis adjacent in memory: a C-order array has
+        shape (Z, Y, X) or (T, Z, Y, X), as np.fromfile(f, t).reshape(nz, ny,
+        nx) gives; a Fortran-order array has shape (X, Y, Z) or (X, Y, Z, T),
+        as nibabel gives. Both import the same as a raw file of dims X,Y,Z
+        (and, as for files, 4 axes with one time step are a 3D volume).
+        Or a path: NRRD (.nrrd, .nhdr) or NIfTI-1 (.nii), or a raw file with
+        `dims` (X, Y, Z[, T], x fastest) and `dtype` (a numpy dtype; '>u2'
+        for big-endian), after `offset` header bytes.
+    hierarchy: "ht" or "hp", checked against the volume; None: from it.
+    quantization: the errors as "u16", "u8" or "f32"; compression: the
+        dense store's blocks as "zstd" or "none".
+    spacing, origin: one number per axis, x first (as Store.spacing and
+        `--spacing`); None: the file's (an array's: 1 and 0).
+    sparse: the variable-resolution LMDB store (lossless) instead of the
+        dense one.
+    progress: the CLI's progress line on stderr.
+    source: what the store records as its source (default: the file's
+        description, or "numpy array").
+    threads: the builder's worker threads (0: one per core). The dense
+        store's bricks are laid out in the order the threads finish them:
+        the same bytes run after run only with threads=1.
+    The GIL is released during the build."""
+    import numpy as np
+    out = _os.fspath(out)
+    if hierarchy is not None and hierarchy not in ("ht", "hp"):
+        raise ValueError(f"hierarchy: expected 'ht', 'hp' or None, not {hierarchy!r}")
+
+    def numbers(values, what):
+        if values is None:
+            return None
+        try:
+            return [float(v) for v in values]
+        except (TypeError, ValueError):
+            raise ValueError(f"{what}: expected one number per axis, x first, not {values!r}") from None
+
+    common = (out, hierarchy or "", str(quantization), str(compression), numbers(spacing, "spacing"),
+              numbers(origin, "origin"), bool(sparse), bool(progress), source)
+    if isinstance(array_or_path, (str, bytes, _os.PathLike)):
+        path = _os.fsdecode(array_or_path)
+        if (dims is None) != (dtype is None):
+            raise ValueError("a raw file needs both dims (X, Y, Z[, T]) and dtype")
+        type_name, endian = "", "little"
+        if dtype is not None:
+            t = np.dtype(dtype)
+            if t.name not in _DTYPES:
+                raise ValueError(f"dtype: {t} is not a voxel type SimplexDB reads: expected one of "
+                                 f"{', '.join(sorted(_DTYPES))}")
+            type_name, endian = t.name, "big" if t.byteorder == ">" else "little"
+            dims = [int(d) for d in dims]
+            if len(dims) not in (3, 4):
+                raise ValueError(f"dims: expected X, Y, Z[, T], not {dims!r}")
+        _simplexdb.import_volume(path, *common, dims, type_name, endian, int(offset), int(threads))
+        return open(out)
+    if dims is not None or dtype is not None or offset:
+        raise ValueError("dims, dtype and offset describe a raw file; an array describes itself")
+    a = np.asarray(array_or_path)
+    if a.dtype.name not in _DTYPES:
+        raise ValueError(f"array: dtype {a.dtype} is not a voxel type SimplexDB reads: expected one of "
+                         f"{', '.join(sorted(_DTYPES))}")
+    if a.ndim not in (3, 4):
+        raise ValueError(f"array: expected 3 axes (Z, Y, X) for an HT or 4 (T, Z, Y, X) for an HP, "
+                         f"got shape {a.shape}")
+    a, grid = _array_layout(a)
+    endian = "big" if a.dtype.byteorder == ">" or (a.dtype.byteorder == "=" and _sys.byteorder == "big") \
+        else "little"
+    _simplexdb.import_volume(a, *common, grid, a.dtype.name, endian, 0, int(threads))
+    return open(out)
+
+
+def codes(hierarchy, codes):  # noqa: A002 (the CLI's name)
+    """What `simplexdb codes --hierarchy H` prints for each code, as dicts:
+    code, level, vertices (unit-cube coordinates), neighbors, parent,
+    children, cluster. `codes` is one code string ("T:bits") or a list of
+    them; a string that is not a code raises ValueError naming it."""
+    import json
+    single = isinstance(codes, str)
+    name = str(hierarchy).lower()  # the CLI takes any case
+    out = [json.loads(_simplexdb.describe_code(name, str(c))) for c in ([codes] if single else codes)]
+    return out[0] if single else out
+
+
+__all__ += ["import_volume", "codes"]

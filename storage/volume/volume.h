@@ -84,7 +84,8 @@ class ByteSource;  // one open data file, raw or gzip (volume_reader.cc)
 //   - file_offsets is empty (every file's voxels start at `offset`) or has
 //     one entry per file (a time series of files with different headers).
 struct VolumeInfo {
-  enum class Encoding : uint8_t { kRaw, kGzip };
+  // kMemory: no data files; `memory` holds the voxels (MemoryVolume).
+  enum class Encoding : uint8_t { kRaw, kGzip, kMemory };
 
   int dimension = 3;                          // 3 or 4
   std::array<uint32_t, 4> dims = {1, 1, 1, 1};  // x fastest, then y, z, t; unused = 1
@@ -100,6 +101,11 @@ struct VolumeInfo {
   // Per-file offsets, replacing `offset` when not empty (OpenTimeSeries of
   // files whose headers differ in length). Use offset_of().
   std::vector<uint64_t> file_offsets;
+  // kMemory only: voxel_count() voxels of `type` in `order`, x fastest, at
+  // memory.get(); `files` is then empty. Shared, not owned: whoever made the
+  // VolumeInfo keeps the bytes alive and unchanged while any copy of it (a
+  // VolumeReader's too) is in use; the deleter says how (MemoryVolume).
+  std::shared_ptr<const std::byte> memory;
   // Physical placement of grid point i on axis a: origin[a] + i * spacing[a]
   // (axis 3 is time). Metadata for the stores' headers: the readers never
   // use them. Unknown: spacing 1, origin 0. A negative spacing (x, y or z
@@ -162,6 +168,16 @@ Status ValidateGrid(const std::string& what, int dimension,
 Result<VolumeInfo> OpenRawVolume(const std::string& path, int dimension,
                                  std::array<uint32_t, 4> dims, VoxelType type,
                                  ByteOrder order, uint64_t offset);
+
+// Voxels already in memory (a numpy array from Python): `bytes` holds
+// dims[0] * ... * dims[3] voxels of `type` in `order`, x fastest, and is
+// read in place, never copied. `description` names the volume in messages
+// and as the store's source. InvalidArgument for a grid that breaks the
+// rules above or a null `bytes`; NotSupported for an invalid voxel type.
+// The caller vouches for the size: nothing here can check it. O(1).
+Result<VolumeInfo> MemoryVolume(int dimension, std::array<uint32_t, 4> dims, VoxelType type,
+                                ByteOrder order, std::shared_ptr<const std::byte> bytes,
+                                std::string description);
 
 // A NRRD file: attached header (.nrrd, data after the first blank line) or
 // detached (.nhdr, any extension really, with "data file:" naming one file,

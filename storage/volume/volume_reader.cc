@@ -143,11 +143,32 @@ class GzipSource final : public ByteSource {
   uint64_t pos_ = 0;  // decompressed bytes read so far
 };
 
+// Voxels in memory (VolumeInfo::kMemory): a copy out of the caller's
+// buffer, which outlives the reader (MemoryVolume's contract).
+class MemorySource final : public ByteSource {
+ public:
+  MemorySource(const std::byte* bytes, uint64_t size) : bytes_(bytes), size_(size) {}
+
+  Status ReadAt(uint64_t pos, size_t n, std::byte* out) override {
+    if (pos > size_ || n > size_ - pos) {  // Read() checks the range: a bug
+      return Status::Corruption("volume in memory: bytes [" + std::to_string(pos) + ", " +
+                                std::to_string(pos + n) + ") are beyond its " +
+                                std::to_string(size_) + " bytes");
+    }
+    std::memcpy(out, bytes_ + pos, n);
+    return Status::OK();
+  }
+
+ private:
+  const std::byte* bytes_;
+  uint64_t size_;
+};
+
 }  // namespace
 }  // namespace volume_internal
 
 VolumeReader::VolumeReader(VolumeInfo info) : info_(std::move(info)) {
-  per_file_ = info_.voxels_per_file();
+  per_file_ = info_.encoding == Encoding::kMemory ? info_.voxel_count() : info_.voxels_per_file();
 }
 
 VolumeReader::~VolumeReader() = default;
@@ -158,6 +179,15 @@ Result<std::unique_ptr<VolumeReader>> VolumeReader::Open(const VolumeInfo& info)
   if (!IsValidVoxelType(info.type)) {
     return Status::NotSupported(what + ": voxel type code " +
                                 std::to_string(static_cast<int>(info.type)));
+  }
+  if (info.encoding == Encoding::kMemory) {
+    if (info.memory == nullptr || !info.files.empty()) {
+      return Status::InvalidArgument(what + ": a volume in memory has its bytes and no data files");
+    }
+    auto reader = std::unique_ptr<VolumeReader>(new VolumeReader(info));
+    reader->source_ = std::make_unique<volume_internal::MemorySource>(
+        info.memory.get(), info.voxel_count() * VoxelSize(info.type));
+    return reader;
   }
   if (info.files.empty() || info.voxel_count() % info.files.size() != 0) {
     return Status::InvalidArgument(what + ": " + std::to_string(info.files.size()) +
@@ -206,11 +236,13 @@ Status VolumeReader::Read(uint64_t first, size_t count, double* out) {
     const uint64_t in_file = first % per_file_;
     const size_t n = static_cast<size_t>(
         std::min<uint64_t>({count, per_file_ - in_file, kChunkVoxels}));
-    if (source_ == nullptr || current_file_ != file) SDB_RETURN_IF_ERROR(OpenFile(file));
+    if (info_.encoding != Encoding::kMemory && (source_ == nullptr || current_file_ != file)) {
+      SDB_RETURN_IF_ERROR(OpenFile(file));
+    }
     bytes_.resize(n * voxel_size);
     Status s = source_->ReadAt(in_file * voxel_size, n * voxel_size, bytes_.data());
     if (!s.ok()) {
-      source_.reset();  // start afresh on the next call
+      if (info_.encoding != Encoding::kMemory) source_.reset();  // start afresh on the next call
       return s;
     }
     DecodeVoxels(info_.type, info_.order, bytes_.data(), n, out);

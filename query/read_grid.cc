@@ -1,0 +1,106 @@
+#include "query/read_grid.h"
+
+#include <bit>
+#include <string>
+
+#include "storage/dense/hz_lattice.h"
+#include "storage/sparse/hz_sparse_store.h"
+
+namespace simplexdb {
+namespace {
+
+Status CheckBox(const ExportBox& box, int dimension, const std::array<uint32_t, 4>& dims,
+                const std::string& path) {
+  if (box.step < 1) {
+    return Status::InvalidArgument(path + ": step " + std::to_string(box.step) +
+                                   ": expected a whole number >= 1");
+  }
+  for (int c = 0; c < dimension; ++c) {
+    if (box.lo[c] < 0 || box.hi[c] >= dims[c] || box.lo[c] > box.hi[c]) {
+      return Status::InvalidArgument(path + ": axis " + std::to_string(c) + " range " +
+                                     std::to_string(box.lo[c]) + ".." + std::to_string(box.hi[c]) +
+                                     " is not within 0.." + std::to_string(dims[c] - 1));
+    }
+  }
+  return Status::OK();
+}
+
+uint64_t Count(const std::array<uint32_t, 4>& dims) {
+  uint64_t n = 1;
+  for (const uint32_t d : dims) n *= d;
+  return n;
+}
+
+// Calls field(p) for every point of the box, x fastest, into values.
+template <int D, class Reader>
+Status ReadPoints(Reader& reader, const ExportBox& box, const std::array<uint32_t, 4>& dims,
+                  std::vector<double>& values) {
+  std::array<int64_t, D> p{};
+  for (uint64_t i = 0; i < values.size(); ++i) {
+    uint64_t rest = i;
+    for (int c = 0; c < D; ++c) {
+      p[c] = box.lo[c] + static_cast<int64_t>(rest % dims[c]) * box.step;
+      rest /= dims[c];
+    }
+    SDB_ASSIGN_OR_RETURN(values[i], reader.Field(p));
+  }
+  return Status::OK();
+}
+
+template <int D>
+Result<std::vector<double>> ReadHz(const HzStore& store, const ExportBox& box) {
+  const HzHeader& h = store.header();
+  const std::array<uint32_t, 4> dims = ExportDims(box, D);
+  std::vector<double> values(Count(dims));
+  const int lattice = std::countr_zero(static_cast<uint64_t>(box.step));
+  bool read = (box.step & (box.step - 1)) == 0 && lattice <= h.domain_bits;
+  for (int c = 0; c < D; ++c) read = read && box.lo[c] % box.step == 0;
+  if (read) {
+    SDB_RETURN_IF_ERROR(ReadLattice(store, lattice, box.lo, box.hi, values.data()));
+    return values;
+  }
+  HzStore::Reader<D> reader(store);
+  SDB_RETURN_IF_ERROR(ReadPoints<D>(reader, box, dims, values));
+  return values;
+}
+
+template <int D>
+Result<std::vector<double>> ReadSparse(const HzSparseStore& store, const ExportBox& box) {
+  const std::array<uint32_t, 4> dims = ExportDims(box, D);
+  std::vector<double> values(Count(dims));
+  typename HzSparseStore::template Reader<D> reader(store);
+  SDB_RETURN_IF_ERROR(ReadPoints<D>(reader, box, dims, values));
+  return values;
+}
+
+}  // namespace
+
+ExportBox WholeGrid(const SourceInfo& info, int step) {
+  ExportBox box;
+  for (int c = 0; c < info.dimension; ++c) box.hi[c] = info.dims[c] - 1;
+  box.step = step;
+  return box;
+}
+
+std::array<uint32_t, 4> ExportDims(const ExportBox& box, int dimension) {
+  std::array<uint32_t, 4> dims = {1, 1, 1, 1};
+  for (int c = 0; c < dimension; ++c) {
+    dims[c] = static_cast<uint32_t>((box.hi[c] - box.lo[c]) / box.step + 1);
+  }
+  return dims;
+}
+
+Result<std::vector<double>> ReadGridBox(const HzStore& store, const ExportBox& box) {
+  const HzHeader& h = store.header();
+  SDB_RETURN_IF_ERROR(CheckBox(box, h.dimension, h.dims, store.path()));
+  return h.dimension == 3 ? ReadHz<3>(store, box) : ReadHz<4>(store, box);
+}
+
+Result<std::vector<double>> ReadGridBox(const AnyStore& store, const ExportBox& box) {
+  if (store.hz() != nullptr) return ReadGridBox(*store.hz(), box);
+  const SourceInfo& info = store.info();
+  SDB_RETURN_IF_ERROR(CheckBox(box, info.dimension, info.dims, info.path));
+  return info.dimension == 3 ? ReadSparse<3>(*store.sparse(), box) : ReadSparse<4>(*store.sparse(), box);
+}
+
+}  // namespace simplexdb
