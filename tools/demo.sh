@@ -9,8 +9,10 @@
 # verified, the HP converted to the sparse (LMDB) store, the CT field
 # exported back at half resolution, and meshes extracted from the CT store
 # at two error thresholds (selective refinement) and written as .vtu, and
-# from both HP stores. Everything it writes goes to out/demo/ (emptied at
-# the start, kept at the end: open the .vtu files in ParaView).
+# from both HP stores. Last, the Python package is installed under
+# /usr/local (where Debian's python3 finds it) and its example run on the
+# CT scan. Everything it writes goes to out/demo/ (emptied at the start,
+# kept at the end: open the .vtu files in ParaView).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 source tools/setup.sh
@@ -96,7 +98,23 @@ else
   echo "  the meshes differ: a lossless sparse store must answer as the dense one" >&2
   exit 1
 fi
+
+echo
+echo "== Python: the package installed where Debian's python3 finds it (/usr/local), then used"
+sudo=()
+if [[ $(id -u) -ne 0 ]]; then sudo=(sudo); fi
+"${sudo[@]}" cmake --install build/release --component python --prefix /usr/local |
+  sed -n 's#^-- \(Installing\|Up-to-date\): \(.*/simplexdb\)/__init__.py$#  installed \2#p'
+if [[ -f "$data/tooth/tooth_103x94x161_uint8.raw" ]]; then
+  # Debian's interpreter, no PYTHONPATH: the installed package.
+  (cd /tmp && /usr/bin/python3 "$OLDPWD/examples/python_thresholds.py" "$work/python" --data "$OLDPWD/$data") |
+    sed 's/^/  /'
+else
+  /usr/bin/python3 -c 'import simplexdb; print("  import simplexdb:", simplexdb.__file__)'
+fi
+
 echo
 echo "Everything above is in $work (kept until the next run): the stores,"
-echo "the exported field and the meshes. To look at a mesh: paraview \"$work/ht_3%.vtu\""
-echo "(color by 'field' or 'error'; Debian: apt-get install paraview)."
+echo "the exported field, the meshes and the Python example's PNGs. To look at"
+echo "a mesh: paraview \"$work/ht_3%.vtu\" (color by 'field' or 'error';"
+echo "Debian: apt-get install paraview). From Python: import simplexdb (README)."
