@@ -1,6 +1,6 @@
 """examples/python_thresholds.py runs on the shared tooth volume and writes
 the PNGs it says it wrote (run by ctest with the package on PYTHONPATH and
-SIMPLEXDB_CLI set, as the other Python tests)."""
+SIMPLEXDB_CLI set, as the other Python tests; the example needs no CLI)."""
 import os
 import pathlib
 import subprocess

@@ -6,23 +6,15 @@ Arrays are small and seeded, so the suite stays fast and every failure
 repeats.
 """
 import json
-import os
-import subprocess
 
 import numpy as np
 import pytest
 
 import simplexdb
+from cli import run
 
-CLI = os.environ.get("SIMPLEXDB_CLI", "simplexdb")
 DTYPES = ["uint8", "int8", "uint16", "int16", "float32", "float64"]
 SHAPES = {"ht": (5, 6, 7), "hp": (3, 4, 5, 6)}  # C order: (Z, Y, X), (T, Z, Y, X)
-
-
-def run(*args, stdin=None):
-    done = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True, input=stdin)
-    assert done.returncode == 0, done.stderr
-    return done.stdout
 
 
 def voxels(dtype, shape, seed=3):

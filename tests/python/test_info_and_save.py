@@ -5,8 +5,6 @@ Run by ctest (label python) as test_simplexdb.py is: SIMPLEXDB_CLI names the
 `simplexdb` tool of the same build and PYTHONPATH holds the built package.
 """
 import json
-import os
-import subprocess
 import sys
 import types
 import xml.etree.ElementTree as ET
@@ -15,14 +13,8 @@ import numpy as np
 import pytest
 
 import simplexdb
+from cli import run
 
-CLI = os.environ.get("SIMPLEXDB_CLI", "simplexdb")
-
-
-def run(*args):
-    done = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    return done.stdout
 
 
 @pytest.fixture(scope="module")

@@ -5,22 +5,14 @@ SIMPLEXDB_CLI names the `simplexdb` tool of the same build and PYTHONPATH
 holds the built package.
 """
 import json
-import os
-import subprocess
 import threading
 
 import numpy as np
 import pytest
 
 import simplexdb
+from cli import run
 
-CLI = os.environ.get("SIMPLEXDB_CLI", "simplexdb")
-
-
-def run(*args):
-    done = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    return done.stdout
 
 
 @pytest.fixture(scope="module")
