@@ -14,6 +14,7 @@ import pytest
 
 import simplexdb
 from cli import run
+from vtk_grids import read_vtu, volumes
 
 
 
@@ -61,24 +62,6 @@ def test_info_is_what_the_command_prints(stores, name):
         assert store.origin == (0.0, 0.0, 0.0, 10.0)
     assert store.field_range == (from_cli["field_min"], from_cli["field_max"])
     assert ("stored_blocks" in store.info) == dense and ("kept" in store.info) == (not dense)
-
-
-def read_vtu(path):
-    from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridReader
-    reader = vtkXMLUnstructuredGridReader()
-    reader.SetFileName(str(path))
-    reader.Update()
-    return reader.GetOutput()
-
-
-def volumes(grid):
-    from vtkmodules.vtkFiltersVerdict import vtkCellSizeFilter
-    sizes = vtkCellSizeFilter()
-    sizes.SetInputData(grid)
-    sizes.ComputeVolumeOn()
-    sizes.Update()
-    v = sizes.GetOutput().GetCellData().GetArray("Volume")
-    return np.array([v.GetValue(i) for i in range(v.GetNumberOfTuples())])
 
 
 def read_pvd(path):

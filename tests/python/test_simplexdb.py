@@ -12,6 +12,7 @@ import pytest
 
 import simplexdb
 from cli import run
+from vtk_grids import read_vtu, volumes
 
 
 
@@ -66,11 +67,7 @@ def test_extract_matches_the_command_line(stores, name, criteria):
     # The tetrahedra as the .vtu the command writes, read by VTK.
     vtu = stores / f"{name}.vtu"
     run("extract", stores / name, *args, "-o", vtu)
-    from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridReader
-    reader = vtkXMLUnstructuredGridReader()
-    reader.SetFileName(str(vtu))
-    reader.Update()
-    from_file = reader.GetOutput()
+    from_file = read_vtu(vtu)
     grid = mesh.to_vtk()
     assert grid.GetNumberOfCells() == from_file.GetNumberOfCells() == len(mesh.cells)
     assert grid.GetNumberOfPoints() == from_file.GetNumberOfPoints()
@@ -78,16 +75,6 @@ def test_extract_matches_the_command_line(stores, name, criteria):
     assert volumes(grid) == pytest.approx(volumes(from_file))
     assert min(volumes(grid)) > 0
     assert sum(volumes(grid)) == pytest.approx(10 * 22 * 27)
-
-
-def volumes(grid):
-    from vtkmodules.vtkFiltersVerdict import vtkCellSizeFilter
-    sizes = vtkCellSizeFilter()
-    sizes.SetInputData(grid)
-    sizes.ComputeVolumeOn()
-    sizes.Update()
-    v = sizes.GetOutput().GetCellData().GetArray("Volume")
-    return [v.GetValue(i) for i in range(v.GetNumberOfTuples())]
 
 
 def test_save_writes_what_the_command_writes(stores):
