@@ -210,7 +210,8 @@ class Store:
         inclusive, x first: (x0, y0, z0, x1, y1, z1) (HP: (x0, y0, z0, t0,
         x1, y1, z1, t1)); `step` takes every step-th point along each axis.
         A sparse store gives its rebuilt values (exact when lossless; integer
-        types rounded)."""
+        types rounded and clamped to the type's range, as `convert --to
+        dense` does: a lossy store may rebuild a 0 of uint8 as -1)."""
         import numpy as np
         if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
             raise ValueError(f"step: expected a whole number >= 1, not {step!r}")
@@ -222,7 +223,8 @@ class Store:
         values = _simplexdb.export(self._core, roi, int(step))
         dtype = np.dtype(_simplexdb.voxel_type(self._core))
         if dtype.kind in "iu":
-            values = np.rint(values)
+            limits = np.iinfo(dtype)  # astype would wrap -1 to 255
+            values = np.clip(np.rint(values), limits.min, limits.max)
         return values.astype(dtype)
 
     def field_at(self, points, units="physical"):

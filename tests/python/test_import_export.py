@@ -130,6 +130,23 @@ def test_export_gives_the_array_back(tmp_path, dtype, hierarchy):
     np.testing.assert_array_equal(f.export(), a)  # the same memory: the same (Z, Y, X) array
 
 
+def test_export_of_a_lossy_integer_store_stays_in_range(tmp_path):
+    # Values pinned at 0 and 255 with noise: a lossy sparse store rebuilds
+    # some beyond the type's range (-1), which must clamp, not wrap to 255.
+    x = np.arange(24)
+    base = np.where(x < 8, 0, np.where(x < 16, 128, 255))
+    noise = np.random.default_rng(12345).integers(-7, 9, size=(18, 20, 24))
+    a = np.clip(base + noise, 0, 255).astype(np.uint8)
+    a.tofile(tmp_path / "v.raw")
+    for tolerance in (4, 20):
+        store = tmp_path / f"s{tolerance}.lmdb"
+        run("import", tmp_path / "v.raw", "--dims", "24,20,18", "--type", "uint8", "--sparse", "--tolerance",
+            tolerance, "-o", store, "-q")
+        got = simplexdb.open(store).export()
+        assert got.dtype == np.uint8
+        assert np.abs(got.astype(np.int64) - a).max() <= tolerance + 0.5
+
+
 def test_export_roi_and_step_match_numpy_and_the_cli(tmp_path):
     a = voxels("int16", (9, 10, 11))
     store = simplexdb.import_volume(a, tmp_path / "a.sdb", progress=False)
