@@ -11,6 +11,8 @@ set -euo pipefail
 # Why each package is here:
 #   cmake, ninja-build, g++,       the build (pkg-config finds zstd and xxhash)
 #   pkg-config
+#   ccache                         compiles again only what changed, also in a
+#                                  fresh clone (CMakeLists.txt sets it up)
 #   libboost-dev                   boost::container::static_vector (hierarchy),
 #                                  Boost.Interprocess for memory mapping (storage)
 #   libzstd-dev                    compressed store blocks
@@ -28,7 +30,7 @@ set -euo pipefail
 #   python3-pytest                 its tests
 #   python3-matplotlib             examples/python_thresholds.py (and its test)
 PACKAGES=(
-  cmake ninja-build g++ pkg-config
+  cmake ninja-build g++ pkg-config ccache
   libboost-dev libzstd-dev liblmdb-dev libxxhash-dev zlib1g-dev
   libfmt-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
