@@ -1,6 +1,6 @@
 // field_bricks: what the field costs as bricks of each octave's lattice, the
-// layout format 2 moves to (docs/format/dense-store-2.md, "The next
-// layout"). For a volume, in bytes per grid point: the full-resolution grid
+// layout of the dense store (docs/format/dense-store.md, "Field"). For a
+// volume, in bytes per grid point: the full-resolution grid
 // alone and the whole pyramid (every octave's lattice, the coarse points
 // kept again in each), each as zstd frames per brick, with and without the
 // Lorenzo predictor of storage/dense/brick_codec.h, and the smaller of the

@@ -1,5 +1,5 @@
-// What format 2's next layout costs its reader per brick (docs/format/
-// dense-store-2.md, "The next layout"), on Perlin noise rounded to 8 bits:
+// What the dense store's layout costs its reader per brick (docs/format/
+// dense-store.md, "Field"), on Perlin noise rounded to 8 bits:
 //
 //   DecodeBrick/<h>      one grid brick (16^3 points, 8^4 in the HP) from its
 //                        stored bytes (the coding EncodeBrick chose) to doubles

@@ -32,8 +32,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "storage/dense/dense_builder.h"
-#include "storage/dense/dense_store.h"
+#include "storage/dense/hz_builder.h"
+#include "storage/dense/hz_store.h"
 #include "storage/error/finest_diamonds.h"
 #include "storage/volume/generate.h"
 #include "storage/volume/nrrd_writer.h"
@@ -50,7 +50,7 @@ namespace fs = std::filesystem;
 // --- lookups ------------------------------------------------------------------
 
 struct LookupStores {
-  std::unique_ptr<DenseStore> in_memory, raw, zstd_warm, zstd_cold;
+  std::unique_ptr<HzStore> in_memory, raw, zstd_warm, zstd_cold;
   std::unique_ptr<HzSparseStore> sparse;  // lossless, from the same volume
   std::vector<TetCode> random, depth_first;
 };
@@ -59,20 +59,20 @@ LookupStores& Stores() {
   static LookupStores s = [] {
     LookupStores l;
     const VolumeInfo in = *OpenVolume(PerlinVolume(3, 129));
-    DenseBuildOptions options;
+    HzBuildOptions options;
     options.compression = Compression::kNone;
     const std::string raw = WorkDir() + "/lookup_raw.sdb", zstd = WorkDir() + "/lookup_zstd.sdb";
-    if (!BuildDenseStore(in, raw, options).ok()) std::abort();
+    if (!BuildHzStore(in, raw, options).ok()) std::abort();
     options.compression = Compression::kZstd;
-    if (!BuildDenseStore(in, zstd, options).ok()) std::abort();
-    DenseStore::Options o;
-    l.raw = *DenseStore::Open(raw, o);
+    if (!BuildHzStore(in, zstd, options).ok()) std::abort();
+    HzStore::Options o;
+    l.raw = *HzStore::Open(raw, o);
     o.cache_bytes = size_t{1} << 30;
-    l.zstd_warm = *DenseStore::Open(zstd, o);
+    l.zstd_warm = *HzStore::Open(zstd, o);
     o.cache_bytes = 0;
-    l.zstd_cold = *DenseStore::Open(zstd, o);
+    l.zstd_cold = *HzStore::Open(zstd, o);
     o.in_memory = true;
-    l.in_memory = *DenseStore::Open(zstd, o);
+    l.in_memory = *HzStore::Open(zstd, o);
     const std::string sparse = WorkDir() + "/lookup.lmdb";
     if (!BuildHzSparseStore(in, sparse, HzSparseBuildOptions{}).ok()) std::abort();
     l.sparse = *HzSparseStore::Open(sparse, HzSparseStore::Options{});
@@ -112,7 +112,7 @@ void MeasureLookups(benchmark::State& state, const Store& store, const std::vect
 }
 
 void RegisterLookups() {
-  const std::pair<const char*, std::unique_ptr<DenseStore> LookupStores::*> stores[] = {
+  const std::pair<const char*, std::unique_ptr<HzStore> LookupStores::*> stores[] = {
       {"in-memory", &LookupStores::in_memory},
       {"mapped-raw", &LookupStores::raw},
       {"zstd-warm", &LookupStores::zstd_warm},
@@ -176,7 +176,6 @@ void RegisterBuilds() {
                                    state.counters["peak_MiB"] =
                                        j.value("peak_memory_bytes", 0.0) / (1 << 20);
                                    state.counters["build_s"] = j.value("seconds", 0.0);
-                                   state.counters["nodes"] = j.value("nodes", 0.0);
                                  })
         ->Iterations(1)
         ->Unit(benchmark::kSecond);

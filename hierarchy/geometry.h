@@ -177,6 +177,18 @@ constexpr std::array<int64_t, D> LatticeToGrid(const Point<D>& v, int domain_bit
   return g;
 }
 
+// The smallest k with 2^k + 1 >= every used dimension of a grid of
+// `dims[0..dimension)` points per axis: the hierarchy's domain is the cube
+// (hypercube) of side 2^k covering it, the grid's point 0 at its origin.
+// O(k).
+constexpr int DomainBitsFor(int dimension, const std::array<uint32_t, 4>& dims) {
+  uint32_t largest = 2;
+  for (int a = 0; a < dimension; ++a) largest = std::max(largest, dims[a]);
+  int k = 0;
+  while ((uint64_t{1} << k) + 1 < largest) ++k;
+  return k;
+}
+
 // The vertex that splitting `code`, whose vertices are `v`, creates: the
 // midpoint of its split edge.
 template <int D>

@@ -14,7 +14,7 @@
 #include <thread>
 
 #include "query/mesh_io_internal.h"
-#include "storage/dense/parallel_run.h"
+#include "storage/common/parallel_run.h"
 #include "storage/io/file.h"
 #include "util/out_of_memory.h"
 

@@ -43,7 +43,7 @@
 #include <utility>
 
 #include "query/source.h"
-#include "storage/dense/block_cache.h"
+#include "storage/common/block_cache.h"
 #include "storage/dense/hz_store.h"
 #include "storage/sparse/hz_sparse_store.h"
 #include "util/status.h"

@@ -1,8 +1,7 @@
 // Predictive coding of a brick of grid values, the step before zstd that
 // makes a field compress like the peers' (HDF5, Zarr with Blosc-zstd) or
-// better. Format 2's next layout keeps the field as bricks of each octave's
-// lattice (docs/format/dense-store-2.md, "The next layout"); this is their
-// coding.
+// better. The dense store keeps the field as bricks of each octave's
+// lattice (docs/format/dense-store.md, "Field"); this is their coding.
 //
 // A brick is an extent[0] x ... x extent[D-1] box of voxels, x fastest,
 // little-endian, in one voxel type. PredictBrick replaces each voxel by its

@@ -1,5 +1,5 @@
-// The field as bricks of every octave's lattice: format 2's next layout for
-// field values (docs/format/dense-store-2.md, "The next layout").
+// The field as bricks of every octave's lattice: how the dense store keeps
+// field values (docs/format/dense-store.md, "Field").
 //
 // Lattice s (0 <= s <= k, for a domain of side 2^k) holds the real grid
 // points whose every coordinate is a multiple of 2^s: lattice 0 is the

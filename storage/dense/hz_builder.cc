@@ -7,22 +7,20 @@
 #include <cstring>
 #include <limits>
 #include <memory>
-#include <optional>
 #include <thread>
 #include <type_traits>
-#include <unordered_map>
 #include <vector>
 
 #include "hierarchy/geometry.h"
 #include "hierarchy/hz_order.h"
-#include "storage/dense/dense_builder.h"
 #include "storage/dense/field_bricks.h"
 #include "storage/dense/hz_writer.h"
-#include "storage/dense/layout.h"
-#include "storage/dense/parallel_run.h"
+#include "storage/error/quantize.h"
+#include "storage/common/field_loader.h"
+#include "storage/common/parallel_run.h"
 #include "storage/error/diamond_errors.h"
 #include "storage/error/field_values.h"
-#include "storage/error/mask.h"
+#include "storage/error/mask.h"  // StoredVoxelType
 #include "storage/io/file.h"
 #include "util/big_array.h"
 #include "util/out_of_memory.h"
@@ -36,175 +34,34 @@ std::string MiB(uint64_t bytes) {
   return std::to_string((bytes + (uint64_t{1} << 20) - 1) >> 20) + " MiB";
 }
 
-// Diamond errors by vertex: a float per point of the real grid grown by two
-// points per axis (the finest diamonds of padding vertices reach real
-// points from there), a map for the coarser padding vertices beyond.
-template <int D>
-class DiamondTable {
- public:
-  DiamondTable(const std::array<uint32_t, 4>& dims, int k) {
-    size_ = 1;
-    for (int a = 0; a < D; ++a) {
-      extent_[a] = std::min<int64_t>(int64_t{1} << k, int64_t{dims[a]} + 1) + 1;
-      stride_[a] = size_;
-      size_ *= static_cast<uint64_t>(extent_[a]);
-    }
+// The store's block bitmap covers the padded domain: a bit per block of
+// 2^block_bits positions (2^(D k) of them, 2^(D (k + 1)) when the finest
+// octave is stored), which the writer walks and a reader holds. Padding
+// costs nothing else, but a grid far longer on one axis than the others
+// (a domain of side 2^18 for 200000x2x2) would make the bitmap itself
+// terabytes: refused, with the figures, before anything is computed.
+Status CheckBlockBitmap(int dimension, const std::array<uint32_t, 4>& dims, int k,
+                        const HzBuildOptions& options, bool finest_stored,
+                        const std::string& out, const std::string& what) {
+  const int position_bits = dimension * (k + (finest_stored ? 1 : 0));
+  const int block_bits = std::min(options.block_bits, position_bits);
+  const int bitmap_bits = position_bits - block_bits;  // log2 of the virtual blocks
+  constexpr int kMaxBits = 30;  // a 128 MiB bitmap, walked in seconds
+  const uint64_t bytes = bitmap_bits >= 3 ? uint64_t{1} << std::min(bitmap_bits - 3, 60) : 1;
+  if (bitmap_bits <= kMaxBits && bytes <= options.memory_bytes) return Status::OK();
+  std::string grid;
+  for (int a = 0; a < dimension; ++a) {
+    if (a > 0) grid += 'x';
+    grid += std::to_string(dims[a]);
   }
-  uint64_t bytes() const { return size_ * sizeof(float); }
-  void Allocate() { dense_.assign(size_, 0.0f); }
-
-  void Raise(const std::array<int64_t, D>& g, uint64_t position, float e) {
-    float& slot = Slot(g, position);
-    slot = std::max(slot, e);
-  }
-  double At(const std::array<int64_t, D>& g, uint64_t position) const {
-    uint64_t i = 0;
-    for (int a = 0; a < D; ++a) {
-      if (g[a] >= extent_[a]) {
-        const auto it = far_.find(position);
-        return it == far_.end() ? 0.0 : it->second;
-      }
-      i += static_cast<uint64_t>(g[a]) * stride_[a];
-    }
-    return dense_[i];
-  }
-
- private:
-  float& Slot(const std::array<int64_t, D>& g, uint64_t position) {
-    uint64_t i = 0;
-    for (int a = 0; a < D; ++a) {
-      if (g[a] >= extent_[a]) return far_[position];
-      i += static_cast<uint64_t>(g[a]) * stride_[a];
-    }
-    return dense_[i];
-  }
-
-  std::array<int64_t, D> extent_{};
-  std::array<uint64_t, D> stride_{};
-  uint64_t size_ = 0;
-  std::vector<float> dense_;
-  std::unordered_map<uint64_t, float> far_;
-};
-
-template <int D>
-Result<HzBuildReport> Convert(const DenseStore& f1, const std::string& out,
-                              const HzBuildOptions& options, Clock::time_point start,
-                              const std::array<double, 4>& origin) {
-  const DenseHeader& f = f1.header();
-  const int k = f.domain_bits;
-  const int leaf = f.leaf_level();
-  const HzOrder<D> order(k);
-  const int threads = options.threads > 0
-                          ? options.threads
-                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-
-  DiamondTable<D> table(f.dims, k);
-  uint64_t n = 1;
-  for (int a = 0; a < D; ++a) n *= f.dims[a];
-  const uint64_t writer_bytes = uint64_t(threads) * (uint64_t{1} << options.block_bits) * 40;
-  if (table.bytes() + n * sizeof(double) + writer_bytes > options.memory_bytes) {
-    return Status::ResourceExhausted(
-        out + ": the diamond table needs " + MiB(table.bytes()) + ", the field " +
-        MiB(n * sizeof(double)) + " and the writer " + MiB(writer_bytes) +
-        ", more than the memory bound of " + MiB(options.memory_bytes) + " (--memory-mb)");
-  }
-  std::vector<double> field;
-  try {
-    table.Allocate();
-    field.resize(n);
-  } catch (const std::bad_alloc&) {
-    return NotEnoughMemory(out + ": the diamond table and the field", table.bytes() + n * 8);
-  }
-
-  // Every node holding a real grid point, depth first with its vertices:
-  // its stored error raises its diamond's. Nodes past the real grid on some
-  // axis have error 0, and so have their descendants.
-  HzBuildReport report;
-  {
-    DenseStore::Reader<D> reader(f1);
-    // The field, x fastest, as the format-1 store holds it.
-    std::array<int64_t, D> p{};
-    for (uint64_t i = 0; i < n; ++i) {
-      SDB_ASSIGN_OR_RETURN(field[i], reader.Field(p));
-      for (int a = 0; a < D; ++a) {
-        if (++p[a] < int64_t{f.dims[a]}) break;
-        p[a] = 0;
-      }
-    }
-    struct Frame {
-      SimplexCode<D> code;
-      SimplexVertices<D> v;
-    };
-    std::vector<Frame> stack;
-    for (int t = SimplexCode<D>::kRoots - 1; t >= 0; --t) {
-      stack.push_back({SimplexCode<D>::Root(t), RootVertices<D>(t)});
-    }
-    uint64_t expected = SimplexCode<D>::kRoots;
-    for (int a = 0; a < D; ++a) expected *= f.dims[a];
-    auto last = Clock::now();
-    while (!stack.empty()) {
-      const Frame fr = stack.back();
-      stack.pop_back();
-      if (fr.code.level() >= leaf) continue;
-      bool real = true;
-      for (int a = 0; a < D && real; ++a) {
-        int64_t lo = std::numeric_limits<int64_t>::max();
-        for (int i = 0; i <= D; ++i) lo = std::min(lo, LatticeToGrid<D>(fr.v[i], k)[a]);
-        real = lo <= int64_t{f.dims[a]} - 1;
-      }
-      if (!real) continue;
-      ++report.nodes;
-      SDB_ASSIGN_OR_RETURN(const double e, reader.ErrorBound(fr.code));
-      if (e > 0) {
-        const auto g = LatticeToGrid<D>(SplitMidpoint<D>(fr.code, fr.v), k);
-        table.Raise(g, order.PositionAtLevel(g, fr.code.level()), RoundUpToFloat(e));
-      }
-      for (int i = 1; i >= 0; --i) {
-        stack.push_back({fr.code.child(i), ChildVertices<D>(fr.code, fr.v, i)});
-      }
-      if (options.progress && (report.nodes & 0xfffff) == 0 && Clock::now() - last > std::chrono::milliseconds(250)) {
-        last = Clock::now();
-        options.progress({"diamonds", std::min(report.nodes, expected), expected,
-                          std::chrono::duration<double>(last - start).count()});
-      }
-    }
-  }
-
-  HzHeader params;
-  params.dimension = static_cast<uint8_t>(D);
-  params.quantization = options.quantization;
-  params.voxel_type = f.voxel_type;
-  params.domain_bits = static_cast<uint8_t>(k);
-  params.block_bits = static_cast<uint8_t>(options.block_bits);
-  params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(D));
-  // The errors are the engine's per-node bounds, not what a reader would
-  // compute for the finest octave: keep them all.
-  params.flags = kHzFinestStored;
-  params.dims = f.dims;
-  params.spacing = f.spacing;
-  params.origin = origin;  // format 1 has none: the caller's
-  params.field_min = f.field_min;
-  params.field_max = f.field_max;
-  params.source = f.source;
-
-  HzWriteOptions write;
-  write.compression = options.compression;
-  write.zstd_level = options.zstd_level;
-  write.threads = threads;
-  write.errors_are_bounds = true;
-  write.progress = options.progress;
-  const auto fill = [&](int, uint64_t first, size_t count, double* errors) -> Status {
-    for (size_t i = 0; i < count; ++i) {
-      std::array<int64_t, D> g{};
-      if (order.Decode(first + i, g)) errors[i] = table.At(g, first + i);
-    }
-    return Status::OK();
-  };
-  SDB_ASSIGN_OR_RETURN(report.header, WriteHzStore(out, params, write, fill, field.data(), nullptr));
-  report.grid_points = n;
-  report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  return report;
+  return Status::ResourceExhausted(
+      out + ": " + what + " (" + grid + ") has a domain of side 2^" + std::to_string(k) +
+      " + 1, whose block index of 2^" + std::to_string(bitmap_bits) +
+      " virtual blocks needs a bitmap of " + MiB(bytes) + "; this build indexes at most 2^" +
+      std::to_string(kMaxBits) + " blocks within the memory bound of " + MiB(options.memory_bytes) +
+      " (--memory-mb): cut the volume into pieces closer to a cube");
 }
+
 
 // The store's parameters for a build from `input` (the writer sets the rest).
 HzHeader ParamsFor(int dimension, const VolumeInfo& input, const HzBuildOptions& options,
@@ -323,27 +180,49 @@ class StreamedBuild {
     for (int s = S; s < k_; ++s) bytes += scanned_[static_cast<size_t>(s)].size * sizeof(float);
     bytes += corner_size_ * sizeof(double) + coarse_size_ * sizeof(V);
     bytes += grid_.Count(0) * sizeof(double);                        // finest maxima
-    bytes += uint64_t(threads_) * plane_ * sizeof(double);           // readers' planes
+    bytes += uint64_t(threads_) * plane_ * sizeof(double) * (options_.mask ? 2 : 1);  // readers' planes
     bytes += uint64_t(threads_) * (uint64_t{1} << options_.block_bits) * 40;  // writer
     return bytes;
   }
 
-  Result<std::optional<HzBuildReport>> Run() {
-    SDB_ASSIGN_OR_RETURN(const bool complete, ReadRangeAndCorners());
-    if (!complete) return std::optional<HzBuildReport>();  // missing values: the engine's path
+  // The memory the availability of the scanned scales' diamonds takes
+  // (with missing values).
+  uint64_t AvailabilityBytes() const {
+    uint64_t bytes = 0;
+    for (int s = S; s < k_; ++s) bytes += scanned_[static_cast<size_t>(s)].size * sizeof(DiamondAvailability);
+    return bytes;
+  }
+
+  Result<HzBuildReport> Run() {
+    SDB_RETURN_IF_ERROR(ReadRangeAndCorners());
+    if (missing_ && !options_.mask) {
+      SDB_RETURN_IF_ERROR(CheckBlockBitmap(D, input_.dims, k_, options_, true, out_, input_.description));
+    }
+    if (missing_ && Bytes() + AvailabilityBytes() > options_.memory_bytes) {
+      return Status::ResourceExhausted(
+          out_ + ": the volume has missing values, whose availability needs " +
+          MiB(AvailabilityBytes()) + " beside the window's " + MiB(Bytes()) +
+          ", more than the memory bound of " + MiB(options_.memory_bytes) + " (--memory-mb)");
+    }
     for (int s = 1; s < S; ++s) local_[static_cast<size_t>(s)].table.assign(local_[static_cast<size_t>(s)].size, 0.0f);
-    for (int s = S; s < k_; ++s) scanned_[static_cast<size_t>(s)].table.assign(scanned_[static_cast<size_t>(s)].size, 0.0f);
-    finest_max_.assign(grid_.Count(0), 0.0);
+    for (int s = S; s < k_; ++s) {
+      Scanned& t = scanned_[static_cast<size_t>(s)];
+      t.table.assign(t.size, 0.0f);
+      if (missing_) t.availability.assign(t.size, DiamondAvailability{});
+    }
+    if (!missing_) finest_max_.assign(grid_.Count(0), 0.0);
     coarse_.assign(coarse_size_, V{});
     window_.assign(static_cast<size_t>(slab_ + 2 * halo_) * plane_, V{});
 
-    SDB_ASSIGN_OR_RETURN(writer_, HzStoreWriter::Create(
-                                      out_, ParamsFor(D, input_, options_, stored_, k_, fmin_, fmax_),
-                                      WriteOptionsFor(options_, threads_)));
+    // With missing values every diamond is scanned and the finest octave's
+    // errors are stored (DiamondErrors).
+    HzHeader params = ParamsFor(D, input_, options_, stored_, k_, fmin_, fmax_);
+    if (missing_) params.flags = kHzFinestStored;
+    SDB_ASSIGN_OR_RETURN(writer_, HzStoreWriter::Create(out_, params, WriteOptionsFor(options_, threads_)));
     AssignBlocks();
 
     diamonds_ = std::make_unique<DiamondErrors<D, V>>(window_.data(), dims_, k_, !IsFloatType(stored_),
-                                                       fmax_ - fmin_, threads_);
+                                                       fmax_ - fmin_, threads_, true, missing_);
     const int64_t slabs = last_vertex_plane_ / slab_ + 1;
     for (int64_t i = 0; i < slabs; ++i) {
       SDB_RETURN_IF_ERROR(Slab(i * slab_, i + 1 == slabs));
@@ -363,6 +242,10 @@ class StreamedBuild {
         const int s = k_ - 1 - level / D;
         if (s < S) continue;  // finest positions past the stored ones (not written)
         errors[i] = ScannedAt(g, s);
+        if (missing_) {
+          errors[i] = diamonds_->MergedError(
+              errors[i], scanned_[static_cast<size_t>(s)].availability[ScannedIndex(g, s)]);
+        }
       }
       return Status::OK();
     }));
@@ -373,13 +256,13 @@ class StreamedBuild {
     }
     HeldField<V> held{coarse_.data(), {}, 0, kCoarseShift};
     for (int a = 0; a < 4; ++a) held.stride[a] = a < D ? coarse_stride_[a] : 0;
-    SDB_RETURN_IF_ERROR(writer_->WriteBricks(coarse_bricks, held, finest_max_.data()));
+    SDB_RETURN_IF_ERROR(writer_->WriteBricks(coarse_bricks, held, FinestMax()));
     HzBuildReport report;
     SDB_ASSIGN_OR_RETURN(report.header, writer_->Finish());
     report.grid_points = n_;
     report.seconds = std::chrono::duration<double>(Clock::now() - start_).count();
     report.method = "streamed";
-    return std::optional<HzBuildReport>(report);
+    return report;
   }
 
  private:
@@ -395,7 +278,12 @@ class StreamedBuild {
     std::array<uint64_t, D> stride{};
     uint64_t size = 0;
     std::vector<float> table;
+    std::vector<DiamondAvailability> availability;  // with missing values
   };
+
+  // The bricks' largest finest errors for the writer; null when they are
+  // stored (missing values).
+  const double* FinestMax() const { return missing_ ? nullptr : finest_max_.data(); }
 
   uint64_t ScannedIndex(const std::array<int64_t, D>& g, int s) const {
     uint64_t i = 0;
@@ -419,8 +307,8 @@ class StreamedBuild {
   }
 
   // Pass 1: every plane, on every worker with its own reader.
-  Result<bool> ReadRangeAndCorners() {
-    stored_ = StoredVoxelType(input_, false);
+  Status ReadRangeAndCorners() {
+    stored_ = StoredVoxelType(input_, options_.mask.has_value());
     corners_.assign(corner_size_, 0.0);
     struct PlaneResult {
       Status status;
@@ -428,7 +316,7 @@ class StreamedBuild {
       double min = std::numeric_limits<double>::infinity(), max = -min;
     };
     std::vector<PlaneResult> found(static_cast<size_t>(dims_[L]));
-    std::vector<std::unique_ptr<VolumeReader>> reader(static_cast<size_t>(Readers()));
+    std::vector<MaskedReader> reader = MakeReaders();
     std::vector<std::vector<double>> buffer(static_cast<size_t>(Readers()));
     const Status read = RunParallel(static_cast<uint64_t>(dims_[L]), Readers(), "field", start_,
                                     options_.progress, [&](int w, uint64_t z) -> Status {
@@ -439,8 +327,8 @@ class StreamedBuild {
       if (!result.status.ok()) return Status::OK();
       for (double& v : values) {
         if (std::isnan(v)) {
-          result.missing = true;
-          return Status::OK();
+          result.missing = true;  // skipped by the range
+          continue;
         }
         if (stored_ == VoxelType::kF32) v = static_cast<float>(v);
         result.min = std::min(result.min, v);
@@ -461,22 +349,26 @@ class StreamedBuild {
     SDB_RETURN_IF_ERROR(read);
     for (const PlaneResult& r : found) {
       if (!r.status.ok()) return r.status;
-      if (r.missing) return false;
+      missing_ = missing_ || r.missing;
       fmin_ = std::min(fmin_, r.min);
       fmax_ = std::max(fmax_, r.max);
     }
-    return true;
+    if (fmin_ > fmax_) fmin_ = fmax_ = 0;  // every value missing
+    return Status::OK();
   }
   // Workers reading the input: one for a gzip file (each reader inflates
   // everything before what it reads), else every one.
   int Readers() const { return input_.encoding == VolumeInfo::Encoding::kGzip ? 1 : threads_; }
-  // Plane z of the input into `values`, through `reader` (opened on first use).
-  Status ReadPlane(std::unique_ptr<VolumeReader>& reader, int64_t z, std::vector<double>& values) {
-    if (reader == nullptr) {
-      SDB_ASSIGN_OR_RETURN(reader, VolumeReader::Open(input_));
-    }
+  // One reader per worker.
+  std::vector<MaskedReader> MakeReaders() const {
+    std::vector<MaskedReader> readers;
+    for (int w = 0; w < Readers(); ++w) readers.emplace_back(input_, options_.mask);
+    return readers;
+  }
+  // Plane z of the input into `values`, masked points NaN.
+  Status ReadPlane(MaskedReader& reader, int64_t z, std::vector<double>& values) {
     values.resize(plane_);
-    return reader->Read(static_cast<uint64_t>(z) * plane_, plane_, values.data());
+    return reader.Read(static_cast<uint64_t>(z) * plane_, plane_, values.data());
   }
 
   // The corner lattice's index of coordinate c on axis a, or -1.
@@ -531,8 +423,16 @@ class StreamedBuild {
         t.blocks[chunk].push_back(i);
       } else if (span.scale != 0) {
         scanned_blocks_.push_back(i);
+      } else if (missing_) {
+        // Stored finest blocks, written by the slab holding their planes
+        // (a block's span is shorter than a slab and aligned to it).
+        const uint64_t slab = static_cast<uint64_t>(span.lo[L] / slab_);
+        assert(span.hi[L] < static_cast<int64_t>(slab + 1) * slab_);
+        if (finest_blocks_.size() <= slab) finest_blocks_.resize(slab + 1);
+        finest_blocks_[slab].push_back(i);
       }
-      // Finest (scale 0) blocks are not stored: the bricks record their maxima.
+      // Otherwise finest (scale 0) blocks are not stored: the bricks record
+      // their maxima.
     }
   }
 
@@ -541,7 +441,7 @@ class StreamedBuild {
   // which would inflate everything before a plane if opened anew).
   Status ReadPlanes(int64_t lo, int64_t hi) {
     if (lo >= hi) return Status::OK();
-    readers_.resize(static_cast<size_t>(Readers()));
+    if (readers_.empty()) readers_ = MakeReaders();
     buffers_.resize(static_cast<size_t>(Readers()));
     return RunParallel(static_cast<uint64_t>(hi - lo), Readers(), "field", start_, {},
                        [&](int w, uint64_t i) -> Status {
@@ -551,6 +451,8 @@ class StreamedBuild {
       V* to = window_.data() + static_cast<size_t>(z - window_first_) * plane_;
       for (uint64_t j = 0; j < plane_; ++j) {
         const double v = stored_ == VoxelType::kF32 ? static_cast<double>(static_cast<float>(values[j])) : values[j];
+        // NaN (missing) only in float fields: a masked integer volume is stored as float32.
+        assert(std::is_floating_point_v<V> || !std::isnan(v));
         to[j] = static_cast<V>(v);
       }
       // Every 8th point of every 8th plane, for the coarse lattices' bricks.
@@ -623,7 +525,7 @@ class StreamedBuild {
         const int64_t first = grid_.Place(b).first[L];
         if (first < z0 || first >= z1) continue;
         bricks.push_back(b);
-        if (s == 0) items.push_back({2, 0, static_cast<int64_t>(b)});
+        if (s == 0 && !missing_) items.push_back({2, 0, static_cast<int64_t>(b)});
       }
     }
     // Local tables: the chunk holding this slab.
@@ -638,9 +540,12 @@ class StreamedBuild {
         });
       } else if (it.kind == 1) {
         diamonds_->ComputeRowPartInto(it.s, it.j, z0, real_hi, corner,
-                                      [&](const std::array<int64_t, D>& g, double e) {
-          float& slot = scanned_[static_cast<size_t>(it.s)].table[ScannedIndex(g, it.s)];
-          slot = std::max(slot, RoundUpToFloat(e));
+                                      [&](const std::array<int64_t, D>& g, double e,
+                                          const DiamondAvailability& a) {
+          Scanned& t = scanned_[static_cast<size_t>(it.s)];
+          const uint64_t at = ScannedIndex(g, it.s);
+          t.table[at] = std::max(t.table[at], RoundUpToFloat(e));
+          if (missing_) t.availability[at].Merge(a);
         });
       } else {
         const BrickGrid::Box box = grid_.FinestBox(static_cast<uint64_t>(it.j));
@@ -657,7 +562,20 @@ class StreamedBuild {
     HeldField<V> held{window_.data(), {}, window_first_, 0};
     held.stride[0] = 1;
     for (int a = 1; a < 4; ++a) held.stride[a] = a < D ? stride_[a] : 0;
-    SDB_RETURN_IF_ERROR(writer_->WriteBricks(bricks, held, finest_max_.data()));
+    SDB_RETURN_IF_ERROR(writer_->WriteBricks(bricks, held, FinestMax()));
+
+    // Stored finest blocks of this slab: computed from the window.
+    const uint64_t slab = static_cast<uint64_t>(z0 / slab_);
+    if (missing_ && slab < finest_blocks_.size()) {
+      SDB_RETURN_IF_ERROR(writer_->WriteBlocks(finest_blocks_[slab], [&](int, uint64_t first, size_t count,
+                                                                        double* errors) -> Status {
+        for (size_t i = 0; i < count; ++i) {
+          std::array<int64_t, D> g{};
+          if (order_.Decode(first + i, g)) errors[i] = diamonds_->At(g, first + i);
+        }
+        return Status::OK();
+      }));
+    }
 
     // Chunks this slab completes: their blocks, then a clean table.
     for (int s = 1; s < S; ++s) {
@@ -703,25 +621,25 @@ class StreamedBuild {
   std::vector<V> coarse_, window_;
   std::vector<double> finest_max_;
   std::vector<uint64_t> scanned_blocks_;
+  std::vector<std::vector<uint64_t>> finest_blocks_;  // by slab (missing values)
+  bool missing_ = false;  // the field has missing values (NaN)
   VoxelType stored_ = VoxelType::kU8;
   double fmin_ = std::numeric_limits<double>::infinity(), fmax_ = -fmin_;
   int64_t window_first_ = -1, window_end_ = -1;
   std::unique_ptr<HzStoreWriter> writer_;
   std::unique_ptr<DiamondErrors<D, V>> diamonds_;
-  std::vector<std::unique_ptr<VolumeReader>> readers_;  // pass 2's, per worker
+  std::vector<MaskedReader> readers_;  // pass 2's, per worker
   std::vector<std::vector<double>> buffers_;
 };
 
 // The direct build: the whole field in memory (as V, the stored voxel
 // type's C++ type), diamond errors octave by octave on every core
-// (storage/error/diamond_errors.h), then the writer. Returns nullopt,
-// having written nothing, when the volume has missing values (NaN): the
-// caller then takes the engine's path. ResourceExhausted when the field
-// and the table exceed the memory bound.
+// (storage/error/diamond_errors.h), then the writer. When the field and the
+// table exceed the memory bound, the streamed build, or ResourceExhausted
+// when even that does not fit.
 template <int D, class V>
-Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const std::string& out,
-                                                 const HzBuildOptions& options,
-                                                 Clock::time_point start) {
+Result<HzBuildReport> BuildDirect(const VolumeInfo& input, const std::string& out,
+                                  const HzBuildOptions& options, Clock::time_point start) {
   std::array<int64_t, D> dims{};
   uint64_t n = 1;
   for (int a = 0; a < D; ++a) {
@@ -729,7 +647,6 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
     n *= input.dims[a];
   }
   const int k = std::max(1, DomainBitsFor(D, input.dims));
-  if (k > (D == 3 ? 18 : 13)) return std::optional<HzBuildReport>();  // the engine says why
   const int threads = options.threads > 0
                           ? options.threads
                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
@@ -738,7 +655,8 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   const uint64_t table_bytes = DiamondErrors<D, V>::TableBytes(dims, k);
   const uint64_t writer_bytes = uint64_t(threads) * (uint64_t{1} << options.block_bits) * 40;
   const uint64_t reader_bytes =
-      std::is_same_v<V, double> ? 0 : uint64_t(threads) * std::min(n, kChunk) * sizeof(double);
+      uint64_t(threads) * std::min(n, kChunk) * sizeof(double) *
+      ((std::is_same_v<V, double> ? 0 : 1) + (options.mask ? 1 : 0));
   if (field_bytes + table_bytes + writer_bytes + reader_bytes > options.memory_bytes ||
       options.stream) {
     // The field a window at a time, when the grid is large enough for it
@@ -749,7 +667,6 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
       if (build.Bytes() <= options.memory_bytes) return build.Run();
       streamed = "; streamed, a window of planes at a time, it needs " + MiB(build.Bytes());
     }
-    // The engine's path needs the field and the table too.
     return Status::ResourceExhausted(
         out + ": the field needs " + MiB(field_bytes) + ", the diamond table " + MiB(table_bytes) +
         ", the reader and the writer " + MiB(reader_bytes + writer_bytes) + streamed +
@@ -757,80 +674,35 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   }
 
   // The field, checked as every store's (finite, float32 range) and held
-  // as the store keeps it (a scaled volume's values rounded to float32), so
-  // the errors are those of the stored values.
-  const VoxelType stored = StoredVoxelType(input, false);
-  // Its pages are zeroed by the workers that first write them (zeroing it
-  // up front, on one thread, took a twentieth of a build).
-  BigArray<V> field(n);
-  // Read in chunks by every worker, each with its own reader (a gzip file
-  // is read by one: each reader would inflate everything before its
-  // chunks). What a chunk finds is kept by chunk, and the first chunk's in
-  // file order is reported, as a one-thread read would.
-  const uint64_t chunks = (n + kChunk - 1) / kChunk;
-  struct ChunkResult {
-    Status status;
-    bool missing = false;  // a NaN: the engine's path
-    double min = std::numeric_limits<double>::infinity(), max = -min;
-  };
-  std::vector<ChunkResult> found(chunks);
-  const int readers = input.encoding == VolumeInfo::Encoding::kGzip ? 1 : threads;
-  std::vector<std::unique_ptr<VolumeReader>> reader(static_cast<size_t>(readers));
-  // Readers give doubles: a field of other voxels is read through a chunk
-  // of them.
-  std::vector<std::vector<double>> scratch(static_cast<size_t>(readers));
-  const auto read_chunk = [&](int worker, uint64_t c) -> Status {
-    auto& r = reader[static_cast<size_t>(worker)];
-    if (r == nullptr) {
-      SDB_ASSIGN_OR_RETURN(r, VolumeReader::Open(input));
-    }
-    const uint64_t first = c * kChunk;
-    const size_t count = static_cast<size_t>(std::min(kChunk, n - first));
-    double* values;
-    if constexpr (std::is_same_v<V, double>) {
-      values = field.data() + first;
-    } else {
-      auto& buffer = scratch[static_cast<size_t>(worker)];
-      buffer.resize(count);
-      values = buffer.data();
-    }
-    SDB_RETURN_IF_ERROR(r->Read(first, count, values));
-    ChunkResult& result = found[c];
-    result.status = CheckStorableValues(input, first, values, count);
-    if (!result.status.ok()) return Status::OK();
-    V* to = field.data() + first;
-    for (size_t i = 0; i < count; ++i) {
-      if (std::isnan(values[i])) {
-        result.missing = true;
-        return Status::OK();
-      }
-      if (stored == VoxelType::kF32) values[i] = static_cast<float>(values[i]);
-      to[i] = static_cast<V>(values[i]);  // exact: V is the stored type
-      result.min = std::min(result.min, values[i]);
-      result.max = std::max(result.max, values[i]);
-    }
-    return Status::OK();
-  };
-  SDB_RETURN_IF_ERROR(RunParallel(chunks, readers, "field", start, options.progress, read_chunk));
-  reader.clear();
-  scratch.clear();
-  double fmin = std::numeric_limits<double>::infinity(), fmax = -fmin;
-  for (const ChunkResult& c : found) {
-    if (!c.status.ok()) return c.status;
-    if (c.missing) return std::optional<HzBuildReport>();
-    fmin = std::min(fmin, c.min);
-    fmax = std::max(fmax, c.max);
+  // as the store keeps it (a scaled volume's values rounded to float32; a
+  // masked integer volume as float32, so masked points hold NaN), so the
+  // errors are those of the stored values.
+  const VoxelType stored = StoredVoxelType(input, options.mask.has_value());
+  LoadFieldOptions load;
+  load.stored = stored;
+  load.threads = threads;
+  load.start = start;
+  load.progress = options.progress;
+  SDB_ASSIGN_OR_RETURN(LoadedField<V> loaded, LoadField<V>(input, options.mask, load));
+  const BigArray<V>& field = loaded.values;
+  const double fmin = loaded.min, fmax = loaded.max;
+  const bool missing = loaded.missing;
+  if (missing && !options.mask) {
+    SDB_RETURN_IF_ERROR(CheckBlockBitmap(D, input.dims, k, options, true, out, input.description));
   }
 
-  DiamondErrors<D, V> diamonds(field.data(), dims, k, !IsFloatType(stored), fmax - fmin, threads);
+  // With missing values every diamond is scanned (DiamondErrors), the
+  // finest octave's too: the store keeps them all.
+  DiamondErrors<D, V> diamonds(field.data(), dims, k, !IsFloatType(stored), fmax - fmin, threads,
+                               true, missing);
   diamonds.Allocate();
   // Work items: the coarser octaves' slabs (the table), then each grid
   // brick's largest finest error (the store keeps that, not the errors:
   // its reader computes them as these do).
   const BrickGrid grid(D, input.dims, k, HzDefaultBrickBits(D));
-  std::vector<double> finest_max(grid.Count(0), 0.0);
+  std::vector<double> finest_max(missing ? 0 : grid.Count(0), 0.0);
   const uint64_t slabs = diamonds.item_count();
-  SDB_RETURN_IF_ERROR(RunParallel(slabs + grid.Count(0), threads, "errors", start,
+  SDB_RETURN_IF_ERROR(RunParallel(slabs + finest_max.size(), threads, "errors", start,
                                   options.progress, [&](int worker, uint64_t item) {
                                     if (item < slabs) {
                                       diamonds.ComputeItem(worker, item);
@@ -848,10 +720,11 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
                                   }));
   diamonds.Finish();
 
-  const HzHeader params = ParamsFor(D, input, options, stored, k, fmin, fmax);
+  HzHeader params = ParamsFor(D, input, options, stored, k, fmin, fmax);
   const HzOrder<D> order(k);
   HzWriteOptions write = WriteOptionsFor(options, threads);
   write.progress = options.progress;
+  if (missing) params.flags = kHzFinestStored;  // the reader's stencils cannot compute them
   // HZ order is not the table's: the positions' vertices are found a batch
   // at a time and their entries asked for before any is read.
   const auto fill = [&](int, uint64_t first, size_t count, double* errors) -> Status {
@@ -872,98 +745,51 @@ Result<std::optional<HzBuildReport>> BuildDirect(const VolumeInfo& input, const 
   };
   HzBuildReport report;
   SDB_ASSIGN_OR_RETURN(report.header,
-                       WriteHzStore(out, params, write, fill, field.data(), finest_max.data()));
+                       WriteHzStore(out, params, write, fill, field.data(),
+                                    missing ? nullptr : finest_max.data()));
   report.grid_points = n;
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  return std::optional<HzBuildReport>(report);
-}
-
-// The store's block bitmap covers the padded domain: a bit per block of
-// 2^block_bits positions (2^(D k) of them, 2^(D (k + 1)) when the finest
-// octave is stored), which the writer walks and a reader holds. Padding
-// costs nothing else, but a grid far longer on one axis than the others
-// (a domain of side 2^18 for 200000x2x2) would make the bitmap itself
-// terabytes: refused, with the figures, before anything is computed.
-Status CheckBlockBitmap(int dimension, const std::array<uint32_t, 4>& dims, int k,
-                        const HzBuildOptions& options, bool finest_stored,
-                        const std::string& out, const std::string& what) {
-  const int position_bits = dimension * (k + (finest_stored ? 1 : 0));
-  const int block_bits = std::min(options.block_bits, position_bits);
-  const int bitmap_bits = position_bits - block_bits;  // log2 of the virtual blocks
-  constexpr int kMaxBits = 30;  // a 128 MiB bitmap, walked in seconds
-  const uint64_t bytes = bitmap_bits >= 3 ? uint64_t{1} << std::min(bitmap_bits - 3, 60) : 1;
-  if (bitmap_bits <= kMaxBits && bytes <= options.memory_bytes) return Status::OK();
-  std::string grid;
-  for (int a = 0; a < dimension; ++a) {
-    if (a > 0) grid += 'x';
-    grid += std::to_string(dims[a]);
-  }
-  return Status::ResourceExhausted(
-      out + ": " + what + " (" + grid + ") has a domain of side 2^" + std::to_string(k) +
-      " + 1, whose block index of 2^" + std::to_string(bitmap_bits) +
-      " virtual blocks needs a bitmap of " + MiB(bytes) + "; this build indexes at most 2^" +
-      std::to_string(kMaxBits) + " blocks within the memory bound of " + MiB(options.memory_bytes) +
-      " (--memory-mb): cut the volume into pieces closer to a cube");
+  return report;
 }
 
 }  // namespace
-
-Result<HzBuildReport> ConvertToHz(const DenseStore& f1, const std::string& out_path,
-                                  const HzBuildOptions& options,
-                                  const std::array<double, 4>& origin) {
-  const auto start = Clock::now();
-  SDB_RETURN_IF_ERROR(CheckBlockBitmap(f1.dimension(), f1.header().dims,
-                                       f1.header().domain_bits, options, true, out_path,
-                                       f1.path()));
-  if (f1.dimension() == 3) return Convert<3>(f1, out_path, options, start, origin);
-  return Convert<4>(f1, out_path, options, start, origin);
-}
 
 Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& out_path,
                                    const HzBuildOptions& options) {
   const auto start = Clock::now();
   // Check the output before the long part.
   SDB_RETURN_IF_ERROR(PrepareOutput(out_path));
-  if (input.dimension == 3 || input.dimension == 4) {
-    SDB_RETURN_IF_ERROR(CheckBlockBitmap(input.dimension, input.dims,
-                                         std::max(1, DomainBitsFor(input.dimension, input.dims)),
-                                         options, options.mask.has_value(), out_path,
-                                         input.description));
+  if (input.dimension != 3 && input.dimension != 4) {
+    return Status::InvalidArgument(input.description + ": volumes must be 3D or 4D");
   }
-  if (!options.mask && (input.dimension == 3 || input.dimension == 4)) {
-    try {
-      std::optional<HzBuildReport> direct;
-      // The field held as its stored voxels (a byte a point for uint8).
-      Result<std::optional<HzBuildReport>> built =
-          WithVoxelCppType(StoredVoxelType(input, false), [&](auto voxel) {
-            using V = decltype(voxel);
-            return input.dimension == 3 ? BuildDirect<3, V>(input, out_path, options, start)
-                                        : BuildDirect<4, V>(input, out_path, options, start);
-          });
-      SDB_ASSIGN_OR_RETURN(direct, std::move(built));
-      if (direct) return *direct;
-    } catch (const std::bad_alloc&) {
-      return NotEnoughMemory("building " + out_path + " from " + input.description,
-                             "the field and the diamond table; the memory budget is " +
-                                 DescribeByteCount(options.memory_bytes));
-    }
+  if (options.mask) {
+    SDB_RETURN_IF_ERROR(CheckMaskGrid(*options.mask, input.dimension, input.dims,
+                                      "the volume " + input.description + " is"));
   }
-  // Missing values or a mask: per node through format 1's engine, in a
-  // scratch store beside the output.
-  TemporaryFile scratch(out_path, "errors");
-  DenseBuildOptions f1;
-  f1.quantization = Quantization::kF32;
-  f1.compression = Compression::kNone;
-  f1.memory_bytes = options.memory_bytes;
-  f1.threads = options.threads;
-  f1.mask = options.mask;
-  f1.progress = options.progress;
-  SDB_RETURN_IF_ERROR(BuildDenseStore(input, scratch.path(), f1).status());
-  SDB_ASSIGN_OR_RETURN(auto store, DenseStore::Open(scratch.path()));
-  SDB_ASSIGN_OR_RETURN(HzBuildReport report, ConvertToHz(*store, out_path, options, input.origin));
-  report.method = "engine";
-  report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  return report;
+  const int k = std::max(1, DomainBitsFor(input.dimension, input.dims));
+  const int max_bits = input.dimension == 3 ? 18 : 13;
+  if (k > max_bits) {
+    return Status::InvalidArgument(
+        input.description + ": a grid of this size needs a domain of side 2^" +
+        std::to_string(k) + ", beyond the deepest level a 64-bit location code holds (2^" +
+        std::to_string(max_bits) + " per axis)");
+  }
+  // A mask means missing values, whose finest errors are stored; NaN in the
+  // input, found while reading, are checked again then.
+  SDB_RETURN_IF_ERROR(CheckBlockBitmap(input.dimension, input.dims, k, options,
+                                       options.mask.has_value(), out_path, input.description));
+  try {
+    // The field held as its stored voxels (a byte a point for uint8).
+    return WithVoxelCppType(StoredVoxelType(input, options.mask.has_value()), [&](auto voxel) {
+      using V = decltype(voxel);
+      return input.dimension == 3 ? BuildDirect<3, V>(input, out_path, options, start)
+                                  : BuildDirect<4, V>(input, out_path, options, start);
+    });
+  } catch (const std::bad_alloc&) {
+    return NotEnoughMemory("building " + out_path + " from " + input.description,
+                           "the field and the diamond table; the memory budget is " +
+                               DescribeByteCount(options.memory_bytes));
+  }
 }
 
 }  // namespace simplexdb

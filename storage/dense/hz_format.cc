@@ -7,9 +7,16 @@
 #include "util/utf8.h"
 
 namespace simplexdb {
+
+Result<Compression> ParseCompression(std::string_view name) {
+  if (name == "none") return Compression::kNone;
+  if (name == "zstd") return Compression::kZstd;
+  return Status::InvalidArgument("unknown compression '" + std::string(name) +
+                                 "': expected none or zstd");
+}
 namespace {
 
-// Byte offsets of the header fields (docs/format/dense-store-2.md).
+// Byte offsets of the header fields (docs/format/dense-store.md).
 constexpr size_t kOffMagic = 0;
 constexpr size_t kOffVersion = 8;
 constexpr size_t kOffHeaderSize = 12;

@@ -1,5 +1,5 @@
 // Store format 2, the file: header, error blocks, field bricks, block
-// presence bitmap and the two indexes (docs/format/dense-store-2.md is the
+// presence bitmap and the two indexes (docs/format/dense-store.md is the
 // specification; this header is its code).
 //
 // Errors: one per grid vertex (its diamond's), in the hierarchical Z-order
@@ -7,8 +7,8 @@
 // from the field in memory keep them for every octave but the finest (HZ
 // positions below 2^(D k)): a reader computes the finest octave's from the
 // field (storage/error/finest_box_errors.h), as the builder did. Stores
-// built otherwise (missing values, a mask, from another store) set
-// kHzFinestStored and keep every octave's.
+// built from a field with missing values (NaN, a mask) set kHzFinestStored
+// and keep every octave's.
 //
 // Field: every octave's lattice as bricks (storage/dense/field_bricks.h),
 // 2^brick_bits points per axis, coarsest lattice first.
@@ -36,14 +36,16 @@
 // brick owns (lattice 0, finest errors not stored; 0 otherwise): the finest
 // vertex g belongs to the grid brick holding g clamped to the real grid.
 //
-// The first 8 bytes and the version at offset 8 are format 1's
-// (storage/dense/format.h), so each version's reader names the other.
+// The first 8 bytes (kDenseMagic) and the version at offset 8 are those of
+// every dense format since the first, so a store of a retired version is
+// named as such (format 1, before 2026-11-26: one error per simplex; format
+// 2's version 2: errors and field in one record) with what to do.
 //
 // Thread safety: plain values and pure functions.
 // Errors: ParseHzHeader returns InvalidArgument (bad magic: not a dense
 // store), NotSupported (format 1, or format 2's version 2, with what to do;
 // another version) or Corruption (checksum, a field out of range), naming
-// the file.
+// the file; ParseCompression InvalidArgument naming the unknown word.
 #pragma once
 
 #include <array>
@@ -53,13 +55,25 @@
 #include <string>
 #include <string_view>
 
-#include "storage/dense/format.h"
 #include "storage/error/quantization.h"
 #include "storage/volume/voxel_type.h"
 #include "util/little_endian.h"
 #include "util/status.h"
 
 namespace simplexdb {
+
+inline constexpr std::array<char, 8> kDenseMagic = {'S', 'I', 'M', 'P', 'L', 'X', 'D', 'B'};
+
+// How a block's or brick's bytes are stored (stable numbers: on disk).
+enum class BlockEncoding : uint8_t {
+  kRaw = 1,   // the entries as they are, little-endian, read in place
+  kZstd = 2,  // one independent zstd frame (with its content checksum)
+};
+
+// How a builder stores blocks and bricks: raw, or zstd frames where they
+// are smaller.
+enum class Compression : uint8_t { kNone = 0, kZstd = 1 };
+Result<Compression> ParseCompression(std::string_view name);  // "none", "zstd"
 
 // Version 3: errors and field apart (version 2 kept both per record).
 inline constexpr uint32_t kHzFormatVersion = 3;

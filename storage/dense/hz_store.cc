@@ -11,9 +11,9 @@
 #include <thread>
 
 #include "storage/dense/brick_codec.h"
-#include "storage/dense/format.h"
+#include "storage/error/quantize.h"
 #include "storage/dense/hz_lattice.h"
-#include "storage/dense/parallel_run.h"
+#include "storage/common/parallel_run.h"
 #include "storage/io/checksum.h"
 #include "storage/io/codec.h"
 #include "util/little_endian.h"

@@ -1,5 +1,5 @@
 // HzStore: a read-only, memory-mapped store of format 2 (storage/dense/
-// hz_format.h, docs/format/dense-store-2.md): per grid vertex its diamond's
+// hz_format.h, docs/format/dense-store.md): per grid vertex its diamond's
 // error, in hierarchical Z-order, in blocks; the field as bricks of every
 // octave's lattice. Blocks and bricks are raw (blocks are read in place) or
 // zstd frames, decoded into a bounded cache. A node's error is the error of
@@ -53,7 +53,7 @@
 
 #include "hierarchy/hz_order.h"
 #include "hierarchy/simplex_code.h"
-#include "storage/dense/block_cache.h"
+#include "storage/common/block_cache.h"
 #include "storage/dense/field_bricks.h"
 #include "storage/dense/hz_format.h"
 #include "storage/error/finest_box_errors.h"

@@ -14,7 +14,7 @@
 
 #include "hierarchy/hz_order.h"
 #include "storage/dense/field_bricks.h"
-#include "storage/dense/parallel_run.h"
+#include "storage/common/parallel_run.h"
 #include "storage/error/quantize.h"
 #include "storage/io/checksum.h"
 #include "storage/io/codec.h"

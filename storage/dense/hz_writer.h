@@ -34,7 +34,6 @@
 #include <vector>
 
 #include "storage/dense/field_bricks.h"
-#include "storage/dense/format.h"
 #include "storage/dense/hz_format.h"
 #include "storage/error/progress.h"
 #include "storage/error/quantize.h"

@@ -4,8 +4,10 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 #include "storage/error/finest_box_errors.h"
+#include "storage/error/quantize.h"
 #include "storage/error/simplex_scan.h"
 
 namespace simplexdb {
@@ -22,12 +24,27 @@ std::array<int64_t, D> StridesOf(const std::array<int64_t, D>& dims) {
   return s;
 }
 
-// The smallest float not below e: the table keeps bounds.
-float RoundUp(double e) {
-  float f = static_cast<float>(e);
-  if (static_cast<double>(f) < e) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-  return f;
+// Whether the simplex's grid points in [lo, hi] have a value (not NaN) and
+// whether any has none. Integer fields have no missing values.
+template <int D, class V>
+void ScanAvailability(const ScannableSimplex<D>& s, const IPoint<D>& lo, const IPoint<D>& hi,
+                      const GridView<D, V>& view, bool& any_value, bool& any_missing) {
+  s.ForEachRow(lo, hi, [&](const IPoint<D>& p, int64_t x_end) {
+    if constexpr (!std::is_floating_point_v<V>) {
+      any_value = true;
+    } else {
+      const V* row = view.Row(p);
+      for (int64_t i = 0; i <= x_end - p[0]; ++i) {
+        if (std::isnan(row[i])) {
+          any_missing = true;
+        } else {
+          any_value = true;
+        }
+      }
+    }
+  });
 }
+
 
 }  // namespace
 
@@ -41,14 +58,16 @@ auto DiamondErrors<D, V>::MakeStencils(const std::array<int64_t, D>& strides,
 
 template <int D, class V>
 DiamondErrors<D, V>::DiamondErrors(const V* field, const std::array<int64_t, D>& dims, int k,
-                                   bool exact, double range, int threads, bool stencils)
+                                   bool exact, double range, int threads, bool stencils,
+                                   bool may_miss)
     : field_(field),
       dims_(dims),
       field_stride_(StridesOf<D>(dims)),
       k_(k),
       exact_(exact),
       range_(range),
-      use_stencils_(stencils),
+      use_stencils_(stencils && !may_miss),
+      may_miss_(may_miss),
       order_(k),
       stencils_(MakeStencils(field_stride_, std::make_index_sequence<kStencilScales>())),
       far_by_worker_(static_cast<size_t>(std::max(1, threads))) {
@@ -117,7 +136,8 @@ void DiamondErrors<D, V>::SetWindow(const V* planes, int64_t first_plane) {
 template <int D, class V>
 template <class T, class Corner>
 double DiamondErrors<D, V>::CoarseScan(const std::array<int64_t, D>& g, int s, int64_t last_lo,
-                                       int64_t last_hi, const Corner& corner) const {
+                                       int64_t last_hi, const Corner& corner,
+                                       DiamondAvailability& availability) const {
   uint32_t odd = 0, parity = 0;
   for (int a = 0; a < D; ++a) {
     odd |= static_cast<uint32_t>((g[a] >> s) & 1) << a;
@@ -128,7 +148,10 @@ double DiamondErrors<D, V>::CoarseScan(const std::array<int64_t, D>& g, int s, i
   window_lo[D - 1] = window_offset_ / field_stride_[D - 1];
   const GridView<D, V> view{field_, window_lo, field_stride_};
   double worst = 0;
-  for (const auto& t : FinestDiamonds<D>::Get().Of(odd, parity).simplices) {
+  const auto& simplices = FinestDiamonds<D>::Get().Of(odd, parity).simplices;
+  static_assert(sizeof(availability.value) * 8 >= 48, "a bit per simplex of the largest diamond");
+  for (size_t ti = 0; ti < simplices.size(); ++ti) {
+    const auto& t = simplices[ti];
     std::array<IPoint<D>, D + 1> v{};
     bool inside = true;
     for (int i = 0; i <= D; ++i) {
@@ -155,6 +178,17 @@ double DiamondErrors<D, V>::CoarseScan(const std::array<int64_t, D>& g, int s, i
       for (int a = 0; a < D; ++a) c[a] = std::min(v[i][a], dims_[a] - 1);
       f[i] = static_cast<T>(corner(c));
     }
+    if (may_miss_) {
+      bool any_value = false, any_missing = false;
+      for (int i = 0; i <= D; ++i) any_missing = any_missing || std::isnan(static_cast<double>(f[i]));
+      ScanAvailability<D, V>(scan, lo, hi, view, any_value, any_missing);
+      const uint64_t bit = uint64_t{1} << ti;
+      if (any_value) availability.value |= bit;
+      if (any_missing) availability.missing |= bit;
+      // Only a part with values everywhere has an error to scan; the others
+      // record the range or nothing once the parts are merged.
+      if (any_missing || !any_value) continue;
+    }
     worst = std::max(worst, MaxError<D, T, V>(scan, f, range_, lo, hi, view).error);
   }
   return worst;
@@ -164,8 +198,10 @@ template <int D, class V>
 double DiamondErrors<D, V>::Coarse(const std::array<int64_t, D>& g, int s) const {
   const auto corner = [this](const std::array<int64_t, D>& c) { return FieldAt(c); };
   const int64_t all = std::numeric_limits<int64_t>::max();
-  return exact_ ? CoarseScan<int64_t>(g, s, -all, all, corner)
-                : CoarseScan<double>(g, s, -all, all, corner);
+  DiamondAvailability availability;
+  const double e = exact_ ? CoarseScan<int64_t>(g, s, -all, all, corner, availability)
+                          : CoarseScan<double>(g, s, -all, all, corner, availability);
+  return MergedError(e, availability);
 }
 
 template <int D, class V>
@@ -175,10 +211,11 @@ void DiamondErrors<D, V>::ComputeRowInto(int scale, int64_t j, const RowSink& si
 
 template <int D, class V>
 double DiamondErrors<D, V>::CoarsePart(const std::array<int64_t, D>& g, int s, int64_t last_lo,
-                                       int64_t last_hi, const CornerValues& corner) const {
+                                       int64_t last_hi, const CornerValues& corner,
+                                       DiamondAvailability& availability) const {
   const auto at = [&corner](const std::array<int64_t, D>& c) { return corner(c); };
-  return exact_ ? CoarseScan<int64_t>(g, s, last_lo, last_hi, at)
-                : CoarseScan<double>(g, s, last_lo, last_hi, at);
+  return exact_ ? CoarseScan<int64_t>(g, s, last_lo, last_hi, at, availability)
+                : CoarseScan<double>(g, s, last_lo, last_hi, at, availability);
 }
 
 template <int D, class V>
@@ -186,10 +223,10 @@ void DiamondErrors<D, V>::ComputeItem(int worker, uint64_t item) {
   const Item it = items_[item];
   ComputeRow(it.s, it.j, [&](const std::array<int64_t, D>& g, double e) {
     if (float* slot = Slot(g)) {
-      *slot = RoundUp(e);
+      *slot = RoundUpToFloat(e);
     } else {
       far_by_worker_[static_cast<size_t>(worker)].emplace_back(
-          order_.PositionAtLevel(g, order_.Level(g)), RoundUp(e));
+          order_.PositionAtLevel(g, order_.Level(g)), RoundUpToFloat(e));
     }
   });
 }
@@ -253,10 +290,11 @@ void DiamondErrors<D, V>::ComputeRow(int scale, int64_t j, Sink&& sink) const {
 
 template <int D, class V>
 void DiamondErrors<D, V>::ComputeRowPartInto(int scale, int64_t j, int64_t last_lo, int64_t last_hi,
-                                             const CornerValues& corner, const RowSink& sink) const {
+                                             const CornerValues& corner, const PartSink& sink) const {
   ForEachRowVertex(scale, j, [&](const std::array<int64_t, D>& g) {
-    const double e = CoarsePart(g, scale, last_lo, last_hi, corner);
-    if (e > 0) sink(g, e);
+    DiamondAvailability availability;
+    const double e = CoarsePart(g, scale, last_lo, last_hi, corner, availability);
+    if (e > 0 || availability.any()) sink(g, e, availability);
   });
 }
 

@@ -25,17 +25,26 @@
 // diamonds are independent: work items (one slab of an octave's vertices
 // each) run on any thread in any order.
 //
-// Rules as the error engine's (storage/error/unit_errors.h): only real grid
-// points (inside dims) are scanned; a vertex past the real grid takes the
-// value of the nearest real point (clamped per axis); a diamond with no real
-// point has error 0. Fields with missing values (NaN) are not handled here:
-// their builders take the engine's path.
+// The seed's rules for a simplex's error: only real grid points (inside
+// dims) are scanned; a vertex past the real grid takes the value of the
+// nearest real point (clamped per axis); a simplex with no real point has
+// error 0.
+//
+// Missing values (NaN: a masked or absent voxel), when `may_miss` is set:
+// a simplex records ErrorGivenAvailability's error (storage/error/
+// simplex_scan.h): 0 where none of its real points has a value, the field
+// range where some point or vertex has none, the seed's error otherwise.
+// Every diamond is then scanned (no stencils: they assume values
+// everywhere), and the finest octave too, so a store built from such a
+// field keeps every octave's errors (the reader's stencils cannot compute
+// them).
 //
 // The finest octave (scale 0) is not tabled: a format-2 store keeps only
 // each grid brick's largest finest error (FinestBoxMax), and its reader
 // computes the others with the same function (storage/error/
-// finest_box_errors.h). The table holds the vertices whose coordinates are
-// all even: an eighth of the HT's grid, a sixteenth of the HP's.
+// finest_box_errors.h); with missing values At() scans them. The table holds
+// the vertices whose coordinates are all even: an eighth of the HT's grid, a
+// sixteenth of the HP's.
 //
 // Use:
 //   DiamondErrors<3, uint16_t> d(field, dims, k, exact, range, threads);
@@ -57,8 +66,8 @@
 // returned).
 // Lifetimes: the field is read during ComputeItem, At (finest vertices) and
 // FinestBoxMax, and must outlive them.
-// Errors: none; preconditions (no NaN, dims within the domain) are
-// assertions. Allocate throws std::bad_alloc.
+// Errors: none; preconditions (no NaN unless may_miss, dims within the
+// domain) are assertions. Allocate throws std::bad_alloc.
 #pragma once
 
 #include <array>
@@ -75,6 +84,21 @@
 
 namespace simplexdb {
 
+// Where a part of a diamond has values, simplex by simplex (bit i: the i-th
+// simplex of the diamond's template, FinestDiamonds): the parts of one
+// diamond merge, and the diamond is partly missing when some simplex has
+// both a point with a value and a point or vertex without one.
+struct DiamondAvailability {
+  uint64_t value = 0;    // simplices with a real point that has a value
+  uint64_t missing = 0;  // simplices with a real point or vertex that has none
+  void Merge(const DiamondAvailability& o) {
+    value |= o.value;
+    missing |= o.missing;
+  }
+  bool any() const { return (value | missing) != 0; }
+  bool partly_missing() const { return (value & missing) != 0; }
+};
+
 template <int D, class V = double>
 class DiamondErrors {
  public:
@@ -82,9 +106,10 @@ class DiamondErrors {
   // a domain of side 2^k. `exact`: integer voxel types (every value an
   // integer), errors computed exactly. `range`: field max - min.
   // `stencils` false scans every diamond's simplices (the reference the
-  // stencils are tested against).
+  // stencils are tested against). `may_miss`: the field may hold NaN
+  // (missing values; implies no stencils).
   DiamondErrors(const V* field, const std::array<int64_t, D>& dims, int k, bool exact,
-                double range, int threads, bool stencils = true);
+                double range, int threads, bool stencils = true, bool may_miss = false);
 
   // The table's bytes: a float per even point (every coordinate even) of
   // the real grid grown by two points per axis (the diamonds of vertices
@@ -114,12 +139,21 @@ class DiamondErrors {
   // largest error over the part of its diamond whose grid points have
   // their last coordinate in [last_lo, last_hi] (the exact scan), taking
   // the simplices' corner values from `corner` (real grid points, clamped:
-  // a corner may lie outside the window); sink(g, part) where not 0. The
-  // maximum of the parts over a partition of the last axis is the
-  // diamond's error.
+  // a corner may lie outside the window); sink(g, part, availability)
+  // where the part is not 0 or, with may_miss, has points or a missing
+  // vertex. Over a partition of the last axis, the diamond's error is the
+  // maximum of the parts, or (may_miss) the field range where the merged
+  // availability is partly_missing() (MergedError).
   using CornerValues = std::function<double(const std::array<int64_t, D>&)>;
+  using PartSink =
+      std::function<void(const std::array<int64_t, D>&, double, const DiamondAvailability&)>;
   void ComputeRowPartInto(int scale, int64_t j, int64_t last_lo, int64_t last_hi,
-                          const CornerValues& corner, const RowSink& sink) const;
+                          const CornerValues& corner, const PartSink& sink) const;
+  // A diamond's error from the largest of its parts and their merged
+  // availability.
+  double MergedError(double parts_max, const DiamondAvailability& a) const {
+    return a.partly_missing() ? range_ : parts_max;
+  }
   // Gathers the few coarse diamonds past the table (vertices beyond the real
   // grid whose diamonds reach back into it).
   void Finish();
@@ -155,9 +189,13 @@ class DiamondErrors {
   // the real grid: the stencils then serve it, clipped at the domain's faces.
   bool Interior(const std::array<int64_t, D>& g, int s) const;
   double Coarse(const std::array<int64_t, D>& g, int s) const;
+  // The largest error over the diamond's simplices' points whose last
+  // coordinate is in [last_lo, last_hi], skipping (may_miss) simplices
+  // whose part has a missing point or vertex; `availability` records where
+  // the part has values.
   template <class T, class Corner>
   double CoarseScan(const std::array<int64_t, D>& g, int s, int64_t last_lo, int64_t last_hi,
-                    const Corner& corner) const;
+                    const Corner& corner, DiamondAvailability& availability) const;
   template <class Sink>
   void ComputeRow(int scale, int64_t j, Sink&& sink) const;
   // f(g) for every vertex of scale s whose last coordinate is j * 2^s and
@@ -166,7 +204,7 @@ class DiamondErrors {
   void ForEachRowVertex(int s, int64_t j, F&& f) const;
   double RowVertexError(const std::array<int64_t, D>& g, int s) const;
   double CoarsePart(const std::array<int64_t, D>& g, int s, int64_t last_lo, int64_t last_hi,
-                    const CornerValues& corner) const;
+                    const CornerValues& corner, DiamondAvailability& availability) const;
   float* Slot(const std::array<int64_t, D>& g);
 
   const V* field_;
@@ -177,6 +215,7 @@ class DiamondErrors {
   bool exact_;
   double range_;
   bool use_stencils_;
+  bool may_miss_;
   HzOrder<D> order_;
   // Stencils of the finest octaves (scale 0 .. kStencilScales - 1): their
   // diamonds' rows are a few points long, too short for row scans.

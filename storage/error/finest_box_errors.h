@@ -1,7 +1,7 @@
 // The finest octave's diamond errors computed where they are needed, from a
-// window of the field. Format 2's next layout stores no errors for the
-// finest octave (7/8 of the HT's vertices, 15/16 of the HP's:
-// docs/format/dense-store-2.md, "The next layout"); its reader computes
+// window of the field. The dense store keeps no errors for the finest
+// octave (7/8 of the HT's vertices, 15/16 of the HP's:
+// docs/format/dense-store.md, "Errors"); its reader computes
 // them a box of vertices at a time from the field's bricks around the box.
 //
 // FinestDiamondError is the one function that computes a finest diamond's

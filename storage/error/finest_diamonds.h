@@ -80,9 +80,10 @@ class FinestDiamonds {
   // [0, 2^k]; g's trailing common zero bits 0) of a grid whose real part is
   // [0, dims): the largest |field - interpolation| over the real grid points
   // of the diamond's simplices in the domain, vertex values clamped to the
-  // real grid (as the error engine, storage/error/unit_errors.h). `field(p)`
+  // real grid (the seed's rules, storage/error/simplex_scan.h). `field(p)`
   // returns the value at a real grid point p.
-  // REQUIRES: no value is NaN (missing values take the engine's slow path).
+  // REQUIRES: no value is NaN (missing values are scanned instead:
+  // storage/error/diamond_errors.h).
   template <class Field>
   double Error(const std::array<int64_t, D>& g, int domain_bits,
                const std::array<int64_t, D>& dims, Field&& field) const {

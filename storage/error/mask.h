@@ -1,7 +1,7 @@
 // Masks: where the field is available. A mask is a volume of the input's
 // grid, 0 (or NaN) where the field is missing; masked points become missing
 // values (NaN) before any error is computed, in every builder and in the
-// sparse store's update alike (docs/format/dense-store.md, "Missing values").
+// sparse store's update alike (docs/format/dense-store.md, "Errors").
 //
 // Thread safety: pure functions; reentrant.
 // Lifetimes: nothing is kept; ApplyMask writes the caller's buffer only.

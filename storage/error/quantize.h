@@ -30,6 +30,19 @@
 
 namespace simplexdb {
 
+// Float bounds of a double: RoundDownToFloat(v) <= v <= RoundUpToFloat(v),
+// each the nearest float on its side. O(1).
+inline float RoundDownToFloat(double v) {
+  float f = static_cast<float>(v);
+  if (static_cast<double>(f) > v) f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  return f;
+}
+inline float RoundUpToFloat(double v) {
+  float f = static_cast<float>(v);
+  if (static_cast<double>(f) < v) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
+
 class ErrorQuantizer {
  public:
   // The quantum a store of `range` (field max - min) uses. Slightly more

@@ -24,9 +24,8 @@
 // precision (subtracting f(v_0) first keeps the rounding relative to the
 // field's range).
 //
-// These are the kernels; the error engine that applies them to a unit of
-// the hierarchy (regions, padding, missing values, ancestors) is
-// storage/error/unit_errors.h, the one place builders and updaters call.
+// These are the kernels; storage/error/diamond_errors.h applies them to
+// every diamond of a grid (padding, missing values), for every builder.
 //
 // Thread safety: value types and pure functions; ScannableSimplex and
 // Interpolant are immutable once built and may be shared.

@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "hierarchy/hz_order.h"
-#include "storage/dense/layout.h"
-#include "storage/dense/parallel_run.h"
+#include "hierarchy/geometry.h"
+#include "storage/common/field_loader.h"
+#include "storage/common/parallel_run.h"
 #include "storage/error/diamond_errors.h"
-#include "storage/error/field_values.h"
 #include "storage/error/finest_diamonds.h"
 #include "storage/error/mask.h"
 #include "storage/error/quantize.h"
@@ -340,31 +340,23 @@ class Builder {
  private:
   double SecondsSince() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
 
+  // The whole field, as doubles holding the stored values (storage/common/
+  // field_loader.h, on every worker); missing values are refused.
   Status ReadField() {
-    field_.resize(input_.voxel_count());
-    SDB_ASSIGN_OR_RETURN(std::unique_ptr<VolumeReader> reader, VolumeReader::Open(input_));
-    constexpr uint64_t kChunk = uint64_t{1} << 22;
-    fmin_ = std::numeric_limits<double>::infinity();
-    fmax_ = -fmin_;
-    for (uint64_t first = 0; first < field_.size(); first += kChunk) {
-      const uint64_t n = std::min<uint64_t>(kChunk, field_.size() - first);
-      SDB_RETURN_IF_ERROR(reader->Read(first, n, field_.data() + first));
-      SDB_RETURN_IF_ERROR(CheckStorableValues(input_, first, field_.data() + first, n));
-      for (uint64_t i = first; i < first + n; ++i) {
-        double& x = field_[i];
-        if (std::isnan(x)) {
-          return Status::NotSupported(input_.description +
-                                      ": missing values (NaN); the sparse store of format 2 does not "
-                                      "take them yet (import a dense store)");
-        }
-        if (type_ == VoxelType::kF32) x = static_cast<float>(x);
-        fmin_ = std::min(fmin_, x);
-        fmax_ = std::max(fmax_, x);
-      }
-      if (options_.progress) {
-        options_.progress(BuildProgress{"field", first + n, field_.size(), SecondsSince()});
-      }
+    LoadFieldOptions load;
+    load.stored = type_;
+    load.threads = threads_;
+    load.start = start_;
+    load.progress = options_.progress;
+    SDB_ASSIGN_OR_RETURN(LoadedField<double> loaded, LoadField<double>(input_, std::nullopt, load));
+    if (loaded.missing) {
+      return Status::NotSupported(input_.description +
+                                  ": missing values (NaN); the sparse store of format 2 does not "
+                                  "take them yet (import a dense store)");
     }
+    field_ = std::move(loaded.values);
+    fmin_ = loaded.min;
+    fmax_ = loaded.max;
     return Status::OK();
   }
 
@@ -415,7 +407,7 @@ class Builder {
   int k_ = 1;
   int threads_ = 1;
   VoxelType type_ = VoxelType::kU8;
-  std::vector<double> field_;
+  BigArray<double> field_;
   double fmin_ = 0, fmax_ = 0;
 };
 

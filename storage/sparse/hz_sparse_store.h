@@ -15,7 +15,7 @@
 //     the input's (equal at t = 0); at a kept vertex within s / 2.
 //
 // Thread safety: a store may be shared by threads; a Reader is one thread's.
-// Decoded blocks go to the store's cache (storage/dense/block_cache.h),
+// Decoded blocks go to the store's cache (storage/common/block_cache.h),
 // shared by its readers.
 // Lifetimes: the store must outlive its readers; a reader holds an LMDB
 // read transaction (a snapshot) for its life.
@@ -37,7 +37,7 @@
 
 #include "hierarchy/hz_order.h"
 #include "hierarchy/simplex_code.h"
-#include "storage/dense/block_cache.h"
+#include "storage/common/block_cache.h"
 #include "storage/error/finest_diamonds.h"
 #include "storage/error/quantize.h"
 #include "storage/sparse/hz_sparse_format.h"

@@ -1,5 +1,5 @@
 // Recomputes every checksum of a (possibly damaged) format-2 store in place
-// (docs/format/dense-store-2.md): each block's and brick's, the bitmap's,
+// (docs/format/dense-store.md): each block's and brick's, the bitmap's,
 // the two indexes' and the header's, wherever the offsets the damaged
 // header and indexes give stay inside the bytes. Damage then gets past the checksums and reaches the
 // structural checks behind them: the fuzz target and the damage tests use it.

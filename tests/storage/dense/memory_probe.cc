@@ -1,5 +1,4 @@
-// memory_probe STORE CACHE_BYTES LOOKUPS: opens a dense store (format 2, or
-// the per-node engine's format 1) with a cache
+// memory_probe STORE CACHE_BYTES LOOKUPS: opens a dense store with a cache
 // budget, looks up the errors of LOOKUPS random nodes (random levels, every
 // root) and the field at LOOKUPS random points, and prints the process's
 // anonymous memory (RssAnon) before opening and after the lookups, in KiB,
@@ -15,9 +14,7 @@
 #include <random>
 #include <string>
 
-#include "storage/dense/dense_store.h"
 #include "storage/dense/hz_store.h"
-#include "util/little_endian.h"
 
 namespace simplexdb {
 namespace {
@@ -85,13 +82,6 @@ int Main(int argc, char** argv) {
   const long before = AnonKib();
   const size_t cache_bytes = std::strtoull(argv[2], nullptr, 10);
   const uint64_t count = std::strtoull(argv[3], nullptr, 10);
-  // The dense store (format 2), or the per-node engine's store (format 1).
-  uint8_t head[12] = {};
-  if (FILE* f = std::fopen(argv[1], "rb")) {
-    if (std::fread(head, 1, sizeof head, f) != sizeof head) head[8] = 0;
-    std::fclose(f);
-  }
-  if (LoadLittle<uint32_t>(head + 8) == 1) return Probe<DenseStore>(argv[1], cache_bytes, count, before);
   return Probe<HzStore>(argv[1], cache_bytes, count, before);
 }
 

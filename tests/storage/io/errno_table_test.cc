@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "query/mesh_io.h"
-#include "storage/dense/dense_builder.h"
+#include "storage/dense/hz_builder.h"
 #include "storage/io/file.h"
 #include "storage/io/lmdb.h"
 #include "storage/sparse/hz_sparse_builder.h"
@@ -103,7 +103,7 @@ class ErrnoFromWriters : public ::testing::Test {
     codes_.assign(2000, SimplexCode<3>::Root(0));
     writers_ = {
         {"dense store",
-         [&](const std::string& p) { return BuildDenseStore(volume_, p, {}).status(); }},
+         [&](const std::string& p) { return BuildHzStore(volume_, p, {}).status(); }},
         {"sparse store",
          [&](const std::string& p) { return BuildHzSparseStore(volume_, p, {}).status(); }},
         {"volume (NRRD)",

@@ -1,0 +1,133 @@
+// The field every builder reads (storage/common/field_loader.h) against the
+// volume's own values: as the store keeps them (float32 rounding), a mask's
+// points missing, the range over the values present, the same on one worker
+// and on several.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <optional>
+
+#include "storage/common/field_loader.h"
+#include "storage/volume/volume.h"
+#include "tests/storage/store_test_util.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::TempDir;
+using testing::TestVolume;
+
+TEST(FieldLoader, ReadsTheVolumeOnAnyNumberOfWorkers) {
+  TempDir dir;
+  // More than one chunk of 2^20 voxels.
+  const TestVolume v = TestVolume::Random(3, {128, 96, 100, 1}, VoxelType::kI16, 1);
+  ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
+  const VolumeInfo in = *OpenVolume(dir / "v.nrrd");
+  for (const int threads : {1, 3}) {
+    SCOPED_TRACE(threads);
+    LoadFieldOptions o;
+    o.stored = VoxelType::kI16;
+    o.threads = threads;
+    const auto f = LoadField<int16_t>(in, std::nullopt, o);
+    ASSERT_TRUE(f.ok()) << f.status().message();
+    ASSERT_EQ(f->values.size(), v.values.size());
+    double lo = v.values[0], hi = v.values[0];
+    for (size_t i = 0; i < v.values.size(); ++i) {
+      ASSERT_EQ(f->values[i], v.values[i]) << i;
+      lo = std::min(lo, v.values[i]);
+      hi = std::max(hi, v.values[i]);
+    }
+    EXPECT_EQ(f->min, lo);
+    EXPECT_EQ(f->max, hi);
+    EXPECT_FALSE(f->missing);
+  }
+}
+
+// A float64 volume kept as float32: every value rounded to the nearest
+// float, the range of the rounded values.
+TEST(FieldLoader, KeepsTheStoredTypesValues) {
+  TempDir dir;
+  TestVolume v = TestVolume::Random(3, {9, 8, 7, 1}, VoxelType::kF64, 2);
+  for (double& x : v.values) x = x / 3 + 1e-9;  // not floats
+  ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
+  LoadFieldOptions o;
+  o.stored = VoxelType::kF32;
+  const auto f = LoadField<float>(*OpenVolume(dir / "v.nrrd"), std::nullopt, o);
+  ASSERT_TRUE(f.ok()) << f.status().message();
+  float lo = static_cast<float>(v.values[0]);
+  for (size_t i = 0; i < v.values.size(); ++i) {
+    ASSERT_EQ(f->values[i], static_cast<float>(v.values[i])) << i;
+    lo = std::min(lo, static_cast<float>(v.values[i]));
+  }
+  EXPECT_EQ(f->min, static_cast<double>(lo));
+}
+
+// A mask's zeros (and NaN) are missing values; the range skips them; a
+// field with every point masked has the range 0 to 0; an integer field
+// cannot hold a missing value.
+TEST(FieldLoader, MaskedPointsAreMissing) {
+  TempDir dir;
+  const TestVolume v = TestVolume::Random(3, {11, 7, 5, 1}, VoxelType::kU8, 3);
+  TestVolume mask = v;
+  mask.type = VoxelType::kF32;
+  for (size_t i = 0; i < mask.values.size(); ++i) {
+    mask.values[i] = i % 5 == 0 ? 0 : (i % 7 == 0 ? std::nan("") : 0.5);
+  }
+  ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
+  ASSERT_TRUE(mask.WriteNrrd(dir / "m.nrrd").ok());
+  const VolumeInfo in = *OpenVolume(dir / "v.nrrd");
+  LoadFieldOptions o;
+  o.stored = VoxelType::kF32;
+  o.threads = 2;
+  const auto f = LoadField<float>(in, *OpenVolume(dir / "m.nrrd"), o);
+  ASSERT_TRUE(f.ok()) << f.status().message();
+  EXPECT_TRUE(f->missing);
+  double lo = 1e9, hi = -1e9;
+  for (size_t i = 0; i < v.values.size(); ++i) {
+    if (i % 5 == 0 || i % 7 == 0) {
+      ASSERT_TRUE(std::isnan(f->values[i])) << i;
+      continue;
+    }
+    ASSERT_EQ(f->values[i], v.values[i]) << i;
+    lo = std::min(lo, v.values[i]);
+    hi = std::max(hi, v.values[i]);
+  }
+  EXPECT_EQ(f->min, lo);
+  EXPECT_EQ(f->max, hi);
+
+  for (double& x : mask.values) x = 0;
+  ASSERT_TRUE(mask.WriteNrrd(dir / "none.nrrd").ok());
+  const auto none = LoadField<float>(in, *OpenVolume(dir / "none.nrrd"), o);
+  ASSERT_TRUE(none.ok()) << none.status().message();
+  EXPECT_TRUE(none->missing);
+  EXPECT_EQ(none->min, 0);
+  EXPECT_EQ(none->max, 0);
+
+  o.stored = VoxelType::kU8;
+  const auto integers = LoadField<uint8_t>(in, *OpenVolume(dir / "m.nrrd"), o);
+  ASSERT_FALSE(integers.ok());
+  EXPECT_TRUE(integers.status().IsInvalidArgument()) << integers.status().ToString();
+}
+
+// MaskedReader: any run of voxels, masked points NaN, the same as LoadField.
+TEST(FieldLoader, MaskedReaderReadsRuns) {
+  TempDir dir;
+  TestVolume v = TestVolume::Random(3, {6, 5, 4, 1}, VoxelType::kF32, 4);
+  TestVolume mask = v;
+  for (size_t i = 0; i < mask.values.size(); ++i) mask.values[i] = i % 3 == 1 ? 0 : 1;
+  ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
+  ASSERT_TRUE(mask.WriteNrrd(dir / "m.nrrd").ok());
+  MaskedReader reader(*OpenVolume(dir / "v.nrrd"), *OpenVolume(dir / "m.nrrd"));
+  std::vector<double> run(17);
+  ASSERT_TRUE(reader.Read(40, run.size(), run.data()).ok());
+  for (size_t i = 0; i < run.size(); ++i) {
+    if ((40 + i) % 3 == 1) {
+      EXPECT_TRUE(std::isnan(run[i])) << i;
+    } else {
+      EXPECT_EQ(run[i], v.values[40 + i]) << i;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace simplexdb

@@ -1,0 +1,313 @@
+// The dense store's writer and its build paths: blocks and bricks written
+// in runs in any order, which virtual blocks hold which vertices, the
+// streamed build against the direct one (also with missing values and a
+// mask), and coarse reads from one lattice's bricks against the field.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <set>
+
+#include "hierarchy/geometry.h"
+#include "hierarchy/hz_order.h"
+#include "storage/dense/hz_builder.h"
+#include "storage/dense/hz_lattice.h"
+#include "storage/dense/hz_store.h"
+#include "storage/dense/hz_writer.h"
+#include "storage/volume/volume.h"
+#include "tests/storage/dense/dense_test_util.h"
+
+namespace simplexdb {
+namespace {
+
+using testing::BuildStore;
+using testing::ExpectFields;
+using testing::ForEachInternalCode;
+using testing::TempDir;
+using testing::TestVolume;
+
+// A store written in runs (blocks and bricks in two or three runs each,
+// later ones first) answers as the store whose errors it copies; Finish
+// refuses a store with a brick missing, and a writer dropped unfinished
+// leaves nothing.
+TEST(DenseWriter, WriterTakesBlocksAndBricksInRunsInAnyOrder) {
+  TempDir dir;
+  // The reference stores every octave's errors (a volume with missing
+  // values), so the writer asks for every block and no brick maxima.
+  TestVolume v = TestVolume::Random(3, {21, 17, 40, 1}, VoxelType::kF32, 41);
+  testing::PunchHoles(v, 41, 3, 0);
+  HzBuildOptions o;
+  o.quantization = Quantization::kF32;  // copied exactly (errors_are_bounds)
+  o.block_bits = 6;                      // many blocks
+  const auto reference = BuildStore(v, dir, "v", o);
+  ASSERT_NE(reference, nullptr);
+  ASSERT_TRUE(reference->header().finest_stored());
+  const HzStore& b = *reference;
+  const HzHeader& ref = b.header();
+  const HzFill fill = [&](int, uint64_t first, size_t count, double* errors) -> Status {
+    const std::optional<uint64_t> stored = b.StoredIndex(first >> ref.block_bits);
+    if (!stored) return Status::OK();  // zeros
+    SDB_ASSIGN_OR_RETURN(const HzStore::BlockHandle h, b.Block(*stored));
+    for (size_t i = 0; i < count; ++i) {
+      errors[i] = b.quantizer().Decode(b.StoredErrorAt(h.data, static_cast<uint32_t>(i)));
+    }
+    return Status::OK();
+  };
+  HzWriteOptions w;
+  w.errors_are_bounds = true;
+  w.threads = 2;
+  {
+    auto unfinished = HzStoreWriter::Create(dir / "unfinished.sdb", ref, w);
+    ASSERT_TRUE(unfinished.ok()) << unfinished.status().message();
+    std::vector<uint64_t> all((*unfinished)->candidate_blocks().size());
+    for (uint64_t i = 0; i < all.size(); ++i) all[i] = i;
+    ASSERT_TRUE((*unfinished)->WriteBlocks(all, fill).ok());
+    const Result<HzHeader> refused = (*unfinished)->Finish();
+    ASSERT_FALSE(refused.ok());
+    EXPECT_NE(refused.status().message().find("brick 0 was not written"), std::string_view::npos)
+        << refused.status().message();
+  }
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    EXPECT_EQ(entry.path().filename().string().find("unfinished"), std::string::npos) << entry.path();
+  }
+
+  auto writer = HzStoreWriter::Create(dir / "runs.sdb", ref, w);
+  ASSERT_TRUE(writer.ok()) << writer.status().message();
+  HzStoreWriter& out = **writer;
+  const uint64_t blocks = out.candidate_blocks().size(), bricks = out.header().bricks;
+  ASSERT_GT(blocks, 8u);
+  // Odd candidates from the last down, then the even ones.
+  std::vector<uint64_t> odd, even;
+  for (uint64_t i = blocks; i-- > 0;) (i % 2 ? odd : even).push_back(i);
+  ASSERT_TRUE(out.WriteBlocks(odd, fill).ok());
+  const std::vector<uint64_t> again = {odd[0]}, past = {blocks};
+  EXPECT_FALSE(out.WriteBlocks(again, fill).ok());  // written before
+  EXPECT_FALSE(out.WriteBlocks(past, fill).ok());   // past the candidates
+  ASSERT_TRUE(out.WriteBlocks(even, fill).ok());
+  // Bricks in three runs, the last third first; the field as a whole, and
+  // as planes from 16 on for the bricks of the first two thirds that start
+  // there (the coarse lattices' bricks come first).
+  std::vector<std::vector<uint64_t>> thirds(3);
+  for (uint64_t i = 0; i < bricks; ++i) thirds[std::min<uint64_t>(2, 3 * i / bricks)].push_back(i);
+  const HeldField<double> whole{v.values.data(), {1, 21, 21 * 17, 21 * 17 * 40}, 0, 0};
+  HeldField<double> from16 = whole;
+  from16.data += 16 * 21 * 17;
+  from16.first_plane = 16;
+  std::vector<uint64_t> later;
+  for (const uint64_t brick : thirds[2]) {
+    (out.grid().Place(brick).first[2] >= 16 ? later : thirds[1]).push_back(brick);
+  }
+  ASSERT_FALSE(later.empty());
+  ASSERT_TRUE(out.WriteBricks(later, from16, nullptr).ok());
+  ASSERT_FALSE(out.WriteBricks(later, from16, nullptr).ok());  // written before
+  ASSERT_TRUE(out.WriteBricks(thirds[1], whole, nullptr).ok());
+  ASSERT_TRUE(out.WriteBricks(thirds[0], whole, nullptr).ok());
+  ASSERT_TRUE(out.Finish().ok());
+
+  auto runs = HzStore::Open(dir / "runs.sdb");
+  ASSERT_TRUE(runs.ok()) << runs.status().message();
+  ASSERT_TRUE((*runs)->Verify().ok());
+  EXPECT_EQ((*runs)->stored_blocks(), b.stored_blocks());
+  HzStore::Reader<3> got(**runs), want(b);
+  ForEachInternalCode<3>(ref.leaf_level(), [&](SimplexCode<3> c) {
+    ASSERT_EQ(*got.ErrorBound(c), *want.ErrorBound(c)) << c.ToString();
+  });
+  ExpectFields<3>(**runs, v);
+}
+
+// Every vertex a virtual block holds is in its span (found by decoding
+// each position, not by the span's arithmetic), at the span's scale; the
+// candidates are the blocks whose span may reach the real grid, and every
+// block holding a real point is one. HT and HP, block_bits a multiple of D
+// or not.
+template <int D>
+void ExpectBlockSpans(const std::array<uint32_t, 4>& dims, int block_bits) {
+  SCOPED_TRACE("block_bits " + std::to_string(block_bits));
+  TempDir dir;
+  HzHeader params;
+  params.dimension = static_cast<uint8_t>(D);
+  params.domain_bits = static_cast<uint8_t>(std::max(1, DomainBitsFor(D, dims)));
+  params.block_bits = static_cast<uint8_t>(block_bits);
+  params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(D));
+  params.dims = dims;
+  params.field_max = 1;
+  auto writer = HzStoreWriter::Create(dir / "s.sdb", params, HzWriteOptions{});
+  ASSERT_TRUE(writer.ok()) << writer.status().message();
+  const HzHeader& h = (*writer)->header();
+  const HzOrder<D> order(h.domain_bits);
+  const std::set<uint64_t> candidates((*writer)->candidate_blocks().begin(),
+                                      (*writer)->candidate_blocks().end());
+  int spans = 0;
+  for (uint64_t b = 0; b < h.virtual_blocks; ++b) {
+    const HzStoreWriter::BlockSpan span = (*writer)->SpanOf(b);
+    spans += span.scale >= 0;
+    bool real = false;
+    for (uint64_t p = b << h.block_bits; p < std::min(order.size(), (b + 1) << h.block_bits); ++p) {
+      std::array<int64_t, D> g{};
+      if (!order.Decode(p, g)) continue;
+      bool inside = true;
+      for (int a = 0; a < D; ++a) {
+        ASSERT_GE(g[a], span.lo[a]) << "block " << b << " position " << p;
+        ASSERT_LE(g[a], span.hi[a]) << "block " << b << " position " << p;
+        inside = inside && g[a] < int64_t{dims[a]};
+      }
+      real = real || inside;
+      if (span.scale >= 0) {
+        ASSERT_EQ(h.domain_bits - 1 - order.Level(g) / D, span.scale) << "block " << b;
+      }
+    }
+    if (real) {
+      ASSERT_EQ(candidates.count(b), 1u) << "block " << b << " holds a real point";
+    }
+  }
+  EXPECT_GT(spans, 0);
+}
+
+TEST(DenseWriter, BlockSpansHoldTheirVertices) {
+  ExpectBlockSpans<3>({21, 17, 13, 1}, 6);
+  ExpectBlockSpans<3>({33, 9, 20, 1}, 7);
+  ExpectBlockSpans<4>({9, 5, 7, 6}, 6);
+  ExpectBlockSpans<4>({9, 9, 5, 9}, 7);
+}
+
+// Stores with the same blocks and bricks, byte for byte (each entry's size,
+// coding and checksum), wherever each lies in its file, and the same header
+// but for where things are.
+void ExpectSameContent(const HzStore& a, const HzStore& b) {
+  const HzHeader &x = a.header(), &y = b.header();
+  EXPECT_EQ(x.flags, y.flags);
+  EXPECT_EQ(x.field_min, y.field_min);
+  EXPECT_EQ(x.field_max, y.field_max);
+  EXPECT_EQ(x.error_max, y.error_max);
+  EXPECT_EQ(x.quantum, y.quantum);
+  ASSERT_EQ(x.virtual_blocks, y.virtual_blocks);
+  ASSERT_EQ(x.stored_blocks, y.stored_blocks);
+  ASSERT_EQ(x.bricks, y.bricks);
+  for (uint64_t v = 0; v < x.virtual_blocks; ++v) {
+    ASSERT_EQ(a.StoredIndex(v), b.StoredIndex(v)) << "block " << v;
+  }
+  const auto same = [](const HzIndexEntry& e, const HzIndexEntry& f) {
+    return e.stored_size == f.stored_size && e.encoding == f.encoding && e.checksum == f.checksum &&
+           e.field_min == f.field_min && e.field_max == f.field_max && e.error_max == f.error_max;
+  };
+  for (uint64_t i = 0; i < x.stored_blocks; ++i) {
+    ASSERT_TRUE(same(a.entry(i), b.entry(i))) << "stored block " << i;
+  }
+  for (uint64_t i = 0; i < x.bricks; ++i) {
+    ASSERT_TRUE(same(a.brick_entry(i), b.brick_entry(i))) << "brick " << i;
+  }
+}
+
+// The streamed build (a window of planes at a time) makes the store the
+// direct build makes, block for block and brick for brick (so every node's
+// bound, every field value and the grid bricks' finest maxima), HT and HP,
+// integer and float voxels, non-cubic, several slabs and chunks; with
+// missing values (holes of NaN) and with a mask, whose stores keep every
+// octave. (The direct store's answers are checked against brute force in
+// dense_store_test.cc.)
+template <int D>
+void ExpectStreamedBuildMatchesDirect(const TestVolume& v, const std::string& name, int block_bits,
+                                      const TestVolume* mask = nullptr) {
+  SCOPED_TRACE(name);
+  TempDir dir;
+  const std::string nrrd = dir / (name + ".nrrd");
+  ASSERT_TRUE(v.WriteNrrd(nrrd).ok());
+  HzBuildOptions options;
+  options.block_bits = block_bits;
+  if (mask != nullptr) {
+    ASSERT_TRUE(mask->WriteNrrd(dir / "mask.nrrd").ok());
+    options.mask = *OpenVolume(dir / "mask.nrrd");
+  }
+  const auto direct = BuildHzStore(*OpenVolume(nrrd), dir / "direct.sdb", options);
+  ASSERT_TRUE(direct.ok()) << direct.status().message();
+  ASSERT_STREQ(direct->method, "diamonds");
+  options.stream = true;
+  const auto streamed = BuildHzStore(*OpenVolume(nrrd), dir / "streamed.sdb", options);
+  ASSERT_TRUE(streamed.ok()) << streamed.status().message();
+  ASSERT_STREQ(streamed->method, "streamed");
+  auto a = HzStore::Open(dir / "direct.sdb");
+  auto b = HzStore::Open(dir / "streamed.sdb");
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_TRUE((*b)->Verify().ok());
+  ExpectSameContent(**a, **b);
+}
+
+TEST(DenseWriter, StreamedBuildMatchesDirect) {
+  ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {65, 40, 77, 1}, VoxelType::kU8, 51), "ht_u8", 6);
+  ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {70, 66, 150, 1}, VoxelType::kF32, 52), "ht_f32", 9);
+  ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {33, 17, 20, 9}, VoxelType::kI16, 53), "hp_i16", 6);
+  ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {9, 12, 10, 40}, VoxelType::kF32, 54), "hp_long_t", 6);
+}
+
+TEST(DenseWriter, StreamedBuildMatchesDirectWithMissingValues) {
+  TestVolume ht = TestVolume::Random(3, {70, 66, 150, 1}, VoxelType::kF32, 55);
+  testing::PunchHoles(ht, 55, 12, 101);
+  ExpectStreamedBuildMatchesDirect<3>(ht, "ht_holes", 9);
+  TestVolume hp = TestVolume::Random(4, {33, 17, 20, 9}, VoxelType::kF32, 56);
+  testing::PunchHoles(hp, 56, 4, 37);
+  ExpectStreamedBuildMatchesDirect<4>(hp, "hp_holes", 6);
+  const TestVolume u8 = TestVolume::Random(3, {65, 40, 77, 1}, VoxelType::kU8, 57);
+  TestVolume mask = u8;
+  for (double& x : mask.values) x = x < 30 ? 0 : 1;
+  ExpectStreamedBuildMatchesDirect<3>(u8, "ht_mask", 6, &mask);
+}
+
+// Coarse reads from one lattice's bricks against the reader's Field, point
+// by point: every lattice, the whole grid and a box inside it.
+template <int D>
+void ExpectLatticeReads(const TestVolume& v, const std::string& name) {
+  SCOPED_TRACE(name);
+  TempDir dir;
+  ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
+  ASSERT_TRUE(BuildHzStore(*OpenVolume(dir / "v.nrrd"), dir / "v.sdb", HzBuildOptions{}).ok());
+  const auto store = *HzStore::Open(dir / "v.sdb");
+  HzStore::Reader<D> reader(*store);
+  const HzHeader& h = store->header();
+  for (int s = 0; s <= h.domain_bits; ++s) {
+    const int64_t step = int64_t{1} << s;
+    std::array<int64_t, 4> lo{}, hi{}, inner_lo{}, inner_hi{};
+    for (int a = 0; a < D; ++a) {
+      hi[a] = int64_t{h.dims[a]} - 1;
+      inner_lo[a] = (h.dims[a] / 3) / step * step;
+      inner_hi[a] = std::max(inner_lo[a], int64_t{h.dims[a]} * 2 / 3);
+    }
+    for (const auto& [from, to] : {std::pair{lo, hi}, std::pair{inner_lo, inner_hi}}) {
+      std::array<int64_t, 4> n{1, 1, 1, 1};
+      uint64_t count = 1;
+      for (int a = 0; a < D; ++a) {
+        n[a] = (to[a] - from[a]) / step + 1;
+        count *= static_cast<uint64_t>(n[a]);
+      }
+      std::vector<double> got(count);
+      ASSERT_TRUE(ReadLattice(*store, s, from, to, got.data()).ok()) << "lattice " << s;
+      for (uint64_t i = 0; i < count; ++i) {
+        std::array<int64_t, D> p{};
+        uint64_t rest = i;
+        for (int a = 0; a < D; ++a) {
+          p[a] = from[a] + static_cast<int64_t>(rest % static_cast<uint64_t>(n[a])) * step;
+          rest /= static_cast<uint64_t>(n[a]);
+        }
+        ASSERT_EQ(got[i], *reader.Field(p)) << "lattice " << s << " " << ::testing::PrintToString(p);
+      }
+    }
+  }
+  // A box not starting on the lattice, or past the grid, is refused.
+  std::array<int64_t, 4> lo{}, hi{};
+  for (int a = 0; a < D; ++a) hi[a] = int64_t{h.dims[a]} - 1;
+  lo[0] = 1;
+  std::vector<double> out(size_t{1} << 20);
+  EXPECT_TRUE(ReadLattice(*store, 1, lo, hi, out.data()).IsInvalidArgument());
+  lo[0] = 0;
+  hi[0] = h.dims[0];
+  EXPECT_TRUE(ReadLattice(*store, 0, lo, hi, out.data()).IsInvalidArgument());
+  EXPECT_TRUE(ReadLattice(*store, h.domain_bits + 1, lo, lo, out.data()).IsInvalidArgument());
+}
+
+TEST(DenseWriter, LatticeReadsEqualTheFieldPointByPoint) {
+  ExpectLatticeReads<3>(TestVolume::Random(3, {37, 21, 18, 1}, VoxelType::kU8, 41), "ht");
+  ExpectLatticeReads<3>(TestVolume::Random(3, {9, 17, 5, 1}, VoxelType::kF32, 42), "ht_float");
+  ExpectLatticeReads<4>(TestVolume::Random(4, {11, 9, 5, 7}, VoxelType::kI16, 43), "hp");
+}
+
+}  // namespace
+}  // namespace simplexdb
