@@ -3,7 +3,7 @@
 #include <bit>
 #include <string>
 
-#include "storage/dense/hz_lattice.h"
+#include "storage/dense/hz_store.h"
 #include "storage/sparse/hz_sparse_store.h"
 
 namespace simplexdb {

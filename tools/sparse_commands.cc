@@ -16,7 +16,6 @@
 #include "query/open_store.h"
 #include "query/store_info.h"
 #include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_lattice.h"
 #include "storage/dense/hz_store.h"
 #include "storage/io/file.h"
 #include "storage/sparse/hz_sparse_builder.h"

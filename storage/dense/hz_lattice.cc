@@ -1,4 +1,4 @@
-#include "storage/dense/hz_lattice.h"
+#include "storage/dense/hz_store.h"
 
 #include <algorithm>
 #include <string>

@@ -11,7 +11,6 @@
 #include "hierarchy/geometry.h"
 #include "hierarchy/hz_order.h"
 #include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_lattice.h"
 #include "storage/dense/hz_store.h"
 #include "storage/dense/hz_writer.h"
 #include "storage/volume/volume.h"

@@ -1,0 +1,57 @@
+// The dense builder's internals, shared by its two ways of holding the
+// field (storage/dense/hz_builder.h): the whole field in memory
+// (hz_builder.cc) or a window of planes at a time (hz_streamed_build.cc).
+// Not part of the installed headers.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "storage/dense/hz_builder.h"
+#include "storage/dense/hz_format.h"
+#include "storage/dense/hz_writer.h"
+#include "storage/volume/volume.h"
+#include "util/status.h"
+
+namespace simplexdb::dense_build {
+
+using Clock = std::chrono::steady_clock;
+
+// "12 MiB", rounded up.
+std::string MiB(uint64_t bytes);
+
+// The store's block bitmap covers the padded domain: a bit per block of
+// 2^block_bits positions (2^(D k) of them, 2^(D (k + 1)) when the finest
+// octave is stored), which the writer walks and a reader holds. Padding
+// costs nothing else, but a grid far longer on one axis than the others
+// (a domain of side 2^18 for 200000x2x2) would make the bitmap itself
+// terabytes: ResourceExhausted, with the figures, before anything is
+// computed. `what` names the input.
+Status CheckBlockBitmap(int dimension, const std::array<uint32_t, 4>& dims, int k,
+                        const HzBuildOptions& options, bool finest_stored,
+                        const std::string& out, const std::string& what);
+
+// The store's parameters for a build from `input` (the writer sets the rest).
+HzHeader ParamsFor(int dimension, const VolumeInfo& input, const HzBuildOptions& options,
+                   VoxelType stored, int k, double fmin, double fmax);
+
+// The writer's options (no progress: the caller reports its own phases).
+HzWriteOptions WriteOptionsFor(const HzBuildOptions& options, int threads);
+
+// The streamed build (hz_streamed_build.cc), V the stored voxel type's C++
+// type, k the domain bits. StreamedBytes: the memory it takes, or nullopt
+// when the grid is too small to stream (every grid that does not fit in
+// memory is large enough). BuildStreamed: the store, reading the input
+// twice a window of planes at a time. REQUIRES: input.dimension == D.
+template <int D, class V>
+std::optional<uint64_t> StreamedBytes(const VolumeInfo& input, const HzBuildOptions& options, int k,
+                                      int threads);
+template <int D, class V>
+Result<HzBuildReport> BuildStreamed(const VolumeInfo& input, const std::string& out,
+                                    const HzBuildOptions& options, Clock::time_point start, int k,
+                                    int threads);
+
+}  // namespace simplexdb::dense_build
