@@ -21,6 +21,7 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -64,13 +65,7 @@ class ErrorQuantizer {
   uint32_t Encode(double e) const {
     if (e <= 0) return 0;
     const double padded = e + margin_;
-    if (q_ == Quantization::kF32) {
-      float f = static_cast<float>(padded);
-      if (static_cast<double>(f) < padded) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-      uint32_t bits;
-      std::memcpy(&bits, &f, 4);
-      return bits;
-    }
+    if (q_ == Quantization::kF32) return BitsOf(RoundUpToFloat(padded));
     double code = std::ceil(padded / quantum_);
     if (code * quantum_ < padded) code += 1;  // guard the division's rounding
     return static_cast<uint32_t>(std::min(code, static_cast<double>(MaxCode(q_))));
@@ -82,13 +77,7 @@ class ErrorQuantizer {
   // back).
   uint32_t EncodeBound(double bound) const {
     if (bound <= 0) return 0;
-    if (q_ == Quantization::kF32) {
-      float f = static_cast<float>(bound);
-      if (static_cast<double>(f) < bound) f = std::nextafter(f, std::numeric_limits<float>::infinity());
-      uint32_t bits;
-      std::memcpy(&bits, &f, 4);
-      return bits;
-    }
+    if (q_ == Quantization::kF32) return BitsOf(RoundUpToFloat(bound));
     double code = std::ceil(bound / quantum_);
     if (code * quantum_ < bound) {
       code += 1;
@@ -100,11 +89,7 @@ class ErrorQuantizer {
 
   // The error bound a stored entry stands for.
   double Decode(uint32_t stored) const {
-    if (q_ == Quantization::kF32) {
-      float f;
-      std::memcpy(&f, &stored, 4);
-      return f;
-    }
+    if (q_ == Quantization::kF32) return std::bit_cast<float>(stored);
     return stored * quantum_;
   }
 
@@ -117,6 +102,8 @@ class ErrorQuantizer {
   static constexpr double kRelativeMargin = 1e-12;
 
  private:
+  static uint32_t BitsOf(float f) { return std::bit_cast<uint32_t>(f); }
+
   Quantization q_;
   double quantum_;
   double margin_;

@@ -15,22 +15,12 @@ namespace simplexdb {
 Result<VolumeInfo> MemoryVolume(int dimension, std::array<uint32_t, 4> dims, VoxelType type,
                                 ByteOrder order, std::shared_ptr<const std::byte> bytes,
                                 std::string description) {
-  if (!IsValidVoxelType(type)) {
-    return Status::NotSupported(description + ": voxel type code " +
-                                std::to_string(static_cast<int>(type)) +
-                                " is not one of the six supported types");
-  }
+  SDB_ASSIGN_OR_RETURN(VolumeInfo info,
+                       volume_internal::DescribeGrid(description, dimension, dims, type, order));
   if (bytes == nullptr) return Status::InvalidArgument(description + ": no voxels (a null buffer)");
-  VolumeInfo info;
-  info.dimension = dimension;
-  info.dims = dims;
-  info.type = type;
-  info.order = order;
   info.encoding = VolumeInfo::Encoding::kMemory;
   info.memory = std::move(bytes);
   info.description = std::move(description);
-  volume_internal::DropSingleTimeStep(info);
-  SDB_RETURN_IF_ERROR(ValidateGrid(info.description, info.dimension, info.dims));
   return info;
 }
 

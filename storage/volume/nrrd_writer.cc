@@ -74,6 +74,22 @@ Status CheckImage(const std::string& path, int dimension, const std::array<uint3
   return Status::OK();
 }
 
+Status AppendVoxels(AtomicFileWriter& file, VoxelType type,
+                    std::span<const double> values) {
+  constexpr size_t kChunk = 64 * 1024;  // voxels per write
+  std::vector<std::byte> bytes;
+  for (size_t i = 0; i < values.size(); i += kChunk) {
+    const size_t n = std::min(kChunk, values.size() - i);
+    bytes.resize(n * VoxelSize(type));
+    EncodeVoxels(type, ByteOrder::kLittle, values.data() + i, n, bytes.data());
+    SDB_ASSIGN_OR_RETURN(
+        const uint64_t at,
+        file.Append({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}));
+    (void)at;
+  }
+  return Status::OK();
+}
+
 }  // namespace volume_internal
 
 namespace {
@@ -131,24 +147,6 @@ std::string NrrdHeader(int dimension, const std::array<uint32_t, 4>& dims,
   return h;
 }
 
-// Appends the values to `file` as little-endian `type`, 64 Ki voxels at a
-// time.
-Status AppendVoxels(AtomicFileWriter& file, VoxelType type,
-                    std::span<const double> values) {
-  constexpr size_t kChunk = 64 * 1024;  // voxels per write
-  std::vector<std::byte> bytes;
-  for (size_t i = 0; i < values.size(); i += kChunk) {
-    const size_t n = std::min(kChunk, values.size() - i);
-    bytes.resize(n * VoxelSize(type));
-    EncodeVoxels(type, ByteOrder::kLittle, values.data() + i, n, bytes.data());
-    SDB_ASSIGN_OR_RETURN(
-        const uint64_t at,
-        file.Append({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}));
-    (void)at;
-  }
-  return Status::OK();
-}
-
 // The "data file:" value naming `raw_path` from the header `nhdr_path`.
 Result<std::string> DataFileName(const std::string& raw_path,
                                  const std::string& nhdr_path) {
@@ -185,7 +183,7 @@ Result<std::unique_ptr<AtomicFileWriter>> PrepareNrrd(const std::string& path, i
   SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> file, AtomicFileWriter::Create(path));
   SDB_ASSIGN_OR_RETURN(const uint64_t at, file->Append(header));
   (void)at;
-  SDB_RETURN_IF_ERROR(AppendVoxels(*file, type, values));
+  SDB_RETURN_IF_ERROR(volume_internal::AppendVoxels(*file, type, values));
   return file;
 }
 
@@ -206,7 +204,7 @@ Status WriteRawWithNhdr(const std::string& raw_path, const std::string& nhdr_pat
   SDB_ASSIGN_OR_RETURN(const std::string data_file, DataFileName(raw_path, nhdr_path));
   {
     SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> raw, AtomicFileWriter::Create(raw_path));
-    SDB_RETURN_IF_ERROR(AppendVoxels(*raw, type, values));
+    SDB_RETURN_IF_ERROR(volume_internal::AppendVoxels(*raw, type, values));
     SDB_RETURN_IF_ERROR(raw->Commit());
   }
   const std::string header =

@@ -11,28 +11,17 @@
 namespace simplexdb {
 
 using volume_internal::CheckDataFiles;
-using volume_internal::DropSingleTimeStep;
 using volume_internal::TruncatedRaw;
 
 Result<VolumeInfo> OpenRawVolume(const std::string& path, int dimension,
                                  std::array<uint32_t, 4> dims, VoxelType type,
                                  ByteOrder order, uint64_t offset) {
-  if (!IsValidVoxelType(type)) {
-    return Status::NotSupported(path + ": voxel type code " +
-                                std::to_string(static_cast<int>(type)) +
-                                " is not one of the six supported types");
-  }
-  VolumeInfo info;
-  info.dimension = dimension;
-  info.dims = dims;
-  info.type = type;
-  info.order = order;
+  SDB_ASSIGN_OR_RETURN(VolumeInfo info,
+                       volume_internal::DescribeGrid(path, dimension, dims, type, order));
   info.encoding = VolumeInfo::Encoding::kRaw;
   info.files = {path};
   info.offset = offset;
   info.description = "raw file " + path;
-  DropSingleTimeStep(info);
-  SDB_RETURN_IF_ERROR(ValidateGrid(path, info.dimension, info.dims));
   SDB_RETURN_IF_ERROR(CheckDataFiles(info, TruncatedRaw));
   // Nothing may follow the voxels: a file longer than the dims and type
   // say is almost always described wrongly (another type, or larger dims),

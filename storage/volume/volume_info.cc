@@ -119,6 +119,22 @@ void DropSingleTimeStep(VolumeInfo& info) {
   }
 }
 
+Result<VolumeInfo> DescribeGrid(const std::string& name, int dimension,
+                                std::array<uint32_t, 4> dims, VoxelType type, ByteOrder order) {
+  if (!IsValidVoxelType(type)) {
+    return Status::NotSupported(name + ": voxel type code " + std::to_string(static_cast<int>(type)) +
+                                " is not one of the six supported types");
+  }
+  VolumeInfo info;
+  info.dimension = dimension;
+  info.dims = dims;
+  info.type = type;
+  info.order = order;
+  DropSingleTimeStep(info);
+  SDB_RETURN_IF_ERROR(ValidateGrid(name, info.dimension, info.dims));
+  return info;
+}
+
 Status CheckDataFiles(const VolumeInfo& info,
                       Status (*truncated)(std::string_view)) {
   for (size_t i = 0; i < info.files.size(); ++i) {

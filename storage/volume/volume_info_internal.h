@@ -22,6 +22,13 @@ namespace simplexdb::volume_internal {
 // dims[3] is 1.
 void DropSingleTimeStep(VolumeInfo& info);
 
+// The description of a grid of `type` voxels in `order`, for the readers
+// whose caller gives it (raw files, voxels in memory); `name` names it in
+// messages. NotSupported for a type that is not one of the six; then the
+// single time step dropped and ValidateGrid's checks.
+Result<VolumeInfo> DescribeGrid(const std::string& name, int dimension,
+                                std::array<uint32_t, 4> dims, VoxelType type, ByteOrder order);
+
 // Checks that every data file of `info` exists, is readable and is long
 // enough for its voxels after its offset (raw), or starts gzip data at its
 // offset whose trailer gives the expected size mod 2^32 and is large enough

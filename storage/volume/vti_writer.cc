@@ -55,15 +55,7 @@ Result<std::unique_ptr<AtomicFileWriter>> PrepareVti(const std::string& path,
   StoreLittle<uint64_t>(size, static_cast<uint64_t>(values.size()) * VoxelSize(type));
   SDB_ASSIGN_OR_RETURN(uint64_t at, file->Append(xml));
   SDB_ASSIGN_OR_RETURN(at, file->Append(std::span<const uint8_t>(size, 8)));
-  constexpr size_t kChunk = 64 * 1024;  // voxels per write
-  std::vector<std::byte> bytes;
-  for (size_t i = 0; i < values.size(); i += kChunk) {
-    const size_t n = std::min(kChunk, values.size() - i);
-    bytes.resize(n * VoxelSize(type));
-    EncodeVoxels(type, ByteOrder::kLittle, values.data() + i, n, bytes.data());
-    SDB_ASSIGN_OR_RETURN(
-        at, file->Append({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}));
-  }
+  SDB_RETURN_IF_ERROR(volume_internal::AppendVoxels(*file, type, values));
   SDB_ASSIGN_OR_RETURN(at, file->Append(std::string_view("\n</AppendedData>\n</VTKFile>\n")));
   (void)at;
   return file;

@@ -1,6 +1,6 @@
 // What the volume writers share (internal to storage/volume): the checks of
-// an image before anything is written, and the text of a double in a
-// header. Not part of the API; no caller outside storage/volume should
+// an image before anything is written, the text of a double in a header,
+// and the voxels' bytes. Not part of the API; no caller outside storage/volume should
 // include it.
 //
 // Thread safety: pure functions.
@@ -12,6 +12,7 @@
 #include <span>
 #include <string>
 
+#include "storage/io/file.h"
 #include "storage/volume/voxel_type.h"
 #include "util/status.h"
 
@@ -30,5 +31,9 @@ Status CheckImage(const std::string& path, int dimension, const std::array<uint3
                   VoxelType type, std::span<const double> values,
                   const std::array<double, 4>& spacing,
                   const std::optional<std::array<double, 3>>& origin);
+
+// Appends the values to `file` as little-endian `type`, 64 Ki voxels at a
+// time. Errors: those of AtomicFileWriter::Append (storage/io/file.h).
+Status AppendVoxels(AtomicFileWriter& file, VoxelType type, std::span<const double> values);
 
 }  // namespace simplexdb::volume_internal
