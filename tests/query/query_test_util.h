@@ -82,7 +82,6 @@ inline std::unique_ptr<HzSparseStore> BuildSparse(const TestVolume& volume, cons
 template <int D>
 class FullSource {
  public:
-  static constexpr bool kFieldComplete = true;
   explicit FullSource(int k) {
     info_.dimension = D;
     info_.domain_bits = k;
@@ -96,7 +95,6 @@ class FullSource {
     return c.level() < info_.leaf_level() ? 1.0 : 0.0;
   }
   Result<std::optional<double>> Field(const std::array<int64_t, D>&) { return std::optional<double>(0.0); }
-  void Descend(SimplexCode<D>) {}
 
  private:
   SourceInfo info_;
