@@ -101,15 +101,24 @@ void CheckTruth(const std::vector<uint64_t>& truth, const BruteForceErrors<D>& o
   }
 }
 
-// Every algorithm over `source` against the oracle's minimal mesh `truth`;
+// Every algorithm over `source` against the oracle's minimal mesh `truth`,
+// and the depth-first mesh's bounds against the oracle's diamond errors;
 // returns the saturated mesh's split nodes.
 template <int D, class Source>
-std::vector<uint64_t> CheckSource(Source& source, const Criteria<D>& criteria,
+std::vector<uint64_t> CheckSource(Source& source, const BruteForceErrors<D>& oracle, const Criteria<D>& criteria,
                                   const std::vector<uint64_t>& truth) {
   Mesh<D> mesh;
   QueryStats stats, ls;
   EXPECT_EQ(RunSplits<D>(source, criteria, Algorithm::kDepthFirst, mesh, stats), truth);
   EXPECT_EQ(stats.simplices, mesh.leaf_count());
+  // The leaves' bounds are their diamond errors, rounded up.
+  for (const SimplexCode<D> c : mesh.Leaves()) {
+    const double bound = *source.Error(c), e = oracle.Diamond(c);
+    if (!(bound >= e && bound <= oracle.UpperBound(e))) {
+      ADD_FAILURE() << c.ToString() << ": bound " << bound << " for error " << e;
+      break;
+    }
+  }
   // Priority to completion, incremental from the roots and level order:
   // the same mesh.
   EXPECT_EQ(RunSplits<D>(source, criteria, Algorithm::kPriority, mesh, ls), truth);
@@ -141,12 +150,12 @@ void CheckAgainstBruteForce(uint32_t side, uint64_t seed, const std::vector<doub
     std::vector<uint64_t> sat;
     {
       SCOPED_TRACE("dense");
-      sat = CheckSource<D>(dense, criteria, truth);
+      sat = CheckSource<D>(dense, oracle, criteria, truth);
       EXPECT_TRUE(CheckConformity<D>(testing::LeavesOf<D>(sat)).ok);
     }
     {
       SCOPED_TRACE("sparse");
-      EXPECT_EQ(CheckSource<D>(sparse, criteria, truth), sat);
+      EXPECT_EQ(CheckSource<D>(sparse, oracle, criteria, truth), sat);
     }
   }
 }
