@@ -12,8 +12,8 @@
 //
 // Errors: InvalidArgument naming the point and the grid's range when a
 // coordinate is outside 0..dims-1 or not finite; the source's errors
-// (Corruption, IOError); Corruption when the store has no value at a
-// vertex (a sparse store always has one: query/source.h kFieldComplete).
+// (Corruption, IOError); Corruption when the source has no value at a
+// vertex (the stores' sources have one at every grid point: query/source.h).
 //
 // Cost: O(D * k) descent steps of a (D+1)-point barycentric solve, then D+1
 // field lookups.

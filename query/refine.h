@@ -58,8 +58,9 @@
 // QueryStats.
 //
 // Errors: Refiner::Run returns the source's errors (Corruption, IOError:
-// query/source.h) and Corruption when a store has no field value at a
-// corner of the domain (criteria that need values only); kSaturated also
+// query/source.h) and Corruption when a source has no field value at a
+// vertex a query needs (criteria that need values only; the stores'
+// sources have one everywhere); kSaturated also
 // ResourceExhausted for a hierarchy with more internal nodes than
 // RefineOptions::max_saturated_nodes. ParseAlgorithm returns
 // InvalidArgument naming the text. On any error the mesh is left
@@ -73,7 +74,6 @@
 #include <optional>
 #include <queue>
 #include <string>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -118,11 +118,8 @@ struct QueryStats {
 };
 
 // The field at the vertices of simplices, for criteria that need it and for
-// output. A complete source (dense) is asked directly. An LMDB store keeps
-// only the vertices its present nodes create; the others are the linear
-// interpolation over the dropped node, the average of the split edge's ends
-// (exact when lossless, within the tolerance otherwise), resolved walking
-// down from the root and remembered.
+// output: one Field() lookup per vertex (every store's source has a value
+// at every grid point: query/source.h).
 template <int D, ReadSource<D> Source>
 class VertexValues {
  public:
@@ -131,75 +128,40 @@ class VertexValues {
 
   explicit VertexValues(Source& source) : source_(source) {}
 
-  // The value at the midpoint of `code`'s split edge; `v` and `values` are
-  // `code`'s vertices and their values.
-  Result<double> Midpoint(Code code, const SimplexVertices<D>& v, const Values& values) {
-    const Point<D> m = SplitMidpoint<D>(code, v);
+  // The value at the midpoint of `code`'s split edge; `v` are `code`'s
+  // vertices. (The third argument, the vertices' values, is not needed
+  // since every source has the midpoint's own value; callers still pass it.)
+  Result<double> Midpoint(Code code, const SimplexVertices<D>& v, const Values&) {
     SDB_ASSIGN_OR_RETURN(const std::optional<double> f,
-                         source_.Field(LatticeToGrid<D>(m, source_.info().domain_bits)));
-    if (f) return *f;
-    const auto edge = SplitEdge<D>(code);
-    return (values[edge[0]] + values[edge[1]]) / 2;
+                         source_.Field(LatticeToGrid<D>(SplitMidpoint<D>(code, v), source_.info().domain_bits)));
+    if (!f) return Missing(code, "the midpoint of its split edge");
+    return *f;
   }
 
   // The values at the vertices `v` of the root `top`.
   Status RootValues(int top, const SimplexVertices<D>& v, Values& out) {
+    return Get(Code::Root(top), v, out);
+  }
+
+  // The values at the vertices `v` of `code`.
+  Status Get(Code code, const SimplexVertices<D>& v, Values& out) {
     for (int i = 0; i <= D; ++i) {
       SDB_ASSIGN_OR_RETURN(const std::optional<double> f,
                            source_.Field(LatticeToGrid<D>(v[i], source_.info().domain_bits)));
-      if (!f) {
-        return Status::Corruption(source_.info().path + ": no field value at a corner of the domain (root " +
-                                  std::to_string(top) + ", vertex " + std::to_string(i + 1) + ")");
-      }
+      if (!f) return Missing(code, "vertex " + std::to_string(i + 1));
       out[i] = *f;
     }
     return Status::OK();
   }
 
-  // The values at the vertices `v` of `code`.
-  Status Get(Code code, const SimplexVertices<D>& v, Values& out) {
-    if constexpr (Source::kFieldComplete) {
-      for (int i = 0; i <= D; ++i) {
-        SDB_ASSIGN_OR_RETURN(const std::optional<double> f,
-                             source_.Field(LatticeToGrid<D>(v[i], source_.info().domain_bits)));
-        out[i] = *f;
-      }
-      return Status::OK();
-    } else {
-      bool all = true;
-      for (int i = 0; i <= D && all; ++i) {
-        const auto it = memo_.find(internal::Pack<D>(v[i]));
-        all = it != memo_.end();
-        if (all) out[i] = it->second;
-      }
-      if (all) return Status::OK();
-      // Walk down from the root, resolving each split's midpoint.
-      SimplexVertices<D> cv = RootVertices<D>(code.top());
-      Values cval;
-      SDB_RETURN_IF_ERROR(RootValues(code.top(), cv, cval));
-      for (int l = 0; l < code.level(); ++l) {
-        const Code a = code.ancestor(l);
-        const uint64_t key = internal::Pack<D>(SplitMidpoint<D>(a, cv));
-        auto it = memo_.find(key);
-        if (it == memo_.end()) {
-          SDB_ASSIGN_OR_RETURN(const double mv, Midpoint(a, cv, cval));
-          it = memo_.emplace(key, mv).first;
-        }
-        const int child = code.ancestor(l + 1).child_index();
-        Values next;
-        internal::Split<D>(cval, SplitRules<D>::CaseOf(a.level(), a.path()), child, next,
-                           [&](double, double) { return it->second; });
-        cv = ChildVertices<D>(a, cv, child);
-        cval = next;
-      }
-      out = cval;
-      return Status::OK();
-    }
+ private:
+  // A source of a program's own without a value where a query needs one.
+  Status Missing(Code code, const std::string& where) const {
+    return Status::Corruption(source_.info().path + ": no field value at " + where + " of simplex " +
+                              code.ToString());
   }
 
- private:
   Source& source_;
-  std::unordered_map<uint64_t, double> memo_;
 };
 
 template <int D, ReadSource<D> Source>
@@ -345,7 +307,6 @@ class Refiner {
       }
       SDB_ASSIGN_OR_RETURN(const bool fails, Fails(c));
       if (!fails) continue;
-      source_.Descend(c);
       // Members of the cluster go on the list before `c`'s own children, so
       // the walk continues below `c` first.
       SplitClosure(c, [&](Code m) {
@@ -583,7 +544,6 @@ class Refiner {
       stack.pop_back();
       const Code c = f.code;
       if (c.level() >= leaf_level) continue;
-      source_.Descend(c);
       SDB_ASSIGN_OR_RETURN(const double error, ErrorForThreshold(c));
       ++stats_->candidates;
       bool fails = error > criteria_.threshold;

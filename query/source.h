@@ -1,16 +1,16 @@
 // Sources: the one read interface the query layer sees, over every store,
 // written as the concept ReadSource<S, D> below with its contract. The
 // refinement templates (query/refine.h, mesh_io.h, slice.h) take any type
-// that models it; DenseSource<D> (a dense store of format 1, mapped or in
-// memory), HzSource<D> (a dense store of format 2) and HzSparseSource<D>
-// (the LMDB store) are the ones over stores, and
-// query/open_store.h makes the right one for a store path.
+// that models it; HzSource<D> (the dense store, mapped, through a bounded
+// cache or decoded in memory) and HzSparseSource<D> (the LMDB store) are
+// the ones over stores, and query/open_store.h makes the right one for a
+// store path.
 //
 // Refinement is a template over the source (static dispatch): an error lookup
 // is a few nanoseconds in core and a virtual call would show.
 //
-// The in-memory (in-core) case is a DenseStore opened with
-// Options::in_memory; it reads through the same DenseSource.
+// The in-memory (in-core) case is an HzStore opened with
+// Options::in_memory; it reads through the same HzSource.
 //
 // Thread safety: a source is one thread's at a time (no locks inside; it
 // keeps the blocks, snapshot and counters of one walk). Make one source per
@@ -44,7 +44,6 @@
 #include <type_traits>
 
 #include "hierarchy/simplex_code.h"
-#include "storage/dense/dense_store.h"
 #include "storage/dense/hz_store.h"
 #include "storage/sparse/hz_sparse_store.h"
 #include "util/status.h"
@@ -71,8 +70,8 @@ struct SourceInfo {
   double field_range() const { return field_max - field_min; }
 };
 
-// The SourceInfo of a store whose header has the usual fields (DenseHeader,
-// HzHeader, HzSparseHeader).
+// The SourceInfo of a store whose header has the usual fields (HzHeader,
+// HzSparseHeader).
 template <class Header>
 SourceInfo InfoFromHeader(const Header& h, const std::string& path) {
   SourceInfo info;
@@ -100,13 +99,6 @@ struct SourceStats {
 // ReadSource<S, D>: S reads a store of an HT (D = 3) or HP (D = 4) for one
 // thread. The contract, for s of type S over a store whose SourceInfo is
 // `info` (k = info.domain_bits, L = info.leaf_level()):
-//
-//   S::kFieldComplete            a constant: true when Field() never returns
-//                                nullopt (the dense store holds every grid
-//                                point); false lets it (the LMDB store keeps
-//                                only the vertices its present nodes create,
-//                                and VertexValues in query/refine.h
-//                                interpolates the others).
 //
 //   Result<double> s.Error(code)
 //       REQUIRES: code.is_valid() and code is a node of this hierarchy
@@ -137,15 +129,13 @@ struct SourceStats {
 //
 //   Result<std::optional<double>> s.Field(p)
 //       REQUIRES: p is a point of the domain grid, 0 <= p[a] <= 2^k.
-//       The field at p. Points beyond the real grid (the padding) take the
-//       value of the nearest real point. nullopt only when !kFieldComplete
-//       and the store keeps no value at p. A value may be NaN where the
-//       volume had no field (a missing value). Errors as Error().
-//
-//   s.Descend(code)
-//       A hint that a walk goes into code's subtree next (the LMDB source
-//       prefetches it with one cursor scan). Never fails and changes no
-//       answer: a prefetch that fails is only a lost optimization.
+//       The field at p: every grid point has a value (the sparse store
+//       rebuilds those it dropped). Points beyond the real grid (the
+//       padding) take the value of the nearest real point. A value may be
+//       NaN where the volume had no field (a missing value). Never nullopt
+//       from the stores' sources; a source of a program's own may return
+//       nullopt for a point it has no value at, and a query that needs that
+//       value fails with Corruption (query/refine.h). Errors as Error().
 //
 //   const SourceInfo& s.info() const     the store's metadata; the same
 //       values for the source's life; the reference lives as long as s.
@@ -156,10 +146,8 @@ template <class S, int D>
 concept ReadSource =
     (D == 3 || D == 4) &&
     requires(S& s, const S& cs, SimplexCode<D> code, const std::array<int64_t, D>& p) {
-      typename std::bool_constant<S::kFieldComplete>;  // a constant expression
       { s.Error(code) } -> std::same_as<Result<double>>;
       { s.Field(p) } -> std::same_as<Result<std::optional<double>>>;
-      s.Descend(code);
       { cs.info() } -> std::same_as<const SourceInfo&>;
       { cs.stats() } -> std::convertible_to<SourceStats>;
     };
@@ -188,55 +176,12 @@ concept OrderedReadSource =
       { s.ErrorForThresholdAt(code, order, t) } -> std::same_as<Result<double>>;
     };
 
-// A dense store's source (mapped raw, zstd blocks through the store's cache,
-// or decoded in memory): models ThresholdReadSource<DenseSource<D>, D>.
-// Making one reads nothing and cannot fail.
-template <int D>
-class DenseSource {
- public:
-  static constexpr bool kFieldComplete = true;  // Field() never returns nullopt
-
-  // REQUIRES: store.dimension() == D; the store outlives the source.
-  explicit DenseSource(const DenseStore& store)
-      : reader_(store), info_(InfoFromHeader(store.header(), store.path())) {}
-
-  const SourceInfo& info() const { return info_; }
-  SourceStats stats() const {
-    SourceStats s = stats_;
-    s.blocks_read = reader_.block_fetches();
-    s.blocks_skipped = reader_.blocks_skipped();
-    return s;
-  }
-
-  Result<double> Error(SimplexCode<D> code) {
-    ++stats_.error_lookups;
-    return reader_.ErrorBound(code);
-  }
-  Result<double> ErrorForThreshold(SimplexCode<D> code, double threshold) {
-    ++stats_.error_lookups;
-    return reader_.ErrorBoundForThreshold(code, threshold);
-  }
-  Result<std::optional<double>> Field(const std::array<int64_t, D>& p) {
-    ++stats_.field_lookups;
-    SDB_ASSIGN_OR_RETURN(const double v, reader_.Field(p));
-    return std::optional<double>(v);
-  }
-  void Descend(SimplexCode<D>) {}
-
- private:
-  DenseStore::Reader<D> reader_;
-  SourceInfo info_;
-  SourceStats stats_;
-};
-
 // A format-2 store's source (storage/dense/hz_store.h: one record per
 // diamond in hierarchical Z-order): a node's error is its diamond's. Models
 // ThresholdReadSource<HzSource<D>, D>; making one reads nothing.
 template <int D>
 class HzSource {
  public:
-  static constexpr bool kFieldComplete = true;
-
   // REQUIRES: store.dimension() == D; the store outlives the source.
   explicit HzSource(const HzStore& store)
       : reader_(store),
@@ -276,7 +221,6 @@ class HzSource {
     SDB_ASSIGN_OR_RETURN(const double v, reader_.Field(p));
     return std::optional<double>(v);
   }
-  void Descend(SimplexCode<D>) {}
 
  private:
   HzStore::Reader<D> reader_;
@@ -292,8 +236,6 @@ class HzSource {
 template <int D>
 class HzSparseSource {
  public:
-  static constexpr bool kFieldComplete = true;
-
   // REQUIRES: store.dimension() == D; the store outlives the source.
   explicit HzSparseSource(const HzSparseStore& store)
       : reader_(store), info_(InfoFromHeader(store.header(), store.path())) {}
@@ -311,7 +253,6 @@ class HzSparseSource {
     SDB_ASSIGN_OR_RETURN(const double v, reader_.Field(p));
     return std::optional<double>(v);
   }
-  void Descend(SimplexCode<D>) {}
 
  private:
   HzSparseStore::Reader<D> reader_;
@@ -319,7 +260,6 @@ class HzSparseSource {
   SourceStats stats_;
 };
 
-static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);
 static_assert(ThresholdReadSource<HzSource<3>, 3> && ThresholdReadSource<HzSource<4>, 4>);
 
 }  // namespace simplexdb

@@ -1,50 +1,28 @@
-// Diamond errors (store format 2) against per-simplex errors: what a query
-// extracts when a node's error is the largest error of its cluster, from
-// the errors of a format-1 store and from a format-2 store made of it.
+// Diamond errors against per-simplex errors, by brute force
+// (tests/query/brute_force_errors.h): the stores that ship hold, per
+// diamond, the largest per-simplex error of its cluster, rounded up; for a
+// uniform threshold that extracts exactly the mesh of per-simplex errors,
+// and for every criterion the mesh under diamond errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
-#include <cstdio>
+#include <random>
 #include <set>
 
 #include "hierarchy/cluster.h"
 #include "query/refine.h"
 #include "query/source.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_store.h"
+#include "tests/query/brute_force_errors.h"
 #include "tests/query/query_test_util.h"
 
 namespace simplexdb {
 namespace {
 
-using testing::SplitKeys;
+using testing::BruteForceErrors;
+using testing::RunSplits;
 using testing::TempDir;
 using testing::TestVolume;
-
-// Errors of a format-1 store made diamond errors: a node reports the
-// largest error of its cluster.
-template <int D>
-class DiamondOf {
- public:
-  static constexpr bool kFieldComplete = true;
-  explicit DiamondOf(const DenseStore& store) : inner_(store) {}
-  const SourceInfo& info() const { return inner_.info(); }
-  SourceStats stats() const { return inner_.stats(); }
-  Result<double> Error(SimplexCode<D> code) {
-    double e = 0;
-    if (code.level() >= info().leaf_level()) return e;
-    for (const auto m : Cluster(code)) {
-      SDB_ASSIGN_OR_RETURN(const double x, inner_.Error(m));
-      e = std::max(e, x);
-    }
-    return e;
-  }
-  Result<std::optional<double>> Field(const std::array<int64_t, D>& p) { return inner_.Field(p); }
-  void Descend(SimplexCode<D>) {}
-
- private:
-  DenseSource<D> inner_;
-};
 
 // A smooth field with a few bumps: integer values, so errors are exact.
 TestVolume Smooth(int dimension, std::array<uint32_t, 4> dims, uint64_t seed) {
@@ -64,42 +42,92 @@ TestVolume Smooth(int dimension, std::array<uint32_t, 4> dims, uint64_t seed) {
   return v;
 }
 
-// For a uniform threshold, diamond errors extract exactly the mesh of
-// per-simplex errors (itself the brute-force minimal mesh: refine_test.cc):
-// a cluster splits when any member must. For every criterion, the mesh under
-// diamond errors is the brute-force least fixed point under diamond errors.
+template <int D>
+TestVolume MakeVolume(uint32_t side, uint64_t seed, bool smooth) {
+  const std::array<uint32_t, 4> dims = {side, side, side, D == 4 ? side : 1};
+  return smooth ? Smooth(D, dims, seed) : TestVolume::Random(D, dims, VoxelType::kU8, seed);
+}
+
+// The oracle itself: its per-simplex errors are those of another brute
+// force (tests/storage/store_test_util.h: points inside by signed volumes)
+// and its clusters those of hierarchy/cluster.h, on random nodes.
+template <int D>
+void CheckOracle(const TestVolume& volume, int k, const BruteForceErrors<D>& oracle) {
+  std::mt19937_64 rng(7);
+  for (int i = 0; i < 500; ++i) {
+    const int level = static_cast<int>(rng() % static_cast<uint64_t>(oracle.leaf_level()));
+    const SimplexCode<D> c = SimplexCode<D>::FromPath(static_cast<int>(rng() % SimplexCode<D>::kRoots),
+                                                      rng() & ((uint64_t{1} << level) - 1), level);
+    SCOPED_TRACE(c.ToString());
+    ASSERT_EQ(oracle.Simplex(c), static_cast<double>(testing::BruteForceError<D>(c, k, volume)));
+    std::set<uint64_t> mine, theirs;
+    for (const auto m : oracle.Cluster(c)) mine.insert(m.key());
+    for (const auto m : Cluster(c)) theirs.insert(m.key());
+    ASSERT_EQ(mine, theirs);
+    double e = 0;
+    for (const auto m : oracle.Cluster(c)) e = std::max(e, oracle.Simplex(m));
+    ASSERT_EQ(oracle.Diamond(c), e);
+  }
+}
+
+// Every internal node's stored bound, over both stores: the oracle's
+// diamond error, rounded up by at most float32's rounding.
+template <int D, class Dense, class Sparse>
+void CheckBounds(Dense& dense, Sparse& sparse, const BruteForceErrors<D>& oracle) {
+  std::vector<SimplexCode<D>> stack;
+  for (int t = 0; t < SimplexCode<D>::kRoots; ++t) stack.push_back(SimplexCode<D>::Root(t));
+  uint64_t nonzero = 0;
+  while (!stack.empty()) {
+    const SimplexCode<D> c = stack.back();
+    stack.pop_back();
+    const double e = oracle.Diamond(c);
+    const double d = *dense.Error(c);
+    ASSERT_GE(d, e) << c.ToString();
+    ASSERT_LE(d, oracle.UpperBound(e)) << c.ToString();
+    ASSERT_EQ(*sparse.Error(c), d) << c.ToString();
+    nonzero += e > 0;
+    if (c.level() + 1 < oracle.leaf_level()) {
+      stack.push_back(c.child(0));
+      stack.push_back(c.child(1));
+    }
+  }
+  EXPECT_GT(nonzero, 0u);
+}
+
 template <int D>
 void CheckDiamondMeshes(uint32_t side, uint64_t seed, bool smooth) {
   SCOPED_TRACE("side " + std::to_string(side) + ", seed " + std::to_string(seed) + (smooth ? ", smooth" : ", random"));
   TempDir dir;
-  std::array<uint32_t, 4> dims = {side, side, side, D == 4 ? side : 1};
-  const TestVolume volume = smooth ? Smooth(D, dims, seed) : TestVolume::Random(D, dims, VoxelType::kU8, seed);
-  auto store = testing::BuildDense(volume, dir.path(), "v");
-  const int k = store->header().domain_bits;
-  DenseSource<D> simplex(*store);
-  DiamondOf<D> diamond(*store);
-  // The same diamond errors from a format-2 store made of this one.
-  HzBuildOptions hz_options;
-  hz_options.block_bits = 8;
-  ASSERT_TRUE(ConvertToHz(*store, dir / "v2.sdb", hz_options).ok());
-  const auto hz_store = *HzStore::Open(dir / "v2.sdb");
-  HzSource<D> hz(*hz_store);
-  const SourceInfo& info = simplex.info();
+  const TestVolume volume = MakeVolume<D>(side, seed, smooth);
+  const auto dense_store = testing::BuildDense(volume, dir.path(), "d");
+  const auto sparse_store = testing::BuildSparse(volume, dir.path(), "s");
+  HzSource<D> dense(*dense_store);
+  HzSparseSource<D> sparse(*sparse_store);
+  const SourceInfo& info = dense.info();
+  const int k = info.domain_bits;
   const double range = info.field_range();
+  const BruteForceErrors<D> oracle(volume, k);
+  ASSERT_NO_FATAL_FAILURE(CheckOracle<D>(volume, k, oracle));
+  ASSERT_NO_FATAL_FAILURE(CheckBounds<D>(dense, sparse, oracle));
+
   for (double pct : {0.5, 2.0, 5.0, 10.0, 25.0}) {
-    SCOPED_TRACE(std::to_string(pct) + "%");
     CriteriaSpec uniform;
     uniform.error = {pct, true};
-    const Criteria<D> c = *MakeCriteria<D>(uniform, k, range);
-    Mesh<D> per_simplex, per_diamond;
+    Criteria<D> c = *MakeCriteria<D>(uniform, k, range);
+    c.threshold = oracle.ClearThreshold(c.threshold);
+    SCOPED_TRACE(std::to_string(pct) + "%, threshold " + std::to_string(c.threshold));
+    ASSERT_EQ(oracle.Ambiguous(c), 0u);
+    // A cluster splits when any member must: the same least fixed point.
+    const std::vector<uint64_t> per_simplex =
+        oracle.MinimalSplits([&](SimplexCode<D> n) { return oracle.Simplex(n) > c.threshold; });
+    const std::vector<uint64_t> per_diamond = oracle.MinimalSplits(c);
+    EXPECT_EQ(per_diamond, per_simplex);
+    EXPECT_FALSE(per_simplex.empty());
+    Mesh<D> mesh;
     QueryStats stats;
-    ASSERT_TRUE((Refiner<D, DenseSource<D>>(simplex, c).Run({Algorithm::kDepthFirst}, per_simplex, stats).ok()));
-    ASSERT_TRUE((Refiner<D, DiamondOf<D>>(diamond, c).Run({Algorithm::kDepthFirst}, per_diamond, stats).ok()));
-    EXPECT_EQ(SplitKeys(per_diamond), SplitKeys(per_simplex));
-    Mesh<D> from_store;
-    ASSERT_TRUE((Refiner<D, HzSource<D>>(hz, c).Run({Algorithm::kDepthFirst}, from_store, stats).ok()));
-    EXPECT_EQ(SplitKeys(from_store), SplitKeys(per_simplex));
-    if (pct != 2.0 && pct != 10.0) continue;  // the brute force below is slow
+    EXPECT_EQ(RunSplits<D>(dense, c, Algorithm::kDepthFirst, mesh, stats), per_simplex);
+    EXPECT_EQ(RunSplits<D>(sparse, c, Algorithm::kDepthFirst, mesh, stats), per_simplex);
+    if (pct != 2.0 && pct != 10.0) continue;
 
     std::vector<std::pair<std::string, CriteriaSpec>> others;
     CriteriaSpec box = uniform;
@@ -107,7 +135,7 @@ void CheckDiamondMeshes(uint32_t side, uint64_t seed, bool smooth) {
     box.box = std::vector<double>{s * 0.2, s * 0.3, s * 0.1, s * 0.55, s * 0.6, s * 0.45};
     others.emplace_back("box", box);
     CriteriaSpec iso = uniform;
-    iso.iso = info.field_min + range / 3;
+    iso.iso = info.field_min + range / 3 + 1.0 / 3;
     others.emplace_back("iso", iso);
     if constexpr (D == 4) {
       CriteriaSpec time = uniform;
@@ -116,31 +144,17 @@ void CheckDiamondMeshes(uint32_t side, uint64_t seed, bool smooth) {
     }
     for (const auto& [name, spec] : others) {
       SCOPED_TRACE(name);
-      const Criteria<D> criteria = *MakeCriteria<D>(spec, k, range);
-      Mesh<D> df, pr;
-      ASSERT_TRUE((Refiner<D, DiamondOf<D>>(diamond, criteria).Run({Algorithm::kDepthFirst}, df, stats).ok()));
-      ASSERT_TRUE((Refiner<D, DiamondOf<D>>(diamond, criteria).Run({Algorithm::kPriority}, pr, stats).ok()));
-      const auto fails = [&](SimplexCode<D> code) {
-        const double e = *diamond.Error(code);
-        if (!(e > criteria.threshold)) return false;
-        const auto v = Vertices<D>(code);
-        std::array<double, D + 1> values{};
-        for (int i = 0; i <= D; ++i) values[i] = **simplex.Field(LatticeToGrid<D>(v[i], k));
-        return Applies<D>(criteria, v, &values, e);
-      };
-      const std::set<uint64_t> truth = testing::BruteForceMinimalSplits<D>(info.leaf_level(), fails);
-      EXPECT_EQ(SplitKeys(df), truth);
-      EXPECT_EQ(SplitKeys(pr), truth);
-      Mesh<D> store_df, store_pr, store_lo, lo;
-      ASSERT_TRUE((Refiner<D, HzSource<D>>(hz, criteria).Run({Algorithm::kDepthFirst}, store_df, stats).ok()));
-      ASSERT_TRUE((Refiner<D, HzSource<D>>(hz, criteria).Run({Algorithm::kPriority}, store_pr, stats).ok()));
-      // Level order: in HZ order over the store, in key order otherwise.
-      ASSERT_TRUE((Refiner<D, HzSource<D>>(hz, criteria).Run({Algorithm::kLevelOrder}, store_lo, stats).ok()));
-      ASSERT_TRUE((Refiner<D, DiamondOf<D>>(diamond, criteria).Run({Algorithm::kLevelOrder}, lo, stats).ok()));
-      EXPECT_EQ(SplitKeys(store_df), truth);
-      EXPECT_EQ(SplitKeys(store_pr), truth);
-      EXPECT_EQ(SplitKeys(store_lo), truth);
-      EXPECT_EQ(SplitKeys(lo), truth);
+      Criteria<D> criteria = *MakeCriteria<D>(spec, k, range);
+      criteria.threshold = c.threshold;
+      ASSERT_EQ(oracle.Ambiguous(criteria), 0u);
+      const std::vector<uint64_t> truth = oracle.MinimalSplits(criteria);
+      // Level order: in HZ order over the dense store, in key order over
+      // the sparse one.
+      for (const Algorithm a : {Algorithm::kDepthFirst, Algorithm::kPriority, Algorithm::kLevelOrder}) {
+        SCOPED_TRACE(AlgorithmName(a));
+        EXPECT_EQ(RunSplits<D>(dense, criteria, a, mesh, stats), truth);
+        EXPECT_EQ(RunSplits<D>(sparse, criteria, a, mesh, stats), truth);
+      }
     }
   }
 }

@@ -25,11 +25,12 @@ using testing::TestVolume;
 
 // The read interface's concept: the stores' sources and the tests' own model
 // it.
-static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);
-static_assert(ReadSource<HzSource<3>, 3> && ReadSource<HzSource<4>, 4>);
+static_assert(ThresholdReadSource<HzSource<3>, 3> && ThresholdReadSource<HzSource<4>, 4>);
+static_assert(OrderedReadSource<HzSource<3>, 3> && OrderedReadSource<HzSource<4>, 4>);
 static_assert(ReadSource<HzSparseSource<3>, 3> && ReadSource<HzSparseSource<4>, 4>);
 static_assert(ReadSource<testing::FullSource<3>, 3> && ReadSource<testing::FullSource<4>, 4>);
-static_assert(!ReadSource<DenseSource<3>, 4>);  // a source serves one hierarchy
+static_assert(!ThresholdReadSource<testing::FullSource<3>, 3>);
+static_assert(!ReadSource<HzSource<3>, 4> && !ReadSource<HzSparseSource<4>, 3>);  // one hierarchy each
 static_assert(!ReadSource<int, 3>);
 
 template <int D>
@@ -43,32 +44,17 @@ std::vector<uint64_t> DepthFirstLeaves(auto& source, double threshold) {
   return testing::Keys(mesh.Leaves());
 }
 
-// The dense store (format 2) of `volume`, as import makes it, at dir/name.sdb.
+// The stores of `volume` as import makes them, at dir/name.sdb (dense) and
+// dir/name.lmdb (sparse, at tolerance t).
 std::unique_ptr<HzStore> BuildHz(const TestVolume& volume, const std::string& dir,
                                  const std::string& name) {
-  const std::string nrrd = dir + "/" + name + ".nrrd";
-  EXPECT_TRUE(volume.WriteNrrd(nrrd).ok());
-  const std::string path = dir + "/" + name + ".sdb";
-  const auto built = BuildHzStore(*OpenVolume(nrrd), path, HzBuildOptions{});
-  EXPECT_TRUE(built.ok()) << built.status().message();
-  auto store = HzStore::Open(path);
-  EXPECT_TRUE(store.ok()) << store.status().message();
-  return std::move(store).value();
+  return testing::BuildDense(volume, dir, name, HzBuildOptions{});
 }
-
-// The sparse store (format 2) of `volume` at tolerance t, at dir/name.lmdb.
 std::unique_ptr<HzSparseStore> BuildHzSparse(const TestVolume& volume, const std::string& dir,
                                              const std::string& name, double t) {
-  const std::string nrrd = dir + "/" + name + ".nrrd";
-  EXPECT_TRUE(volume.WriteNrrd(nrrd).ok());
-  const std::string path = dir + "/" + name + ".lmdb";
   HzSparseBuildOptions options;
   options.tolerance = t;
-  const auto built = BuildHzSparseStore(*OpenVolume(nrrd), path, options);
-  EXPECT_TRUE(built.ok()) << built.status().message();
-  auto store = HzSparseStore::Open(path, {});
-  EXPECT_TRUE(store.ok()) << store.status().message();
-  return std::move(store).value();
+  return testing::BuildSparse(volume, dir, name, options);
 }
 
 template <int D>
@@ -187,13 +173,21 @@ TEST(OpenStore, SaysWhyAPathIsNotAStore) {
   EXPECT_EQ(calls, 0);
 }
 
-// A store of format 1 (dense: one error per simplex, what the engine still
-// writes as scratch; sparse: one LMDB entry per node) is refused, saying to
-// import again.
+// A store of format 1 (dense: one error per simplex; sparse: one LMDB
+// entry per node) is refused, saying to import again. The dense one is a
+// store of today with format 1's version number: format 1 had the same
+// magic and version field (storage/dense/hz_format.h).
 TEST(OpenStore, RefusesFormatOneSayingToImportAgain) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(3, {9, 9, 9, 1}, VoxelType::kU8, 5);
-  testing::BuildDense(volume, dir.path(), "f1");
+  BuildHz(volume, dir.path(), "f1");
+  {
+    std::fstream f(dir.path() + "/f1.sdb", std::ios::binary | std::ios::in | std::ios::out);
+    f.seekp(8);
+    const char version_one[4] = {1, 0, 0, 0};  // little-endian
+    f.write(version_one, 4);
+    ASSERT_TRUE(f.good());
+  }
   const Result<AnyStore> store = AnyStore::Open(dir.path() + "/f1.sdb");
   ASSERT_FALSE(store.ok());
   EXPECT_TRUE(store.status().IsNotSupported()) << store.status().ToString();

@@ -1,43 +1,80 @@
-// Helpers for the query tests: stores built from small volumes, a source
-// that refines everywhere, and the minimal conforming mesh by brute force.
+// Helpers for the query tests: the stores that ship (the dense store and
+// the sparse LMDB store) built from small volumes, a source that refines
+// everywhere, and a mesh's split nodes as keys. The independent truth they
+// are checked against is tests/query/brute_force_errors.h.
 #pragma once
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <map>
 #include <memory>
-#include <set>
+#include <optional>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
-#include "hierarchy/geometry.h"
 #include "query/refine.h"
-#include "storage/dense/dense_builder.h"
-#include "storage/dense/dense_store.h"
+#include "query/source.h"
+#include "storage/dense/hz_builder.h"
+#include "storage/dense/hz_store.h"
+#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/sparse/hz_sparse_store.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 
 namespace simplexdb::testing {
 
-// Builds a dense store of `volume` at `path` (zstd unless `raw`).
-inline std::unique_ptr<DenseStore> BuildDense(const TestVolume& volume, const std::string& dir,
-                                              const std::string& name, bool raw = false,
-                                              bool in_memory = false) {
+// The dense build the oracle tests use: float32 errors, so a stored bound
+// is the exact error moved up by at most a float's rounding
+// (BruteForceErrors::UpperBound), and small blocks, so that even a 9^3 grid
+// has several.
+inline HzBuildOptions ExactDenseOptions(Compression compression = Compression::kZstd) {
+  HzBuildOptions o;
+  o.quantization = Quantization::kF32;
+  o.compression = compression;
+  o.block_bits = 8;
+  return o;
+}
+
+// The sparse build to compare with it: lossless, float32 errors (the
+// dense store's quantizer), small blocks.
+inline HzSparseBuildOptions ExactSparseOptions() {
+  HzSparseBuildOptions o;
+  o.quantization = Quantization::kF32;
+  o.block_bits = 9;
+  return o;
+}
+
+// Writes `volume` to dir/name.nrrd and returns the path.
+inline std::string WriteInput(const TestVolume& volume, const std::string& dir, const std::string& name) {
   const std::string nrrd = dir + "/" + name + ".nrrd";
   EXPECT_TRUE(volume.WriteNrrd(nrrd).ok());
-  DenseBuildOptions options;
-  options.compression = raw ? Compression::kNone : Compression::kZstd;
-  options.levels_per_block = 6;  // several bands even on small grids
+  return nrrd;
+}
+
+// The dense store of `volume` at dir/name.sdb, opened with `open`.
+inline std::unique_ptr<HzStore> BuildDense(const TestVolume& volume, const std::string& dir,
+                                           const std::string& name,
+                                           const HzBuildOptions& options = ExactDenseOptions(),
+                                           const HzStore::Options& open = {}) {
   const std::string path = dir + "/" + name + ".sdb";
-  auto built = BuildDenseStore(*OpenVolume(nrrd), path, options);
-  EXPECT_TRUE(built.ok()) << built.status().message();
-  DenseStore::Options open;
-  open.in_memory = in_memory;
-  auto store = DenseStore::Open(path, open);
-  EXPECT_TRUE(store.ok()) << store.status().message();
-  return std::move(store).value();
+  const auto built = BuildHzStore(*OpenVolume(WriteInput(volume, dir, name)), path, options);
+  EXPECT_TRUE(built.ok()) << built.status().ToString();
+  auto store = HzStore::Open(path, open);
+  EXPECT_TRUE(store.ok()) << store.status().ToString();
+  return store.ok() ? std::move(store).value() : nullptr;
+}
+
+// The sparse store of `volume` at dir/name.lmdb, opened with `open`.
+inline std::unique_ptr<HzSparseStore> BuildSparse(const TestVolume& volume, const std::string& dir,
+                                                  const std::string& name,
+                                                  const HzSparseBuildOptions& options = ExactSparseOptions(),
+                                                  const HzSparseStore::Options& open = {}) {
+  const std::string path = dir + "/" + name + ".lmdb";
+  const auto built = BuildHzSparseStore(*OpenVolume(WriteInput(volume, dir, name)), path, options);
+  EXPECT_TRUE(built.ok()) << built.status().ToString();
+  auto store = HzSparseStore::Open(path, open);
+  EXPECT_TRUE(store.ok()) << store.status().ToString();
+  return store.ok() ? std::move(store).value() : nullptr;
 }
 
 // A source over no store: every node above the leaf level of a domain of
@@ -45,7 +82,6 @@ inline std::unique_ptr<DenseStore> BuildDense(const TestVolume& volume, const st
 template <int D>
 class FullSource {
  public:
-  static constexpr bool kFieldComplete = true;
   explicit FullSource(int k) {
     info_.dimension = D;
     info_.domain_bits = k;
@@ -59,7 +95,6 @@ class FullSource {
     return c.level() < info_.leaf_level() ? 1.0 : 0.0;
   }
   Result<std::optional<double>> Field(const std::array<int64_t, D>&) { return std::optional<double>(0.0); }
-  void Descend(SimplexCode<D>) {}
 
  private:
   SourceInfo info_;
@@ -73,75 +108,35 @@ std::vector<uint64_t> Keys(const std::vector<SimplexCode<D>>& codes) {
   return k;
 }
 
-// The minimal conforming mesh by brute force, sharing nothing with the
-// refiners but the geometry: clusters are found by grouping every node of a
-// level by its split edge (vertex positions), and the least fixed point of
-// "split what fails, then close under parents and clusters" is iterated
-// naively until nothing changes. Returns the split nodes' keys.
+// The split nodes' keys, sorted, walking down from the roots: O(split
+// nodes), where SplitSet::ForEach reads its whole bitmap (48 MiB in the HT).
 template <int D>
-std::set<uint64_t> BruteForceMinimalSplits(int leaf_level, const std::function<bool(SimplexCode<D>)>& fails) {
-  using Code = SimplexCode<D>;
-  // Cluster of each internal node: the nodes of its level with the same
-  // split edge.
-  std::vector<std::vector<uint64_t>> clusters;
-  std::unordered_map<uint64_t, size_t> cluster_of;
-  for (int l = 0; l < leaf_level; ++l) {
-    std::map<std::pair<uint64_t, uint64_t>, std::vector<uint64_t>> by_edge;
-    for (int top = 0; top < Code::kRoots; ++top) {
-      for (uint64_t path = 0; path < (uint64_t{1} << l); ++path) {
-        const Code c = Code::FromPath(top, path, l);
-        const auto v = Vertices<D>(c);
-        const auto e = SplitEdge<D>(c);
-        uint64_t a = internal::Pack<D>(v[e[0]]), b = internal::Pack<D>(v[e[1]]);
-        if (a > b) std::swap(a, b);
-        by_edge[{a, b}].push_back(c.key());
-      }
-    }
-    for (auto& [edge, members] : by_edge) {
-      for (uint64_t m : members) cluster_of[m] = clusters.size();
-      clusters.push_back(std::move(members));
-    }
+std::vector<uint64_t> SplitKeys(const Mesh<D>& mesh) {
+  std::vector<uint64_t> s;
+  std::vector<SimplexCode<D>> stack;
+  for (int t = 0; t < SimplexCode<D>::kRoots; ++t) stack.push_back(SimplexCode<D>::Root(t));
+  while (!stack.empty()) {
+    const SimplexCode<D> c = stack.back();
+    stack.pop_back();
+    if (!mesh.is_split(c)) continue;
+    s.push_back(c.key());
+    stack.push_back(c.child(0));
+    stack.push_back(c.child(1));
   }
-  std::set<uint64_t> split;
-  for (bool changed = true; changed;) {
-    changed = false;
-    std::vector<Code> leaves;
-    std::vector<Code> stack;
-    for (int t = 0; t < Code::kRoots; ++t) stack.push_back(Code::Root(t));
-    while (!stack.empty()) {
-      const Code c = stack.back();
-      stack.pop_back();
-      if (split.count(c.key())) {
-        stack.push_back(c.child(0));
-        stack.push_back(c.child(1));
-      } else {
-        leaves.push_back(c);
-      }
-    }
-    // Split what fails, then close under "parent" and "cluster" (a work
-    // list: every node added is expanded once).
-    std::vector<uint64_t> added;
-    for (const Code c : leaves) {
-      if (c.level() < leaf_level && fails(c) && split.insert(c.key()).second) added.push_back(c.key());
-    }
-    changed = !added.empty();
-    while (!added.empty()) {
-      const Code c = Code::FromKey(added.back());
-      added.pop_back();
-      if (c.level() > 0 && split.insert(c.parent().key()).second) added.push_back(c.parent().key());
-      for (uint64_t m : clusters[cluster_of.at(c.key())]) {
-        if (split.insert(m).second) added.push_back(m);
-      }
-    }
-  }
-  return split;
+  EXPECT_EQ(s.size(), mesh.split_count()) << "split nodes below a leaf";
+  std::sort(s.begin(), s.end());
+  return s;
 }
 
-template <int D>
-std::set<uint64_t> SplitKeys(const Mesh<D>& mesh) {
-  std::set<uint64_t> s;
-  mesh.split_set().ForEach([&](SimplexCode<D> c) { s.insert(c.key()); });
-  return s;
+// Runs `algorithm` over `source` from the roots (or from `mesh` as it is,
+// for kIncremental) and returns the split nodes' keys, sorted.
+template <int D, class Source>
+std::vector<uint64_t> RunSplits(Source& source, const Criteria<D>& criteria, Algorithm algorithm,
+                             Mesh<D>& mesh, QueryStats& stats) {
+  Refiner<D, Source> refiner(source, criteria);
+  const Status s = refiner.Run({algorithm}, mesh, stats);
+  EXPECT_TRUE(s.ok()) << s.ToString();
+  return SplitKeys(mesh);
 }
 
 }  // namespace simplexdb::testing

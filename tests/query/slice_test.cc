@@ -54,17 +54,14 @@ void CheckSlice(const TetMeshData& m, double side) {
   }
 }
 
-TEST(Slice, HpSlicesAreConformingMeshesOfTheCube) {
-  TempDir dir;
-  const TestVolume volume = TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kU8, 31);
-  auto store = testing::BuildDense(volume, dir.path(), "hp");
-  DenseSource<4> source(*store);
+template <class Source>
+void CheckSlices(Source& source, const TestVolume& volume) {
   const double range = source.info().field_range();
   const double scale = std::ldexp(1.0, kCoordBits<4> - 3);
   for (double pct : {0.0, 20.0, 45.0, 100.0}) {
     Criteria<4> c;
     c.threshold = range * pct / 100;
-    Refiner<4, DenseSource<4>> refiner(source, c);
+    Refiner<4, Source> refiner(source, c);
     Mesh<4> mesh;
     QueryStats stats;
     ASSERT_TRUE(refiner.Run({Algorithm::kDepthFirst}, mesh, stats).ok());
@@ -84,6 +81,24 @@ TEST(Slice, HpSlicesAreConformingMeshesOfTheCube) {
         }
       }
     }
+  }
+}
+
+// Over the dense store as import makes it and the lossless sparse store.
+TEST(Slice, HpSlicesAreConformingMeshesOfTheCube) {
+  TempDir dir;
+  const TestVolume volume = TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kU8, 31);
+  const auto dense = testing::BuildDense(volume, dir.path(), "hp", HzBuildOptions{});
+  const auto sparse = testing::BuildSparse(volume, dir.path(), "hp", HzSparseBuildOptions{});
+  HzSource<4> d(*dense);
+  HzSparseSource<4> s(*sparse);
+  {
+    SCOPED_TRACE("dense");
+    CheckSlices(d, volume);
+  }
+  {
+    SCOPED_TRACE("sparse");
+    CheckSlices(s, volume);
   }
 }
 

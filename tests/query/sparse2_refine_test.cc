@@ -46,21 +46,15 @@ struct Stores {
   std::unique_ptr<HzSparseStore> sparse;
 };
 
+// The dense store as import makes it, the sparse one at `tolerance`.
 Stores Build(const TestVolume& volume, const TempDir& dir, double tolerance) {
-  const std::string nrrd = dir / "in.nrrd";
-  EXPECT_TRUE(volume.WriteNrrd(nrrd).ok());
-  Stores s;
   HzBuildOptions dense;
   dense.threads = 1;
-  EXPECT_TRUE(BuildHzStore(*OpenVolume(nrrd), dir / "dense.sdb", dense).ok());
-  s.dense = *HzStore::Open(dir / "dense.sdb");
   HzSparseBuildOptions o;
   o.tolerance = tolerance;
   o.block_bits = 9;
-  const auto built = BuildHzSparseStore(*OpenVolume(nrrd), dir / "sparse.sdb", o);
-  EXPECT_TRUE(built.ok()) << built.status().ToString();
-  s.sparse = *HzSparseStore::Open(dir / "sparse.sdb", {});
-  return s;
+  return Stores{testing::BuildDense(volume, dir.path(), "dense", dense),
+                testing::BuildSparse(volume, dir.path(), "sparse", o)};
 }
 
 template <int D>

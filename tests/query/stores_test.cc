@@ -1,16 +1,19 @@
-// The same query over every layout of format 1's dense store: in-memory,
-// mapped raw and zstd blocks give the same mesh, vertex values and errors.
-// (The sparse store of format 2 against the dense one of format 2:
+// The same query over every way the shipping stores are read: the dense
+// store mapped raw, with zstd blocks through a large or a small cache, or
+// decoded in memory, and the lossless sparse store through a large or a
+// small cache give the same mesh, vertex values and errors: the oracle's
+// minimal mesh, the volume's values and its diamond errors rounded up
+// (tests/query/brute_force_errors.h). (The sparse store at a tolerance:
 // tests/query/sparse2_refine_test.cc.)
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "query/conformity.h"
 #include "query/mesh_io.h"
 #include "query/refine.h"
 #include "query/source.h"
+#include "tests/query/brute_force_errors.h"
 #include "tests/query/query_test_util.h"
 
 namespace simplexdb {
@@ -19,21 +22,27 @@ namespace {
 using testing::TempDir;
 using testing::TestVolume;
 
+// Uniform, isovalue and box queries at `percents` of the field range, each
+// threshold moved to where no diamond error comes near it
+// (BruteForceErrors::ClearThreshold).
 template <int D>
-std::vector<std::pair<std::string, Criteria<D>>> Queries(int k, double lo, double range) {
+std::vector<std::pair<std::string, Criteria<D>>> Queries(const testing::BruteForceErrors<D>& oracle, double lo,
+                                                         double range, const std::vector<double>& percents) {
+  const int k = oracle.domain_bits();
   std::vector<std::pair<std::string, Criteria<D>>> out;
-  for (double pct : {0.0, 3.0, 20.0}) {
+  for (const double pct : percents) {
     CriteriaSpec s;
     s.error = {pct, true};
     out.emplace_back("uniform", *MakeCriteria<D>(s, k, range));
     CriteriaSpec iso = s;
-    iso.iso = lo + range * 0.4;
+    iso.iso = lo + range * 0.4 + 1.0 / 3;
     out.emplace_back("iso", *MakeCriteria<D>(iso, k, range));
     CriteriaSpec box = s;
     const double side = std::ldexp(1.0, k);
     box.box = std::vector<double>{0, side / 4, side / 3, side / 2, side, side * 0.6};
     out.emplace_back("box", *MakeCriteria<D>(box, k, range));
   }
+  for (auto& [name, c] : out) c.threshold = oracle.ClearThreshold(c.threshold);
   return out;
 }
 
@@ -85,22 +94,56 @@ TestVolume Structured(int dimension, uint32_t side) {
   return v;
 }
 
+// `small` and `sparse_small`: cache budgets that hold a few of the store's
+// blocks, bricks and boxes of finest errors, so that the caches evict all
+// the time. Not smaller: below a walk's working set lookups decode or
+// recompute the same blocks over and over (a dense cache of 16 KB made the
+// HP's case 15 times slower, a sparse one of 64 KB the HT 33^3's more than
+// 30 times).
 template <int D>
-void CheckStoresAgree(uint32_t side) {
+void CheckStoresAgree(uint32_t side, const std::vector<double>& percents, size_t small, size_t sparse_small) {
   TempDir dir;
   const TestVolume volume = Structured(D, side);
-  auto zstd = testing::BuildDense(volume, dir.path(), "z");
-  auto raw = testing::BuildDense(volume, dir.path(), "r", /*raw=*/true);
-  auto in_memory = testing::BuildDense(volume, dir.path(), "m", false, /*in_memory=*/true);
-  DenseSource<D> z(*zstd), r(*raw), m(*in_memory);
+  const auto zstd = testing::BuildDense(volume, dir.path(), "z");
+  const auto raw = testing::BuildDense(volume, dir.path(), "r", testing::ExactDenseOptions(Compression::kNone));
+  HzStore::Options in_memory;
+  in_memory.in_memory = true;
+  const auto resident = *HzStore::Open(dir.path() + "/z.sdb", in_memory);
+  HzStore::Options small_cache;
+  small_cache.cache_bytes = small;
+  const auto starved = *HzStore::Open(dir.path() + "/z.sdb", small_cache);
+  const auto sparse = testing::BuildSparse(volume, dir.path(), "s");
+  HzSparseStore::Options sparse_small_cache;
+  sparse_small_cache.cache_bytes = sparse_small;
+  const auto sparse_starved = *HzSparseStore::Open(dir.path() + "/s.lmdb", sparse_small_cache);
+  HzSource<D> z(*zstd), r(*raw), m(*resident), t(*starved);
+  HzSparseSource<D> sp(*sparse), spt(*sparse_starved);
+  const testing::BruteForceErrors<D> oracle(volume, zstd->header().domain_bits);
   const SourceInfo& info = z.info();
-  for (const auto& [name, c] : Queries<D>(info.domain_bits, info.field_min, info.field_range())) {
+  for (const auto& [name, c] : Queries<D>(oracle, info.field_min, info.field_range(), percents)) {
+    ASSERT_EQ(oracle.Ambiguous(c), 0u);
+    const std::vector<uint64_t> truth = testing::Keys(testing::LeavesOf<D>(oracle.MinimalSplits(c)));
     for (Algorithm a : {Algorithm::kDepthFirst, Algorithm::kPriority, Algorithm::kSaturated,
-                        Algorithm::kLevelOrder}) {
+                        Algorithm::kLevelOrder, Algorithm::kIncremental}) {
       SCOPED_TRACE(name + " " + std::to_string(c.threshold) + " " + AlgorithmName(a));
+      // The reference: in memory, against the oracle's minimal mesh (the
+      // saturated baseline's is its own), diamond errors and field values.
       const Extracted<D> want = Run<D>(m, c, a);
+      if (a != Algorithm::kSaturated) {
+        EXPECT_EQ(testing::Keys(want.leaves), truth);
+      }
+      for (size_t i = 0; i < want.leaves.size(); ++i) {
+        const double e = oracle.Diamond(want.leaves[i]);
+        ASSERT_GE(want.errors[i], e) << want.leaves[i].ToString();
+        ASSERT_LE(want.errors[i], oracle.UpperBound(e)) << want.leaves[i].ToString();
+        const auto values = oracle.VertexValues(Vertices<D>(want.leaves[i]));
+        ASSERT_TRUE(std::equal(values.begin(), values.end(), want.values.begin() + i * (D + 1)))
+            << want.leaves[i].ToString();
+      }
       const std::vector<std::pair<std::string, Extracted<D>>> others = {
-          {"zstd", Run<D>(z, c, a)}, {"raw", Run<D>(r, c, a)}};
+          {"zstd", Run<D>(z, c, a)},           {"raw", Run<D>(r, c, a)},
+          {"small cache", Run<D>(t, c, a)},    {"sparse", Run<D>(sp, c, a)},
+          {"sparse, small cache", Run<D>(spt, c, a)}};
       for (const auto& [store, got] : others) {
         SCOPED_TRACE(store);
         EXPECT_EQ(testing::Keys(got.leaves), testing::Keys(want.leaves));
@@ -109,29 +152,38 @@ void CheckStoresAgree(uint32_t side) {
       }
     }
   }
+  // The small caches did evict: they decoded (or computed) more than the
+  // large ones.
+  EXPECT_GT(starved->stats().blocks_decoded + starved->stats().boxes_computed,
+            zstd->stats().blocks_decoded + zstd->stats().boxes_computed);
+  EXPECT_GT(sparse_starved->stats().blocks_decoded, sparse->stats().blocks_decoded);
 }
 
-TEST(Stores, SameMeshOverEveryStoreHt) { CheckStoresAgree<3>(33); }
-TEST(Stores, SameMeshOverEveryStoreHp) { CheckStoresAgree<4>(9); }
+TEST(Stores, SameMeshOverEveryStoreHt) { CheckStoresAgree<3>(17, {0, 3, 20}, 8 << 10, 16 << 10); }
+TEST(Stores, SameMeshOverEveryStoreHp) { CheckStoresAgree<4>(9, {3, 20}, 64 << 10, 32 << 10); }
 
 // Per-block maxima from the dense store's index answer "does it exceed the
 // threshold?" without reading a block, and change no mesh.
 TEST(Stores, BlockMaximaSkipBlocksAndChangeNothing) {
   TempDir dir;
   const TestVolume volume = Structured(3, 33);
-  auto in_memory = testing::BuildDense(volume, dir.path(), "z", false, /*in_memory=*/true);
-  DenseStore::Options no_cache;
+  testing::BuildDense(volume, dir.path(), "z");
+  HzStore::Options in_memory;
+  in_memory.in_memory = true;
+  const auto resident = *HzStore::Open(dir.path() + "/z.sdb", in_memory);
+  HzStore::Options no_cache;
   no_cache.cache_bytes = 0;
-  auto cold = *DenseStore::Open(dir.path() + "/z.sdb", no_cache);
-  DenseSource<3> m(*in_memory), c(*cold);
+  const auto cold = *HzStore::Open(dir.path() + "/z.sdb", no_cache);
+  HzSource<3> m(*resident), c(*cold);
   const double range = m.info().field_range();
   uint64_t skipped = 0;
   for (double pct : {0.0, 3.0, 20.0, 60.0}) {
-    for (Algorithm a : {Algorithm::kDepthFirst, Algorithm::kPriority, Algorithm::kSaturated}) {
+    for (Algorithm a : {Algorithm::kDepthFirst, Algorithm::kPriority, Algorithm::kSaturated,
+                        Algorithm::kLevelOrder}) {
       SCOPED_TRACE(std::to_string(pct) + "% " + AlgorithmName(a));
       Criteria<3> crit;
       crit.threshold = range * pct / 100;
-      Refiner<3, DenseSource<3>> rm(m, crit), rc(c, crit);
+      Refiner<3, HzSource<3>> rm(m, crit), rc(c, crit);
       Mesh<3> mm, mc;
       QueryStats sm, sc;
       ASSERT_TRUE(rm.Run({a}, mm, sm).ok());
