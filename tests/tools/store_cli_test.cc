@@ -361,8 +361,8 @@ TEST(StoreCli, RawSpacingAndOriginReachTheHeaderAndInfo) {
   const struct {
     std::string options, message;
   } bad[] = {
-      {" --spacing 1,0,1,1", "--spacing: 0 is not non-zero"},
-      {" --spacing=1,2,1,-1", "--spacing: -1 is not positive, as time's must be"},
+      {" --spacing 1,0,1,1", "--spacing: 0 on axis 1 is not a finite non-zero number"},
+      {" --spacing=1,2,1,-1", "--spacing: -1 on axis 3 is not a finite number > 0 (time runs forwards)"},
       {" --spacing 1,inf,1,1", "--spacing"},
       {" --spacing 1,nan,1,1", "--spacing"},
       {" --spacing 1,1,1", "--spacing: 3 numbers for a 4D volume"},
