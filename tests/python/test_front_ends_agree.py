@@ -121,3 +121,17 @@ def test_the_same_conversion(stores, tmp_path, hierarchy, kind):
     else:
         lo, hi = converted.field_range
         assert np.abs(back.astype(int) - VOLUMES[hierarchy]).max() <= 0.01 * (hi - lo) + 0.5
+
+
+def test_the_same_incremental_refinement(stores, tmp_path):
+    """--algorithm incremental --from CODES and extract(previous=mesh): the
+    previous mesh as leaf codes either way, the same mesh from it."""
+    store = stores / "ht.dense"
+    coarse = simplexdb.open(store).extract("10%", mesh=False)
+    (tmp_path / "coarse.codes").write_text(run("extract", store, "--error", "10%", "--format", "codes"))
+    assert coarse.code_strings() == (tmp_path / "coarse.codes").read_text().split()
+    codes = run("extract", store, "--error", "2%", "--algorithm", "incremental", "--from", tmp_path / "coarse.codes",
+                "--format", "codes").split()
+    fine = simplexdb.open(store).extract("2%", algorithm="incremental", previous=coarse, mesh=False)
+    assert fine.code_strings() == codes
+    assert fine.stats["algorithm"] == "incremental" and len(codes) > len(coarse.codes)
