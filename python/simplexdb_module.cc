@@ -1,5 +1,7 @@
 // _simplexdb: the C++ half of the Python package `simplexdb` (python/simplexdb
-// holds the Python half, which is the API users see).
+// holds the Python half, which is the API users see). Each function turns
+// Python arguments into an operation's request (ops/: the same functions
+// and checks `simplexdb` runs) and the result into Python objects.
 //
 // What crosses the boundary: a Store (an AnyStore, shared by reference
 // count so meshes and threads may outlive the Python name), and the result
@@ -24,19 +26,19 @@
 #include <string>
 #include <vector>
 
-#include "query/clip.h"
-#include "query/code_json.h"
-#include "query/criteria.h"
+#include "ops/amount.h"
+#include "ops/code_json.h"
+#include "ops/convert.h"
+#include "ops/export.h"
+#include "ops/extract.h"
+#include "ops/extract_output.h"
+#include "ops/import.h"
+#include "ops/read_grid.h"
+#include "ops/store_info.h"
+#include "ops/verify.h"
 #include "query/field_at.h"
-#include "query/import_volume.h"
-#include "query/mesh.h"
 #include "query/mesh_io.h"
 #include "query/open_store.h"
-#include "query/pvd_writer.h"
-#include "query/read_grid.h"
-#include "query/refine.h"
-#include "query/slice.h"
-#include "query/store_info.h"
 #include "storage/io/file.h"
 #include "storage/volume/volume.h"
 #include "storage/volume/voxel_type.h"
@@ -64,70 +66,90 @@ py::array_t<T> Hand(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
   return py::array_t<T>(shape, owned->data(), free);
 }
 
-// The store's description as `simplexdb info --json` prints it (one
-// builder, query/store_info.h), through Python's json so the dict holds
-// exactly what a script reading the command's output gets.
-py::dict InfoDict(const AnyStore& store) {
-  const std::string text = StoreInfoJson(store).dump();
-  return py::module_::import("json").attr("loads")(text);
+// A JSON object (an operation's report) as the dict Python's json module
+// reads from its text, so a script sees what the command prints.
+py::dict DictOf(const nlohmann::ordered_json& j) {
+  return py::module_::import("json").attr("loads")(j.dump());
 }
 
-// What a query hands back before it becomes numpy arrays.
-struct Extraction {
-  std::vector<uint64_t> codes;
-  TetMeshData mesh;  // the HT's tetrahedra, or the HP's time slice; empty otherwise
-  QueryStats stats;
-  bool has_mesh = false;
+// The store's description as `simplexdb info --json` prints it (one
+// builder, ops/store_info.h).
+py::dict InfoDict(const AnyStore& store) { return DictOf(StoreInfoJson(store)); }
+
+// An amount as Python gives it: a number (field units) or text ("1%").
+Amount AmountOf(const py::object& value, const char* option) {
+  if (py::isinstance<py::str>(value)) {
+    Result<Amount> a = ParseAmount(value.cast<std::string>(), option);
+    if (!a.ok()) Raise(a.status());
+    return *a;
+  }
+  return Amount{value.cast<double>(), false};
+}
+
+// Progress on stderr as the command draws it (when `enabled`); clears the
+// line when it goes out of scope.
+class ProgressPrinter {
+ public:
+  ProgressPrinter(bool enabled, std::string output) : enabled_(enabled), output_(std::move(output)) {}
+  ~ProgressPrinter() {
+    if (drawn_) std::fprintf(stderr, "\r\033[K");
+  }
+  std::function<void(const BuildProgress&)> callback() {
+    if (!enabled_) return {};
+    return [this](const BuildProgress& p) {
+      std::fprintf(stderr, "\r\033[K%s", DescribeProgress(output_, p).c_str());
+      std::fflush(stderr);
+      drawn_ = true;
+    };
+  }
+
+ private:
+  bool enabled_;
+  std::string output_;
+  bool drawn_ = false;
 };
 
-py::dict Extract(const std::shared_ptr<AnyStore>& store, double error, std::optional<std::vector<double>> box,
-                 std::optional<double> iso, std::optional<double> time, const std::string& algorithm_name,
-                 uint64_t budget, bool mesh_wanted) {
-  Result<Algorithm> algorithm = ParseAlgorithm(algorithm_name);
-  if (!algorithm.ok()) Raise(algorithm.status());
-  if (*algorithm == Algorithm::kIncremental) {
-    throw py::value_error("algorithm incremental refines a previous mesh; not offered here yet");
-  }
-  CriteriaSpec spec;
-  spec.error.value = error;
-  spec.box = std::move(box);
-  spec.iso = iso;
-  spec.time = time;
-  Extraction out;
-  Status s;
-  {
+// The output path checked as the command checks it (ResolveOutput).
+std::string Output(const std::string& path, const std::vector<std::string>& inputs, bool force = false) {
+  OutputOptions options;
+  options.inputs = inputs;
+  options.force = force;
+  Result<std::string> resolved = ResolveOutput(path, options);
+  if (!resolved.ok()) Raise(resolved.status());
+  return *std::move(resolved);
+}
+
+// Extract (ops/extract.h) over the store: the leaves' codes, the
+// tetrahedra (the HT's, or the HP's slice at `time`) as arrays, the
+// statistics as `extract --format json` prints them.
+py::dict ExtractMesh(const std::shared_ptr<AnyStore>& store, const py::object& error,
+                     std::optional<std::vector<double>> box, std::optional<double> iso,
+                     std::optional<double> time, const std::string& units, const std::string& algorithm,
+                     uint64_t budget, std::optional<std::vector<uint64_t>> previous, bool mesh_wanted) {
+  ExtractRequest request;
+  request.error = AmountOf(error, "--error");
+  request.box = std::move(box);
+  request.iso = iso;
+  request.time = time;
+  request.units = units;
+  request.algorithm = algorithm;
+  request.budget = budget;
+  request.from = std::move(previous);
+  request.leaves = true;
+  request.tetrahedra = mesh_wanted;
+  request.count_slice = mesh_wanted;
+  Result<ExtractResult> result = [&] {
     py::gil_scoped_release unlocked;
-    s = store->Visit([&]<int D, class Source>(Source& source) -> Status {
-      const SourceInfo& info = source.info();
-      SDB_ASSIGN_OR_RETURN(const Criteria<D> criteria, MakeCriteria<D>(spec, info.domain_bits, info.field_range()));
-      RefineOptions options;
-      options.algorithm = *algorithm;
-      options.max_simplices = budget;
-      Refiner<D, Source> refiner(source, criteria);
-      Mesh<D> mesh;
-      SDB_RETURN_IF_ERROR(refiner.Run(options, mesh, out.stats));
-      for (const SimplexCode<D> c : mesh.Leaves()) out.codes.push_back(c.key());
-      if (!mesh_wanted) return Status::OK();
-      if constexpr (D == 3) {
-        SDB_ASSIGN_OR_RETURN(out.mesh, CollectTetMesh(mesh, source));
-        out.has_mesh = true;
-      } else if (criteria.time) {
-        SDB_ASSIGN_OR_RETURN(out.mesh, SliceHpMesh(mesh, source, *criteria.time));
-        out.has_mesh = true;
-      }
-      if (out.has_mesh) {
-        out.mesh = ClipToGrid(std::move(out.mesh), info.dims);
-        PlacePhysically(out.mesh, info);
-      }
-      return Status::OK();
-    });
-  }
-  if (!s.ok()) Raise(s);
+    return Extract(*store, request);
+  }();
+  if (!result.ok()) Raise(result.status());
+  ExtractResult& out = *result;
   py::dict d;
-  const auto n_codes = static_cast<py::ssize_t>(out.codes.size());
-  d["codes"] = Hand(std::move(out.codes), {n_codes});
-  if (out.has_mesh) {
-    TetMeshData& m = out.mesh;
+  const auto n_codes = static_cast<py::ssize_t>(out.leaves.size());
+  d["stats"] = DictOf(ExtractStatsJson(out));
+  d["codes"] = Hand(std::move(out.leaves), {n_codes});
+  if (out.mesh) {
+    TetMeshData& m = *out.mesh;
     const auto points = static_cast<py::ssize_t>(m.field.size()), cells = static_cast<py::ssize_t>(m.cells());
     d["points"] = Hand(std::move(m.points), {points, 3});
     d["cells"] = Hand(std::move(m.connectivity), {cells, 4});
@@ -136,30 +158,18 @@ py::dict Extract(const std::shared_ptr<AnyStore>& store, double error, std::opti
     d["level"] = Hand(std::move(m.level), {cells});
     d["cell_codes"] = Hand(std::move(m.code), {cells});
   }
-  const QueryStats& st = out.stats;
-  py::dict stats;
-  stats["algorithm"] = AlgorithmName(*algorithm);
-  stats["simplices"] = st.simplices;
-  stats["splits"] = st.splits;
-  stats["cluster_computations"] = st.cluster_computations;
-  stats["candidates"] = st.candidates;
-  stats["error_lookups"] = st.error_lookups;
-  stats["field_lookups"] = st.field_lookups;
-  stats["blocks_read"] = st.blocks_read;
-  stats["blocks_skipped"] = st.blocks_skipped;
-  stats["seconds"] = st.seconds;
-  stats["interrupted"] = st.interrupted;
-  d["stats"] = stats;
+  if (out.mesh_time) d["time"] = *out.mesh_time;
   return d;
 }
 
-// The file VTK reads, by the writer `simplexdb extract` uses.
-void SaveVtu(const std::string& path, py::array_t<double, py::array::c_style | py::array::forcecast> points,
-             py::array_t<int64_t, py::array::c_style | py::array::forcecast> cells,
-             py::array_t<double, py::array::c_style | py::array::forcecast> field,
-             py::array_t<double, py::array::c_style | py::array::forcecast> error,
-             py::array_t<uint8_t, py::array::c_style | py::array::forcecast> level,
-             py::array_t<uint64_t, py::array::c_style | py::array::forcecast> codes) {
+// A mesh's arrays to .vtu or .pvd, by the writer `simplexdb extract` uses
+// (WriteMeshFile, ops/extract_output.h).
+void SaveMesh(const std::string& path, py::array_t<double, py::array::c_style | py::array::forcecast> points,
+              py::array_t<int64_t, py::array::c_style | py::array::forcecast> cells,
+              py::array_t<double, py::array::c_style | py::array::forcecast> field,
+              py::array_t<double, py::array::c_style | py::array::forcecast> error,
+              py::array_t<uint8_t, py::array::c_style | py::array::forcecast> level,
+              py::array_t<uint64_t, py::array::c_style | py::array::forcecast> codes, double time) {
   TetMeshData m;
   m.points.assign(points.data(), points.data() + points.size());
   m.connectivity.assign(cells.data(), cells.data() + cells.size());
@@ -180,25 +190,7 @@ void SaveVtu(const std::string& path, py::array_t<double, py::array::c_style | p
   Status s;
   {
     py::gil_scoped_release unlocked;
-    s = WriteVtu(m, path);
-  }
-  if (!s.ok()) Raise(s);
-}
-
-// A ParaView collection naming (time, file) pairs, by the writer `simplexdb
-// extract -o X.pvd` uses.
-void SavePvd(const std::string& path, const std::vector<std::pair<double, std::string>>& datasets) {
-  std::vector<PvdDataSet> sets;
-  for (const auto& [time, file] : datasets) {
-    if (file.find('/') != std::string::npos) {
-      throw py::value_error(path + ": a .pvd names files beside it, not " + file);
-    }
-    sets.push_back({time, file});
-  }
-  Status s;
-  {
-    py::gil_scoped_release unlocked;
-    s = WritePvd(sets, path);
+    s = WriteMeshFile(m, path, time);
   }
   if (!s.ok()) Raise(s);
 }
@@ -241,26 +233,27 @@ Result<VolumeInfo> ArrayVolume(const py::array& array, const std::vector<uint32_
 }
 
 // `input` is a numpy array (dims, type and endian describe it) or a path
-// (raw when dims are given, else NRRD/NIfTI by its extension).
+// (raw when dims are given, else NRRD/NIfTI by its extension); the build
+// is ImportVolume's (ops/import.h), the options checked by CheckImport.
 void ImportVolumeCore(const py::object& input, const std::string& output,
                       const std::string& hierarchy, const std::string& quantization,
                       const std::string& compression, std::optional<std::vector<double>> spacing,
-                      std::optional<std::vector<double>> origin, bool sparse, bool progress,
-                      std::optional<std::string> source, std::optional<std::vector<uint32_t>> dims,
-                      const std::string& type, const std::string& endian, uint64_t offset,
-                      int threads) {
-  if (threads < 0) {
-    throw py::value_error("threads: expected a count >= 0 (0: one per core), not " + std::to_string(threads));
-  }
+                      std::optional<std::vector<double>> origin, bool sparse, const py::object& tolerance,
+                      bool progress, std::optional<std::string> source,
+                      std::optional<std::vector<uint32_t>> dims, const std::string& type,
+                      const std::string& endian, uint64_t offset, int threads) {
   ImportOptions options;
   options.threads = threads;
   options.hierarchy = hierarchy;
   options.sparse = sparse;
+  options.tolerance = AmountOf(tolerance, "--tolerance");
+  options.spacing = std::move(spacing);
+  options.origin = std::move(origin);
   Result<Quantization> q = ParseQuantization(quantization);
-  if (!q.ok()) throw py::value_error("quantization: " + std::string(q.status().message()));
+  if (!q.ok()) throw py::value_error("--quantization: " + std::string(q.status().message()));
   options.quantization = *q;
   Result<Compression> c = ParseCompression(compression);
-  if (!c.ok()) throw py::value_error("compression: " + std::string(c.status().message()));
+  if (!c.ok()) throw py::value_error("--compression: " + std::string(c.status().message()));
   options.compression = *c;
   if (dims && dims->size() != 3 && dims->size() != 4) {
     throw py::value_error("dims: expected X, Y, Z[, T], got " + std::to_string(dims->size()) + " numbers");
@@ -287,80 +280,101 @@ void ImportVolumeCore(const py::object& input, const std::string& output,
   }();
   if (!volume.ok()) Raise(volume.status());
   if (source && !is_array) volume->description = *source;
-  // spacing and origin: one number per axis, x first (as --spacing, --origin).
-  for (const auto& [values, name] : {std::pair(&spacing, "spacing"), std::pair(&origin, "origin")}) {
-    if (!*values) continue;
-    const std::vector<double>& v = **values;
-    if (static_cast<int>(v.size()) != volume->dimension) {
-      throw py::value_error(std::string(name) + ": " + std::to_string(v.size()) + " numbers for a " +
-                            std::to_string(volume->dimension) + "D volume (" +
-                            FormatDims(volume->dimension, volume->dims) + "); give " +
-                            std::to_string(volume->dimension) + ", x first");
-    }
-    for (size_t a = 0; a < v.size(); ++a) {
-      // As --spacing: x, y, z may be negative (a flipped axis); time's is > 0.
-      const bool spacing_axis = std::string(name) == "spacing";
-      if (!std::isfinite(v[a]) || (spacing_axis && (a < 3 ? v[a] == 0 : !(v[a] > 0)))) {
-        char number[32];
-        std::snprintf(number, sizeof number, "%g", v[a]);
-        throw py::value_error(std::string(name) + ": " + number + " on axis " +
-                              std::to_string(a) + " is not " +
-                              (!spacing_axis ? "a finite number"
-                               : a < 3       ? "a finite non-zero number (negative: a flipped axis)"
-                                             : "a finite number > 0 (time runs forwards)"));
-      }
-      (spacing_axis ? volume->spacing : volume->origin)[a] = v[a];
-    }
-  }
   if (const Status s = CheckImport(*volume, options); !s.ok()) Raise(s);
-  OutputOptions out_options;
-  out_options.inputs = volume->files;
-  Result<std::string> resolved = ResolveOutput(output, out_options);
-  if (!resolved.ok()) Raise(resolved.status());
-  bool drawn = false;
-  if (progress) {
-    options.progress = [&drawn, output](const BuildProgress& p) {
-      std::fprintf(stderr, "\r\033[K%s", DescribeProgress(output, p).c_str());
-      std::fflush(stderr);
-      drawn = true;
-    };
-  }
+  const std::string resolved = Output(output, volume->files);
+  ProgressPrinter printer(progress, output);
+  options.progress = printer.callback();
   const Result<ImportReport> report = [&] {
     py::gil_scoped_release unlocked;  // `input` stays referenced by the caller's frame
-    return ImportVolume(*volume, *resolved, options);
+    return ImportVolume(*volume, resolved, options);
   }();
-  if (drawn) std::fprintf(stderr, "\r\033[K");
   if (!report.ok()) Raise(report.status());
 }
 
-// The field on the grid points of `roi` (x0, y0, z0[, t0], x1, y1, z1[, t1],
-// inclusive; None: the whole grid), every step-th point, as a C-order
-// array of shape (Z, Y, X) or (T, Z, Y, X).
-py::array_t<double> ExportField(const std::shared_ptr<AnyStore>& store,
-                                std::optional<std::vector<int64_t>> roi, int step) {
-  const SourceInfo& info = store->info();
-  const int d = info.dimension;
-  ExportBox box = WholeGrid(info, step);
-  if (roi) {
-    if (static_cast<int>(roi->size()) != 2 * d) {
-      throw py::value_error("roi: expected " + std::to_string(2 * d) + " grid indices (" +
-                            (d == 3 ? "x0, y0, z0, x1, y1, z1" : "x0, y0, z0, t0, x1, y1, z1, t1") +
-                            "), got " + std::to_string(roi->size()));
-    }
-    for (int c = 0; c < d; ++c) {
-      box.lo[c] = (*roi)[c];
-      box.hi[c] = (*roi)[d + c];
-    }
-  }
-  Result<std::vector<double>> values = [&] {
+// ExportRequest from Python's arguments (roi and step checked for type in
+// __init__.py; their values by ResolveExportBox).
+ExportRequest ExportRequestOf(std::optional<std::vector<double>> roi, int64_t step, std::optional<double> time) {
+  ExportRequest request;
+  request.roi = std::move(roi);
+  request.step = step;
+  request.time = time;
+  return request;
+}
+
+// The field as ReadExport (ops/export.h) reads it, a C-order array of shape
+// (Z, Y, X), or (T, Z, Y, X) for an HP without `time`.
+py::array_t<double> ExportField(const std::shared_ptr<AnyStore>& store, std::optional<std::vector<double>> roi,
+                                int64_t step, std::optional<double> time) {
+  const ExportRequest request = ExportRequestOf(std::move(roi), step, time);
+  Result<FieldImage> image = [&] {
     py::gil_scoped_release unlocked;
-    return ReadGridBox(*store, box);
+    return ReadExport(*store, request);
   }();
-  if (!values.ok()) Raise(values.status());
-  const std::array<uint32_t, 4> dims = ExportDims(box, d);
+  if (!image.ok()) Raise(image.status());
   std::vector<py::ssize_t> shape;
-  for (int c = d - 1; c >= 0; --c) shape.push_back(dims[c]);
-  return Hand(std::move(values).value(), shape);
+  for (int c = image->dimension - 1; c >= 0; --c) shape.push_back(image->dims[c]);
+  return Hand(std::move(image->values), shape);
+}
+
+// The files `simplexdb export STORE -o OUT` writes (ExportToFiles); returns
+// what was written, as the command says it.
+std::string ExportFile(const std::shared_ptr<AnyStore>& store, const std::string& out,
+                       std::optional<std::vector<double>> roi, int64_t step, std::optional<double> time,
+                       bool force) {
+  const ExportRequest request = ExportRequestOf(std::move(roi), step, time);
+  const std::string resolved = Output(out, {store->path()}, force);
+  OutputOptions options;
+  options.force = force;
+  Result<ExportReport> report = [&] {
+    py::gil_scoped_release unlocked;
+    return ExportToFiles(*store, request, resolved, options);
+  }();
+  if (!report.ok()) Raise(report.status());
+  return report->written;
+}
+
+// `simplexdb convert INPUT -o OUTPUT --to TO ...` (Convert, ops/convert.h).
+void ConvertStore(const std::string& input, const std::string& output, const std::string& to,
+                  const py::object& tolerance, const std::string& compression, double memory_mb, int threads,
+                  bool progress) {
+  ConvertOptions options;
+  Result<StoreKind> kind = ParseStoreKind(to);
+  if (!kind.ok()) Raise(kind.status());
+  options.to = *kind;
+  options.tolerance = AmountOf(tolerance, "--tolerance");
+  Result<Compression> c = ParseCompression(compression);
+  if (!c.ok()) throw py::value_error("--compression: " + std::string(c.status().message()));
+  options.compression = *c;
+  if (!(memory_mb >= 0) || memory_mb > 1e15) throw py::value_error("memory_mb: expected a size in MiB >= 0");
+  options.memory_bytes = static_cast<size_t>(memory_mb * 1024 * 1024);
+  options.threads = threads;
+  if (const Status s = CheckConvert(input, ProbeStoreKind(input), options); !s.ok()) Raise(s);
+  const std::string resolved = Output(output, {input});
+  ProgressPrinter printer(progress, output);
+  options.progress = printer.callback();
+  const Result<ConvertReport> report = [&] {
+    py::gil_scoped_release unlocked;
+    return Convert(input, resolved, options);
+  }();
+  if (!report.ok()) Raise(report.status());
+}
+
+// VerifyStore (ops/verify.h): what was checked, as a dict.
+py::dict Verify(const std::shared_ptr<AnyStore>& store) {
+  Result<VerifyReport> r = [&] {
+    py::gil_scoped_release unlocked;
+    return VerifyStore(*store);
+  }();
+  if (!r.ok()) Raise(r.status());
+  py::dict d;
+  d["kind"] = StoreKindName(r->kind);
+  d["blocks"] = r->blocks;
+  if (r->kind == StoreKind::kDense) {
+    d["bricks"] = r->bricks;
+  } else {
+    d["kept"] = r->kept;
+  }
+  return d;
 }
 
 // The field at N points (an N x D array in grid units), FieldAt each.
@@ -396,11 +410,6 @@ py::array_t<double> FieldAtPoints(const std::shared_ptr<AnyStore>& store,
   return Hand(std::move(out), {static_cast<py::ssize_t>(n)});
 }
 
-std::string StoreVoxelType(const AnyStore& store) {
-  return std::string(VoxelTypeName(store.hz() ? store.hz()->header().voxel_type
-                                              : store.sparse()->header().voxel_type));
-}
-
 }  // namespace
 }  // namespace simplexdb
 
@@ -426,10 +435,11 @@ PYBIND11_MODULE(_simplexdb, m) {
         return std::make_shared<AnyStore>(std::move(store).value());
       },
       py::arg("path"), py::arg("cache_mb"), py::arg("in_memory"));
-  m.def("extract", &Extract, py::arg("store"), py::arg("error"), py::arg("box"), py::arg("iso"), py::arg("time"),
-        py::arg("algorithm"), py::arg("budget"), py::arg("mesh"));
-  m.def("save_vtu", &SaveVtu);
-  m.def("save_pvd", &SavePvd);
+  m.def("extract", &ExtractMesh, py::arg("store"), py::arg("error"), py::arg("box"), py::arg("iso"),
+        py::arg("time"), py::arg("units"), py::arg("algorithm"), py::arg("budget"), py::arg("previous"),
+        py::arg("mesh"));
+  m.def("save_mesh", &SaveMesh, py::arg("path"), py::arg("points"), py::arg("cells"), py::arg("field"),
+        py::arg("error"), py::arg("level"), py::arg("codes"), py::arg("time"));
   m.def("code_string", [](int dimension, uint64_t key) {
     if (dimension == 3) return CodeString<3>(key);
     if (dimension == 4) return CodeString<4>(key);
@@ -437,14 +447,21 @@ PYBIND11_MODULE(_simplexdb, m) {
   });
   m.def("import_volume", &ImportVolumeCore, py::arg("input"), py::arg("output"), py::arg("hierarchy"),
         py::arg("quantization"), py::arg("compression"), py::arg("spacing"), py::arg("origin"),
-        py::arg("sparse"), py::arg("progress"), py::arg("source"), py::arg("dims"), py::arg("type"),
-        py::arg("endian"), py::arg("offset"), py::arg("threads"));
-  m.def("export", &ExportField, py::arg("store"), py::arg("roi"), py::arg("step"));
+        py::arg("sparse"), py::arg("tolerance"), py::arg("progress"), py::arg("source"), py::arg("dims"),
+        py::arg("type"), py::arg("endian"), py::arg("offset"), py::arg("threads"));
+  m.def("export", &ExportField, py::arg("store"), py::arg("roi"), py::arg("step"), py::arg("time"));
+  m.def("export_file", &ExportFile, py::arg("store"), py::arg("out"), py::arg("roi"), py::arg("step"),
+        py::arg("time"), py::arg("force"));
+  m.def("convert", &ConvertStore, py::arg("input"), py::arg("output"), py::arg("to"), py::arg("tolerance"),
+        py::arg("compression"), py::arg("memory_mb"), py::arg("threads"), py::arg("progress"));
+  m.def("verify", &Verify, py::arg("store"));
   m.def("field_at", &FieldAtPoints, py::arg("store"), py::arg("points"));
   m.def("describe_code", [](const std::string& hierarchy, const std::string& text) {
     Result<std::string> line = DescribeCode(hierarchy, text);
     if (!line.ok()) Raise(line.status());
     return *line;
   });
-  m.def("voxel_type", [](const std::shared_ptr<AnyStore>& store) { return StoreVoxelType(*store); });
+  m.def("voxel_type", [](const std::shared_ptr<AnyStore>& store) {
+    return std::string(VoxelTypeName(StoreVoxelType(*store)));
+  });
 }

@@ -1,19 +1,16 @@
 #include "tools/cli_util.h"
 
-#include "query/import_volume.h"
-#include "storage/io/file.h"
-
-#include <sys/resource.h>
-
 #include <algorithm>
 #include <cerrno>
-#include <charconv>
-#include <iostream>
-#include <system_error>
-#include <fstream>
-#include <limits>
 #include <cmath>
 #include <cstdlib>
+#include <iostream>
+#include <limits>
+#include <system_error>
+
+#include "ops/amount.h"
+#include "ops/import.h"  // DescribeProgress
+#include "storage/io/file.h"
 
 namespace simplexdb::tools {
 
@@ -80,17 +77,15 @@ std::vector<double> ParseNumberList(std::string_view text, const char* option, s
   return out;
 }
 
-double ParseAmount(std::string_view text, const char* option, double range) {
-  const bool percent = !text.empty() && text.back() == '%';
-  const std::string number(percent ? text.substr(0, text.size() - 1) : text);
-  char* end = nullptr;
-  const double v = std::strtod(number.c_str(), &end);
-  if (number.empty() || end != number.c_str() + number.size() || !std::isfinite(v) || v < 0) {
-    throw CommandError(fmt::format("{}: expected a number >= 0 such as 7.3 or 1%, not '{}'", option,
-                                   text),
-                       2);
+Amount ParseAmountOption(std::string_view text, const char* option) {
+  return UsageValue(ParseAmount(text, option));
+}
+
+size_t MebibytesOption(size_t mib, const char* option) {
+  if (mib > (std::numeric_limits<size_t>::max() >> 20)) {  // << 20 would wrap
+    throw CommandError(fmt::format("{} {} is beyond this machine's address space", option, mib), 2);
   }
-  return percent ? v / 100 * range : v;
+  return mib << 20;
 }
 
 std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension) {
@@ -115,83 +110,14 @@ std::string FormatPlacement(int dimension, const std::array<double, 4>& spacing,
                      fmt::join(origin.begin(), origin.begin() + n, ", "));
 }
 
-std::string HumanBytes(uint64_t bytes) {
-  static const char* kUnits[] = {"B", "KiB", "MiB", "GiB", "TiB"};
-  double v = static_cast<double>(bytes);
-  int u = 0;
-  while (v >= 1024 && u < 4) {
-    v /= 1024;
-    ++u;
-  }
-  return u == 0 ? fmt::format("{} B", bytes) : fmt::format("{:.1f} {}", v, kUnits[u]);
-}
-
-uint64_t PeakResidentBytes() {
-  rusage r{};
-  getrusage(RUSAGE_SELF, &r);
-  return static_cast<uint64_t>(r.ru_maxrss) * 1024;  // Linux reports KiB
-}
-
 void AddRawInputOptions(CLI::App* cmd, RawInputOptions* raw, const std::string& dims_help) {
   cmd->add_option("--dims", raw->dims, dims_help);
   cmd->add_option("--type", raw->type, "raw input: uint8|int8|uint16|int16|float32|float64");
   cmd->add_option("--endian", raw->endian, "raw input: little|big")->capture_default_str();
   cmd->add_option("--offset", raw->offset, "raw input: header bytes to skip")->capture_default_str();
-  cmd->add_option("--spacing", raw->spacing,
-                  "grid spacing X,Y,Z[,T]; a negative X, Y or Z flips that axis, as "
-                  "--spacing=-2,2,2.2 (stored in the header; replaces the file's)");
-  cmd->add_option("--origin", raw->origin,
-                  "position of grid point 0, X,Y,Z[,T] (stored in the header; replaces the "
-                  "file's)");
 }
-
-namespace {
-
-// The volume the inputs describe, before --spacing and --origin.
-VolumeInfo OpenInputsAsGiven(const std::vector<std::string>& inputs, const RawInputOptions& raw);
-
-// --spacing and --origin, given for a volume of `dimension` axes.
-void ApplyPlacement(const RawInputOptions& raw, VolumeInfo& v) {
-  const auto parse = [&](const std::string& text, const char* option) {
-    const std::vector<double> values = ParseNumberList(text, option, 3, 4);
-    if (static_cast<int>(values.size()) != v.dimension) {
-      throw CommandError(fmt::format("{}: {} numbers for a {}D volume ({}); give {}", option,
-                                     values.size(), v.dimension,
-                                     FormatDims(v.dimension, v.dims), v.dimension),
-                         2);
-    }
-    return values;
-  };
-  if (!raw.spacing.empty()) {
-    const std::vector<double> s = parse(raw.spacing, "--spacing");
-    for (size_t a = 0; a < s.size(); ++a) {
-      // x, y, z may be negative (a flipped axis); time runs forwards.
-      if (a < 3 ? s[a] == 0 : !(s[a] > 0)) {
-        throw CommandError(fmt::format("--spacing: {} is not {} (in '{}')", s[a],
-                                       a < 3 ? "non-zero" : "positive, as time's must be",
-                                       raw.spacing),
-                           2);
-      }
-      v.spacing[a] = s[a];
-    }
-  }
-  if (!raw.origin.empty()) {
-    const std::vector<double> o = parse(raw.origin, "--origin");
-    for (size_t a = 0; a < o.size(); ++a) v.origin[a] = o[a];
-  }
-}
-
-}  // namespace
 
 VolumeInfo OpenInputs(const std::vector<std::string>& inputs, const RawInputOptions& raw) {
-  VolumeInfo v = OpenInputsAsGiven(inputs, raw);
-  ApplyPlacement(raw, v);
-  return v;
-}
-
-namespace {
-
-VolumeInfo OpenInputsAsGiven(const std::vector<std::string>& inputs, const RawInputOptions& raw) {
   if (raw.dims.empty()) {
     if (!raw.type.empty() || raw.offset != 0) {
       throw CommandError("--type and --offset describe raw input and need --dims", 2);
@@ -233,19 +159,6 @@ VolumeInfo OpenInputsAsGiven(const std::vector<std::string>& inputs, const RawIn
   return series;
 }
 
-}  // namespace
-
-uint64_t AnonymousResidentBytes() {
-  std::ifstream status("/proc/self/status");
-  std::string key;
-  uint64_t kib = 0;
-  while (status >> key) {
-    if (key == "RssAnon:" && status >> kib) return kib * 1024;
-    status.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
-  }
-  return 0;
-}
-
 void ProgressLine::Update(const std::string& text) {
   if (!enabled_) return;
   const auto now = std::chrono::steady_clock::now();
@@ -262,18 +175,6 @@ void ProgressLine::Finish() {
     std::fflush(stderr);
   }
   drawn_ = false;
-}
-
-std::unique_ptr<HzStore> OpenHzStore(const std::string& path) {
-  Result<std::unique_ptr<HzStore>> s = HzStore::Open(path);
-  if (!s.ok()) Fail(s.status());
-  return *std::move(s);
-}
-
-std::unique_ptr<DenseStore> OpenDenseStore(const std::string& path) {
-  Result<std::unique_ptr<DenseStore>> s = DenseStore::Open(path);
-  if (!s.ok()) Fail(s.status());
-  return *std::move(s);
 }
 
 std::function<void(const BuildProgress&)> ProgressTo(ProgressLine& line,

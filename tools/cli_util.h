@@ -16,9 +16,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "storage/dense/dense_builder.h"
-#include "storage/dense/dense_store.h"
-#include "storage/dense/hz_store.h"
+#include "query/criteria.h"  // Amount
 #include "storage/error/progress.h"
 #include "storage/volume/volume.h"
 #include "tools/commands.h"
@@ -34,43 +32,54 @@ namespace simplexdb::tools {
   throw CommandError(std::string(status.message()), 1);
 }
 
+// An operation's check of its options (ops/): a failure is a usage error,
+// thrown as a CommandError with exit 2 (the message names the option as
+// the command spells it). OK: nothing.
+inline void CheckUsage(const Status& status) {
+  if (!status.ok()) throw CommandError(std::string(status.message()), 2);
+}
+
+// The value of `result`, or its error as a usage error (CheckUsage).
+template <class T>
+T UsageValue(Result<T> result) {
+  CheckUsage(result.status());
+  return *std::move(result);
+}
+
 // "65,65,65" -> {65, 65, 65}; throws CommandError (exit 2) naming `option`
 // and the text otherwise.
 std::vector<double> ParseNumberList(std::string_view text, const char* option, size_t min_count,
                                     size_t max_count);
 
-// An amount in field units: "7.3" (absolute) or "1%" (of `range`, the
-// field's max - min). Must be finite and >= 0; throws CommandError (exit 2)
-// naming `option` otherwise.
-double ParseAmount(std::string_view text, const char* option, double range);
+// An amount in field units: "7.3" (absolute) or "1%" (of the field's
+// range): ops/amount.h's ParseAmount, a usage error (exit 2) naming
+// `option` otherwise.
+Amount ParseAmountOption(std::string_view text, const char* option);
+
+// A size option in MiB ("--memory-mb N") in bytes; a usage error naming
+// `option` when N MiB is beyond the address space.
+size_t MebibytesOption(size_t mib, const char* option = "--memory-mb");
 
 // Grid dimensions "X,Y,Z[,T]": every entry a whole number >= 2.
 std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension);
 
 // How raw input is laid out (--dims, --type, --endian, --offset); empty
-// dims: the inputs describe themselves (NRRD, NIfTI-1). --spacing and
-// --origin place the grid ("X,Y,Z[,T]"); empty: the file's own (raw: 1 and
-// 0). Given for a NRRD or NIfTI input they replace the file's values.
+// dims: the inputs describe themselves (NRRD, NIfTI-1).
 struct RawInputOptions {
   std::string dims;
   std::string type;
   std::string endian = "little";
   uint64_t offset = 0;
-  std::string spacing;
-  std::string origin;
 };
 
-// Adds --dims, --type, --endian, --offset, --spacing and --origin to `cmd`,
-// bound to `raw` (which must outlive the command). `dims_help` says which
-// grids the command takes.
+// Adds --dims, --type, --endian and --offset to `cmd`, bound to `raw`
+// (which must outlive the command). `dims_help` says which grids the
+// command takes.
 void AddRawInputOptions(CLI::App* cmd, RawInputOptions* raw, const std::string& dims_help);
 
 // Opens the input volume: one file, or several 3D files forming a time
-// series (t in the order given), with --spacing and --origin applied.
-// Throws CommandError (exit 2) for raw options that do not fit together
-// (a spacing that is not finite and positive, a count of spacings or
-// origins other than the volume's dimension), Fail()s with the reader's
-// reason.
+// series (t in the order given). Throws CommandError (exit 2) for raw
+// options that do not fit together, Fail()s with the reader's reason.
 VolumeInfo OpenInputs(const std::vector<std::string>& inputs, const RawInputOptions& raw);
 
 // A store's placement for `info`: "spacing 2 x 2 x 2.2, origin (117.855,
@@ -78,18 +87,6 @@ VolumeInfo OpenInputs(const std::vector<std::string>& inputs, const RawInputOpti
 // that reads back exactly.
 std::string FormatPlacement(int dimension, const std::array<double, 4>& spacing,
                             const std::array<double, 4>& origin);
-
-// "1.5 GiB", "312 KiB", "17 B".
-std::string HumanBytes(uint64_t bytes);
-
-// Peak resident memory of this process, in bytes (getrusage). Counts the
-// pages of memory-mapped files the process touched, which the kernel may
-// drop at any time.
-uint64_t PeakResidentBytes();
-
-// Anonymous memory resident now (RssAnon of /proc/self/status): what the
-// process allocated, without file pages; 0 where /proc is not readable.
-uint64_t AnonymousResidentBytes();
 
 // A one-line progress display on stderr, redrawn in place, only when stderr
 // is a terminal (scripts see nothing). Throttled to a few updates a second.
@@ -127,11 +124,6 @@ void AddForceOption(CLI::App* cmd, bool* force);
 // tools/main.cc calls it once, after the command ran, so no command checks
 // its own prints.
 Status FinishStandardOutput(int earlier_errno);
-
-// Opens a dense store, or Fail()s with the reason.
-std::unique_ptr<HzStore> OpenHzStore(const std::string& path);
-// The same for the per-node engine's scratch store (format 1).
-std::unique_ptr<DenseStore> OpenDenseStore(const std::string& path);
 
 // A builder's progress callback that draws "OUTPUT: phase done/total (P%),
 // S s" on `line`. `line` must outlive the callback.

@@ -18,7 +18,7 @@
 #include "hierarchy/tri_code.h"
 #include "hierarchy/tri_geometry.h"
 #include "hierarchy/tri_neighbors.h"
-#include "query/code_json.h"
+#include "ops/code_json.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 

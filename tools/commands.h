@@ -25,13 +25,18 @@ class CommandError : public std::runtime_error {
   int exit_code_;
 };
 
+// The operations behind them are ops/'s, one function each, which the
+// Python package calls too: a command parses its options into the
+// operation's request, calls it, and prints the report.
 void RegisterCodesCommand(CLI::App& app);
 void RegisterInspectCommand(CLI::App& app);
-void RegisterStoreCommands(CLI::App& app);  // import, info, verify, export
+void RegisterImportCommand(CLI::App& app);
+void RegisterInfoCommands(CLI::App& app);    // info, verify
+void RegisterExportCommand(CLI::App& app);
 void RegisterGenerateCommand(CLI::App& app);
 void RegisterTo4dCommand(CLI::App& app);     // generate_command.cc
-void RegisterConvertCommand(CLI::App& app);  // sparse_commands.cc
-void RegisterUpdateCommand(CLI::App& app);   // sparse_commands.cc
+void RegisterConvertCommand(CLI::App& app);  // convert_command.cc
+void RegisterUpdateCommand(CLI::App& app);   // convert_command.cc
 void RegisterExtractCommand(CLI::App& app);  // extract, conformity
 
 }  // namespace simplexdb::tools

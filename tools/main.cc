@@ -31,7 +31,9 @@ int main(int argc, char** argv) {
   simplexdb::tools::RegisterInspectCommand(app);
   simplexdb::tools::RegisterGenerateCommand(app);
   simplexdb::tools::RegisterTo4dCommand(app);
-  simplexdb::tools::RegisterStoreCommands(app);
+  simplexdb::tools::RegisterImportCommand(app);
+  simplexdb::tools::RegisterInfoCommands(app);
+  simplexdb::tools::RegisterExportCommand(app);
   simplexdb::tools::RegisterConvertCommand(app);
   simplexdb::tools::RegisterUpdateCommand(app);
   simplexdb::tools::RegisterExtractCommand(app);

@@ -12,8 +12,14 @@ arrays, hand them to VTK or write them for ParaView.
 
     store = simplexdb.import_volume(array, "v.sdb")   # numpy (Z, Y, X) C order, or a file
     store.export(roi=None, step=1)          # the grid as a (Z, Y, X) array: the array back
+    store.export(out="v.nrrd")              # the files `simplexdb export -o v.nrrd` writes
     store.field_at(points)                  # N x 3 (HP: N x 4) physical coordinates
+    simplexdb.convert("v.sdb", "v.lmdb", to="sparse", tolerance="1%")  # as `simplexdb convert`
     simplexdb.codes("ht", ["2:10011"])      # what `simplexdb codes` prints, as dicts
+
+Each call runs the same library function (and the same checks) as the
+command it names: the options' errors name the option as the command spells
+it ("--error: expected a number >= 0 ...").
 
 Stores are the files `simplexdb import` writes (dense .sdb or sparse LMDB,
 HT for 3D volumes, HP for 3D fields over time). Errors raise ValueError for
@@ -36,23 +42,15 @@ from . import _simplexdb
 __all__ = ["open", "Store", "Mesh"]
 
 
-def _amount(value, what, field_range):
-    """7.3 (field units) or "1%" (of the field range) -> field units."""
+def _amount(value, what):
+    """7.3 (field units) or "1%" (of the field range), as the C++ side reads
+    it (ops/amount.h): text is passed as text, anything else as a float."""
     if isinstance(value, str):
-        text = value.strip()
-        percent = text.endswith("%")
-        try:
-            number = float(text[:-1] if percent else text)
-        except ValueError:
-            raise ValueError(f"{what}: expected a number >= 0 such as 7.3 or '1%', not {value!r}") from None
-        value = number / 100 * field_range if percent else number
+        return value.strip()
     try:
-        value = float(value)
+        return float(value)
     except (TypeError, ValueError):
         raise ValueError(f"{what}: expected a number >= 0 such as 7.3 or '1%', not {value!r}") from None
-    if not value >= 0 or value == float("inf"):
-        raise ValueError(f"{what}: expected a number >= 0 such as 7.3 or '1%', not {value!r}")
-    return value
 
 
 class Mesh:
@@ -110,18 +108,8 @@ class Mesh:
         ValueError for another extension; OSError when writing fails (then
         nothing is left under the name being written)."""
         self._require_tetrahedra("save")
-        path = _os.fspath(path)
-        if path.endswith(".vtu"):
-            vtu = path
-        elif path.endswith(".pvd"):
-            vtu = path[:-4] + ".vtu"
-        else:
-            raise ValueError(f"{path}: save writes .vtu (an unstructured grid) or .pvd (a ParaView "
-                             f"collection of one .vtu), named by the extension")
-        _simplexdb.save_vtu(vtu, self.points, self.cells, self.field, self.error, self.level, self.cell_codes)
-        if vtu != path:
-            # The .vtu first: the collection never names a missing file.
-            _simplexdb.save_pvd(path, [(0.0 if self.time is None else self.time, _os.path.basename(vtu))])
+        _simplexdb.save_mesh(_os.fspath(path), self.points, self.cells, self.field, self.error, self.level,
+                             self.cell_codes, 0.0 if self.time is None else self.time)
 
     def to_pyvista(self):
         """The tetrahedra as a pyvista.UnstructuredGrid: pyvista.wrap of
@@ -180,38 +168,45 @@ class Store:
         dims = "x".join(str(d) for d in self.dims)
         return f"<simplexdb.Store {self.info['path']!r}: {self.info['hierarchy'].upper()} over {dims}>"
 
-    def extract(self, error, box=None, iso=None, time=None, algorithm="depth-first", budget=None, mesh=True):
-        """Selective refinement: the minimal conforming mesh whose simplices
-        meeting the criteria have error <= `error` (a float in field units,
-        or a string like "1%" of the field range). `box` is
-        (x0, y0, z0, x1, y1, z1[, t0, t1]) in grid units, `iso` an isovalue,
-        `time` (HP) the time slice in grid units. `mesh=False` skips the
-        tetrahedra (codes and statistics only)."""
-        lo, hi = self.field_range
-        threshold = _amount(error, "error", hi - lo)
+    def extract(self, error, box=None, iso=None, time=None, algorithm="depth-first", budget=None, mesh=True,
+                units="grid", previous=None):
+        """Selective refinement, as `simplexdb extract`: the minimal
+        conforming mesh whose simplices meeting the criteria have error <=
+        `error` (a float in field units, or a string like "1%" of the field
+        range). `box` is (x0, y0, z0, x1, y1, z1[, t0, t1]), `iso` an
+        isovalue, `time` (HP) the time slice; box and time in grid units, or
+        physical ones with units="physical". `algorithm` as the command's
+        (incremental refines `previous`, a Mesh of this store, when given).
+        `mesh=False` skips the tetrahedra (codes and statistics only)."""
         if box is not None:
             box = [float(x) for x in box]
         if budget is not None and (int(budget) != budget or budget < 1):
             raise ValueError(f"budget: expected a whole number of simplices >= 1, not {budget!r}")
-        result = _simplexdb.extract(self._core, threshold, box, None if iso is None else float(iso),
-                                    None if time is None else float(time), algorithm,
-                                    0 if budget is None else int(budget), bool(mesh))
-        result["stats"]["threshold"] = threshold
-        result["stats"]["hierarchy"] = self.info["hierarchy"]
-        if time is not None and self.dimension == 4:
-            result["time"] = self.origin[3] + float(time) * self.spacing[3]
+        if previous is not None and not isinstance(previous, Mesh):
+            raise ValueError(f"previous: expected a Mesh this store's extract returned, not {previous!r}")
+        result = _simplexdb.extract(self._core, _amount(error, "error"), box, None if iso is None else float(iso),
+                                    None if time is None else float(time), str(units), algorithm,
+                                    0 if budget is None else int(budget),
+                                    None if previous is None else [int(k) for k in previous.codes], bool(mesh))
         return Mesh(self.dimension, result)
 
-    def export(self, roi=None, step=1):
+    def export(self, roi=None, step=1, time=None, out=None, force=False):
         """The field on the grid, as `simplexdb export` writes it: a C-order
-        numpy array of shape (Z, Y, X) (HP: (T, Z, Y, X)), of the store's
-        voxel type, so that export() of a store import_volume built from a
-        C-order array `a` equals `a`. `roi` is a box of grid indices,
-        inclusive, x first: (x0, y0, z0, x1, y1, z1) (HP: (x0, y0, z0, t0,
-        x1, y1, z1, t1)); `step` takes every step-th point along each axis.
-        A sparse store gives its rebuilt values (exact when lossless; integer
-        types rounded and clamped to the type's range, as `convert --to
-        dense` does: a lossy store may rebuild a 0 of uint8 as -1)."""
+        numpy array of shape (Z, Y, X) (HP: (T, Z, Y, X); with `time`, that
+        one time step's (Z, Y, X)), of the store's voxel type, so that
+        export() of a store import_volume built from a C-order array `a`
+        equals `a`. `roi` is a box of grid indices, inclusive, x first: (x0,
+        y0, z0, x1, y1, z1) (HP: (x0, y0, z0, t0, x1, y1, z1, t1); with
+        `time`, the three space axes); `step` takes every step-th point
+        along each axis. A sparse store gives its rebuilt values (exact when
+        lossless; integer types rounded and clamped to the type's range, as
+        `convert --to dense` does: a lossy store may rebuild a 0 of uint8 as
+        -1).
+
+        With `out`, writes the files `simplexdb export STORE -o OUT` writes
+        instead (OUT.nrrd, OUT.raw + OUT.nhdr, or for an HP without `time`
+        a series named by OUT.nrrd or OUT.pvd) and returns what was written,
+        as the command says it; `force` as the command's --force."""
         import numpy as np
         if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
             raise ValueError(f"step: expected a whole number >= 1, not {step!r}")
@@ -219,13 +214,22 @@ class Store:
             roi = list(roi)
             if any(isinstance(x, bool) or not isinstance(x, (int, np.integer)) for x in roi):
                 raise ValueError(f"roi: expected whole grid indices, not {roi!r}")
-            roi = [int(x) for x in roi]
-        values = _simplexdb.export(self._core, roi, int(step))
-        dtype = np.dtype(_simplexdb.voxel_type(self._core))
-        if dtype.kind in "iu":
-            limits = np.iinfo(dtype)  # astype would wrap -1 to 255
-            values = np.clip(np.rint(values), limits.min, limits.max)
-        return values.astype(dtype)
+            roi = [float(x) for x in roi]
+        if time is not None:
+            if isinstance(time, bool) or not isinstance(time, (int, np.integer)):
+                raise ValueError(f"time: expected a whole time step, not {time!r}")
+            time = float(time)
+        if out is not None:
+            return _simplexdb.export_file(self._core, _os.fspath(out), roi, int(step), time, bool(force))
+        values = _simplexdb.export(self._core, roi, int(step), time)
+        # Every value is one the voxel type holds (rounded and clamped in C++).
+        return values.astype(np.dtype(_simplexdb.voxel_type(self._core)))
+
+    def verify(self):
+        """Checks every checksum and invariant, as `simplexdb verify`:
+        returns what was checked ({"kind", "blocks", "bricks" or "kept"});
+        OSError naming the first bad block otherwise."""
+        return _simplexdb.verify(self._core)
 
     def field_at(self, points, units="physical"):
         """The field at `points`, an N x 3 (HP: N x 4) array of x, y, z[, t]
@@ -286,7 +290,7 @@ def _array_layout(a):
 
 def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compression="zstd",
                   spacing=None, origin=None, sparse=False, progress=True, *, dims=None, dtype=None,
-                  offset=0, source=None, threads=0):
+                  offset=0, source=None, threads=0, tolerance=0):
     """Builds the store `out` as `simplexdb import` does and returns it opened
     (a Store).
 
@@ -305,8 +309,9 @@ def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compre
         dense store's blocks as "zstd" or "none".
     spacing, origin: one number per axis, x first (as Store.spacing and
         `--spacing`); None: the file's (an array's: 1 and 0).
-    sparse: the variable-resolution LMDB store (lossless) instead of the
-        dense one.
+    sparse: the variable-resolution LMDB store instead of the dense one;
+        tolerance: its diamonds within this are dropped (7.3 in field units,
+        or "1%" of the range; 0: lossless), as --tolerance.
     progress: the CLI's progress line on stderr.
     source: what the store records as its source (default: the file's
         description, or "numpy array").
@@ -328,7 +333,7 @@ def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compre
             raise ValueError(f"{what}: expected one number per axis, x first, not {values!r}") from None
 
     common = (out, hierarchy or "", str(quantization), str(compression), numbers(spacing, "spacing"),
-              numbers(origin, "origin"), bool(sparse), bool(progress), source)
+              numbers(origin, "origin"), bool(sparse), _amount(tolerance, "tolerance"), bool(progress), source)
     if isinstance(array_or_path, (str, bytes, _os.PathLike)):
         path = _os.fsdecode(array_or_path)
         if (dims is None) != (dtype is None):
@@ -361,6 +366,21 @@ def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compre
     return open(out)
 
 
+def convert(store, out, to, tolerance=0, compression="zstd", memory_mb=1024, threads=0, progress=True):
+    """Converts the store at `store` into `out` as `simplexdb convert STORE
+    -o OUT --to TO` does, and returns the new store opened. to="sparse":
+    from a dense store, dropping the diamonds within `tolerance` (7.3, or
+    "1%" of the range; 0: lossless); to="dense": from a sparse store,
+    verified first (`compression` of its blocks: "zstd" or "none").
+    `memory_mb` bounds the field read into memory (a double a grid point);
+    `threads` the builder's (0: one per core; a dense store's bytes repeat
+    run after run only with 1). The GIL is released during the conversion."""
+    out = _os.fspath(out)
+    _simplexdb.convert(_os.fspath(store), out, str(to), _amount(tolerance, "tolerance"), str(compression),
+                       float(memory_mb), int(threads), bool(progress))
+    return open(out)
+
+
 def codes(hierarchy, codes):  # noqa: A002 (the CLI's name)
     """What `simplexdb codes --hierarchy H` prints for each code, as dicts:
     code, level, vertices (unit-cube coordinates), neighbors, parent,
@@ -373,4 +393,4 @@ def codes(hierarchy, codes):  # noqa: A002 (the CLI's name)
     return out[0] if single else out
 
 
-__all__ += ["import_volume", "codes"]
+__all__ += ["import_volume", "convert", "codes"]

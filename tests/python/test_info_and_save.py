@@ -41,7 +41,7 @@ def stores(tmp_path_factory):
 def test_info_is_what_the_command_prints(stores, name):
     path = str(stores / name)
     store = simplexdb.open(path)
-    # The same builder (query/store_info.h) and the same JSON text: equal
+    # The same builder (ops/store_info.h) and the same JSON text: equal
     # exactly, floats included, keys in the same order.
     from_cli = json.loads(run("info", path, "--json"))
     assert store.info == from_cli
@@ -115,7 +115,7 @@ def test_save_pvd_of_an_hp_slice_is_what_extract_writes(stores, tmp_path, name):
 def test_save_refuses_other_extensions(stores, tmp_path):
     mesh = simplexdb.open(stores / "ht.sdb").extract("10%")
     for name in ("mesh.vtk", "mesh.pvd.txt", "mesh"):
-        with pytest.raises(ValueError, match=r"mesh[.a-z]*: save writes \.vtu .* or \.pvd"):
+        with pytest.raises(ValueError, match=r"mesh[.a-z]*: a mesh is saved as \.vtu .* or \.pvd"):
             mesh.save(tmp_path / name)
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(OSError, match="nowhere"):

@@ -15,8 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "storage/dense/dense_builder.h"
-#include "storage/dense/dense_store.h"
+#include "storage/dense/hz_format.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 #include "tests/tools/cli_runner.h"
@@ -148,14 +147,13 @@ TEST(StoreCli, ImportInfoVerifyExtractExport) {
   }
 }
 
-// A dense store of format 1 (the layout before 2026-11-26; the library
-// still writes it as the per-node engine's scratch) is refused by every
-// command that reads a store, naming the file and saying to import again.
+// A dense store of format 1 (the layout before 2026-11-26; the stored
+// reference file of storage's golden tests) is refused by every command
+// that reads a store, naming the file and saying to import again.
 TEST(StoreCli, FormatOneStoresAreRefusedSayingToImportAgain) {
   const TempDir dir;
-  const std::string in = dir.path() + "/p.nrrd", f1 = dir.path() + "/old.sdb";
-  ASSERT_EQ(RunCli("generate --field perlin --dims 9,9,9 -o " + in).exit_code, 0);
-  ASSERT_TRUE(BuildDenseStore(*OpenVolume(in), f1, DenseBuildOptions{}).ok());
+  const std::string f1 = dir.path() + "/old.sdb";
+  fs::copy_file(std::string(SIMPLEXDB_GOLDEN_DIR) + "/ht_7x6x5_u8_u16.sdb", f1);
   for (const std::string& command :
        {"info " + f1, "verify " + f1, "extract " + f1 + " --error 1%",
         "export " + f1 + " -o " + dir.path() + "/x.nrrd",
@@ -273,7 +271,7 @@ TEST(StoreCli, BadInputSaysWhatAndWhere) {
   ASSERT_EQ(RunCli("import " + dir.path() + "/g.nrrd -o " + dir.path() + "/g.sdb").exit_code, 0);
   {
     std::fstream f(dir.path() + "/g.sdb", std::ios::in | std::ios::out | std::ios::binary);
-    f.seekp(kHeaderSize + 10);
+    f.seekp(kHzHeaderSize + 10);  // in the first block or brick
     f.put('\x5a');
   }
   r = RunCli("verify " + dir.path() + "/g.sdb");
@@ -363,8 +361,8 @@ TEST(StoreCli, RawSpacingAndOriginReachTheHeaderAndInfo) {
   const struct {
     std::string options, message;
   } bad[] = {
-      {" --spacing 1,0,1,1", "--spacing: 0 is not non-zero"},
-      {" --spacing=1,2,1,-1", "--spacing: -1 is not positive, as time's must be"},
+      {" --spacing 1,0,1,1", "--spacing: 0 on axis 1 is not a finite non-zero number"},
+      {" --spacing=1,2,1,-1", "--spacing: -1 on axis 3 is not a finite number > 0 (time runs forwards)"},
       {" --spacing 1,inf,1,1", "--spacing"},
       {" --spacing 1,nan,1,1", "--spacing"},
       {" --spacing 1,1,1", "--spacing: 3 numbers for a 4D volume"},

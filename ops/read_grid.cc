@@ -1,6 +1,9 @@
-#include "query/read_grid.h"
+#include "ops/read_grid.h"
 
+#include <algorithm>
 #include <bit>
+#include <cmath>
+#include <limits>
 #include <string>
 
 #include "storage/dense/hz_store.h"
@@ -96,11 +99,31 @@ Result<std::vector<double>> ReadGridBox(const HzStore& store, const ExportBox& b
   return h.dimension == 3 ? ReadHz<3>(store, box) : ReadHz<4>(store, box);
 }
 
+VoxelType StoreVoxelType(const AnyStore& store) {
+  return store.hz() != nullptr ? store.hz()->header().voxel_type : store.sparse()->header().voxel_type;
+}
+
+void RoundToVoxelType(VoxelType type, std::span<double> values) {
+  if (IsFloatType(type)) return;
+  WithVoxelCppType(type, [&](auto zero) {
+    using T = decltype(zero);
+    const double lo = static_cast<double>(std::numeric_limits<T>::lowest());
+    const double hi = static_cast<double>(std::numeric_limits<T>::max());
+    for (double& v : values) {
+      if (!std::isnan(v)) v = std::clamp(std::round(v), lo, hi);
+    }
+  });
+}
+
 Result<std::vector<double>> ReadGridBox(const AnyStore& store, const ExportBox& box) {
   if (store.hz() != nullptr) return ReadGridBox(*store.hz(), box);
   const SourceInfo& info = store.info();
   SDB_RETURN_IF_ERROR(CheckBox(box, info.dimension, info.dims, info.path));
-  return info.dimension == 3 ? ReadSparse<3>(*store.sparse(), box) : ReadSparse<4>(*store.sparse(), box);
+  SDB_ASSIGN_OR_RETURN(std::vector<double> values,
+                       info.dimension == 3 ? ReadSparse<3>(*store.sparse(), box)
+                                           : ReadSparse<4>(*store.sparse(), box));
+  RoundToVoxelType(store.sparse()->header().voxel_type, values);
+  return values;
 }
 
 }  // namespace simplexdb

@@ -1,5 +1,5 @@
 // The layer `simplexdb import`/`export`/`codes` and the Python package share
-// (query/import_volume.h, read_grid.h, field_at.h, code_json.h): stores
+// (ops/import.h, read_grid.h, code_json.h; query/field_at.h): stores
 // built from voxels in memory read back as those voxels, dense and sparse;
 // FieldAt against the grid (brute force) and its interpolation's bounds;
 // the options' errors; the codes contract's lines.
@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "query/code_json.h"
+#include "ops/code_json.h"
+#include "ops/import.h"
+#include "ops/read_grid.h"
 #include "query/field_at.h"
-#include "query/import_volume.h"
 #include "query/open_store.h"
-#include "query/read_grid.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 
@@ -154,7 +154,7 @@ TEST(CheckImport, NamesTheOptionAndTheVolume) {
   o.hierarchy = "quad";
   EXPECT_TRUE(CheckImport(v.volume, o).IsInvalidArgument());
   o.hierarchy = "";
-  o.tolerance = 1;
+  o.tolerance = Amount{1, false};
   EXPECT_TRUE(CheckImport(v.volume, o).IsInvalidArgument());  // tolerance needs sparse
   o.sparse = true;
   EXPECT_TRUE(CheckImport(v.volume, o).ok());

@@ -1,6 +1,6 @@
-// The codes contract's lines (query/code_json.h), moved here from
+// The codes contract's lines (ops/code_json.h), moved here from
 // tools/codes_command.cc so the Python package builds the same objects.
-#include "query/code_json.h"
+#include "ops/code_json.h"
 
 #include <utility>
 

@@ -1,11 +1,11 @@
-#include "query/store_info.h"
+#include "ops/store_info.h"
 
 #include <cmath>
 #include <cstdint>
 #include <vector>
 
 #include "storage/dense/brick_codec.h"
-#include "storage/dense/format.h"
+#include "storage/dense/hz_format.h"  // BlockEncoding
 #include "storage/error/quantization.h"
 #include "storage/volume/voxel_type.h"
 #include "util/utf8.h"

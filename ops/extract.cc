@@ -1,0 +1,339 @@
+#include "ops/extract.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <new>
+#include <utility>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "ops/amount.h"
+#include "ops/process_memory.h"
+#include "query/clip.h"
+#include "query/mesh.h"
+#include "query/slice.h"
+#include "query/source.h"
+#include "util/out_of_memory.h"
+#include "util/utf8.h"
+
+namespace simplexdb {
+namespace {
+
+// The units box, time and slices are given in: grid units (the contract's:
+// point i of an axis is at i) or physical ones (the store's origin + i *
+// spacing; a flipped axis's spacing is negative).
+struct AxisUnits {
+  bool physical = false;
+  const SourceInfo* info = nullptr;
+
+  double ToGrid(int axis, double x) const {
+    return physical ? (x - info->origin[axis]) / info->spacing[axis] : x;
+  }
+  double FromGrid(int axis, double i) const { return physical ? info->origin[axis] + i * info->spacing[axis] : i; }
+  const char* name() const { return physical ? "physical units" : "grid units"; }
+};
+
+// The request in grid units, checked.
+struct Resolved {
+  CriteriaSpec spec;  // grid units, the threshold absolute
+  Algorithm algorithm = Algorithm::kDepthFirst;
+  std::vector<double> slices;  // grid units
+};
+
+// Criteria that can meet no simplex of the real grid are a mistake in the
+// request, not an empty mesh: a box outside the grid, an isovalue outside
+// the field's range, a time outside the store's.
+Status CheckCriteriaMeetTheGrid(const CriteriaSpec& spec, const std::vector<double>& given_box,
+                                const SourceInfo& info, const AxisUnits& units) {
+  const size_t d = static_cast<size_t>(info.dimension);
+  if (spec.box) {
+    const std::vector<double>& b = *spec.box;  // x0,y0,z0,x1,y1,z1[,t0,t1]
+    for (size_t k = 0; k < b.size() / 2 && k < d; ++k) {  // MakeCriteria checks counts
+      const double lo = k < 3 ? b[k] : b[6], hi = k < 3 ? b[k + 3] : b[7];
+      const double last = static_cast<double>(info.dims[k]) - 1;
+      if (hi < 0 || lo > last) {
+        const int axis = static_cast<int>(k);
+        // In the units given, smaller first (a flipped axis runs backwards).
+        const auto span = [&](double from, double to) {
+          return std::minmax({units.FromGrid(axis, from), units.FromGrid(axis, to)});  // by value
+        };
+        const auto [box_lo, box_hi] = span(lo, hi);
+        const auto [grid_lo, grid_hi] = span(0, last);
+        return Status::InvalidArgument(
+            fmt::format("--box {}: {} from {} to {} misses the grid, whose {} runs from {} to {} ({})",
+                        fmt::join(given_box, ","), "xyzt"[k], box_lo, box_hi, "xyzt"[k], grid_lo,
+                        grid_hi, units.name()));
+      }
+    }
+  }
+  if (spec.iso && !(*spec.iso >= info.field_min && *spec.iso <= info.field_max)) {
+    return Status::InvalidArgument(
+        fmt::format("--iso {}: outside the field's range, {} to {}: no simplex contains it", *spec.iso,
+                    info.field_min, info.field_max));
+  }
+  if (d == 4 && spec.time) {  // an HT's time is refused by MakeCriteria
+    const double last = static_cast<double>(info.dims[3]) - 1;
+    if (!(*spec.time >= 0 && *spec.time <= last)) {
+      return Status::InvalidArgument(fmt::format("--time {}: outside the store's times, {} to {} ({})",
+                                                 units.FromGrid(3, *spec.time), units.FromGrid(3, 0),
+                                                 units.FromGrid(3, last), units.name()));
+    }
+  }
+  return Status::OK();
+}
+
+template <int D>
+Status CheckCriteria(const SourceInfo& info, const CriteriaSpec& spec) {
+  return MakeCriteria<D>(spec, info.domain_bits, info.field_range()).status();
+}
+
+Result<Resolved> Resolve(const SourceInfo& info, const ExtractRequest& r) {
+  if (r.units != "grid" && r.units != "physical") {
+    return Status::InvalidArgument(fmt::format("--units {}: expected grid or physical", r.units));
+  }
+  const AxisUnits units{r.units == "physical", &info};
+  SDB_RETURN_IF_ERROR(CheckAmount(r.error, "--error"));
+  Resolved out;
+  CriteriaSpec& spec = out.spec;
+  spec.error.value = ResolveAmount(r.error, info.field_range());
+  if (r.box) {
+    std::vector<double> box = *r.box;
+    if (box.size() != 6 && box.size() != 8) {
+      return Status::InvalidArgument(fmt::format(
+          "--box: expected x0,y0,z0,x1,y1,z1 (6 numbers) or, for an HP, x0,y0,z0,x1,y1,z1,t0,t1; got {} "
+          "numbers",
+          box.size()));
+    }
+    for (size_t i = 0; i < box.size(); ++i) box[i] = units.ToGrid(i < 6 ? static_cast<int>(i % 3) : 3, box[i]);
+    // A flipped axis (negative spacing) runs the other way in grid units.
+    for (size_t k = 0; k < 3 && units.physical; ++k) {
+      if (info.spacing[k] < 0) std::swap(box[k], box[k + 3]);
+    }
+    spec.box = std::move(box);
+  }
+  spec.iso = r.iso;
+  if (r.time) spec.time = units.ToGrid(3, *r.time);
+  SDB_RETURN_IF_ERROR(CheckCriteriaMeetTheGrid(spec, r.box ? *r.box : std::vector<double>{}, info, units));
+  SDB_RETURN_IF_ERROR(info.dimension == 3 ? CheckCriteria<3>(info, spec) : CheckCriteria<4>(info, spec));
+  Result<Algorithm> algorithm = ParseAlgorithm(r.algorithm);
+  if (!algorithm.ok()) return Status::InvalidArgument("--" + std::string(algorithm.status().message()));
+  out.algorithm = *algorithm;
+  if (r.from && out.algorithm != Algorithm::kIncremental) {
+    return Status::InvalidArgument("--from gives the previous mesh of --algorithm incremental");
+  }
+  if (!(r.time_limit >= 0)) {
+    return Status::InvalidArgument(fmt::format("--time-limit {}: expected seconds >= 0", r.time_limit));
+  }
+  if (!r.slices.empty()) {
+    if (info.dimension != 4) {
+      return Status::InvalidArgument("--slices: a series of HP time slices; the HT has no time");
+    }
+    for (const double t : r.slices) {
+      if (!std::isfinite(t)) return Status::InvalidArgument(fmt::format("--slices: {} is not a time", t));
+      out.slices.push_back(units.ToGrid(3, t));
+    }
+  }
+  return out;
+}
+
+// A mesh of grid-unit points as ParaView should see it: clipped to the
+// real grid and placed physically.
+TetMeshData OnGrid(TetMeshData data, const SourceInfo& info) {
+  data = ClipToGrid(std::move(data), info.dims);
+  PlacePhysically(data, info);
+  return data;
+}
+
+// The previous mesh (--from): every proper ancestor of a leaf is split. The
+// leaves must be a conforming mesh (checked).
+template <int D>
+Result<Mesh<D>> PreviousMesh(const std::vector<uint64_t>& keys) {
+  std::vector<SimplexCode<D>> leaves;
+  leaves.reserve(keys.size());
+  for (const uint64_t k : keys) leaves.push_back(SimplexCode<D>::FromKey(k));
+  const ConformityReport report = CheckConformity<D>(leaves);
+  if (!report.ok) {
+    return Status::InvalidArgument("--from: not a conforming mesh of the domain: " + report.problem);
+  }
+  Mesh<D> mesh;
+  for (SimplexCode<D> c : leaves) {
+    for (int l = c.level() - 1; l >= 0 && mesh.split_set().insert(c.ancestor(l)); --l) {
+    }
+  }
+  return mesh;
+}
+
+template <int D, class Source>
+Status Run(Source& source, const ExtractRequest& r, const Resolved& resolved, const SliceSink& on_slice,
+           ExtractResult& out) {
+  const SourceInfo& info = source.info();
+  SDB_ASSIGN_OR_RETURN(const Criteria<D> criteria,
+                       MakeCriteria<D>(resolved.spec, info.domain_bits, info.field_range()));
+  out.threshold = criteria.threshold;
+  Mesh<D> mesh;
+  if (r.from) {
+    SDB_ASSIGN_OR_RETURN(mesh, PreviousMesh<D>(*r.from));
+  }
+  RefineOptions options;
+  options.algorithm = resolved.algorithm;
+  options.max_simplices = r.budget;
+  options.max_seconds = r.time_limit;
+  Refiner<D, Source> refiner(source, criteria);
+  try {
+    SDB_RETURN_IF_ERROR(refiner.Run(options, mesh, out.stats));
+  } catch (const std::bad_alloc&) {
+    return NotEnoughMemory("the mesh refined from " + info.path,
+                           fmt::format("{} simplices so far", mesh.leaf_count()));
+  }
+  if (r.leaves || r.check) {
+    const std::vector<SimplexCode<D>> leaves = mesh.Leaves();
+    if (r.check) out.conformity = CheckConformity<D>(leaves);
+    if (r.leaves) {
+      out.leaves.reserve(leaves.size());
+      for (const SimplexCode<D> c : leaves) out.leaves.push_back(c.key());
+    }
+  }
+  if constexpr (D == 3) {
+    if (r.tetrahedra) {
+      SDB_ASSIGN_OR_RETURN(TetMeshData data, CollectTetMesh(mesh, source));
+      out.mesh = OnGrid(std::move(data), info);
+    }
+  } else {
+    // The HP's time slice, for the mesh and for the statistics (the seed's
+    // Fig. 63 counts the slice's tetrahedra beside the pentatopes).
+    if (criteria.time) out.mesh_time = info.origin[3] + *resolved.spec.time * info.spacing[3];
+    if (criteria.time && (r.tetrahedra || r.count_slice)) {
+      SDB_ASSIGN_OR_RETURN(TetMeshData data, SliceHpMesh(mesh, source, *criteria.time));
+      out.slice_tetrahedra = data.cells();
+      if (r.tetrahedra) out.mesh = OnGrid(std::move(data), info);
+    }
+    const double scale = std::ldexp(1.0, kCoordBits<4> - info.domain_bits);
+    for (size_t i = 0; i < resolved.slices.size(); ++i) {
+      const double t = resolved.slices[i];
+      SDB_ASSIGN_OR_RETURN(TetMeshData data, SliceHpMesh(mesh, source, t * scale));
+      ExtractSlice slice{info.origin[3] + t * info.spacing[3], OnGrid(std::move(data), info)};
+      if (on_slice) {
+        SDB_RETURN_IF_ERROR(on_slice(i, std::move(slice)));
+      } else {
+        out.slices.push_back(std::move(slice));
+      }
+    }
+  }
+  // Of the whole process: the store's cache, the mesh and the query's sets,
+  // and (peak only) the store's mapped file pages the query touched.
+  out.peak_memory_bytes = PeakResidentBytes();
+  out.anonymous_memory_bytes = AnonymousResidentBytes();  // the mesh is still alive
+  return Status::OK();
+}
+
+template <int D>
+Result<std::vector<uint64_t>> ReadCodesOf(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return Status::NotFound(fmt::format("{}: cannot open the file", path));
+  std::vector<uint64_t> keys;
+  std::string line;
+  for (uint64_t n = 1; std::getline(in, line); ++n) {
+    if (line.empty()) continue;
+    Result<SimplexCode<D>> c = SimplexCode<D>::Parse(line);
+    if (!c.ok()) return Status::InvalidArgument(fmt::format("{}:{}: {}", path, n, c.status().message()));
+    keys.push_back(c->key());
+  }
+  if (in.bad()) return Status::IOError(fmt::format("{}: cannot read the file", path));
+  return keys;
+}
+
+}  // namespace
+
+Status CheckExtract(const SourceInfo& info, const ExtractRequest& request) {
+  return Resolve(info, request).status();
+}
+
+Result<ExtractResult> Extract(const AnyStore& store, const ExtractRequest& request,
+                              const SliceSink& on_slice) {
+  SDB_ASSIGN_OR_RETURN(const Resolved resolved, Resolve(store.info(), request));
+  ExtractResult out;
+  out.info = store.info();
+  out.algorithm = resolved.algorithm;
+  out.given_time = request.time;
+  Status s;
+  try {
+    s = store.Visit([&]<int D, class Source>(Source& source) {
+      return Run<D>(source, request, resolved, on_slice, out);
+    });
+  } catch (const std::bad_alloc&) {
+    // After the refinement (which names itself): the leaves, the slices,
+    // the meshes' cells.
+    return NotEnoughMemory("the mesh extracted from " + store.path() + " and its output", "size not known");
+  }
+  SDB_RETURN_IF_ERROR(s);
+  if (const HzStore* hz = store.hz(); hz != nullptr) {
+    // Zstd frames decoded plus raw ones read, blocks and bricks (repeats
+    // counted), how many different ones the store was asked for, and how
+    // many bricks' finest errors it computed from the field; the decoded
+    // blocks held at the end (never more than the cache's budget).
+    const HzStore::Stats hs = hz->stats();
+    ExtractResult::DenseCounters c;
+    c.blocks_decoded = hs.blocks_decoded + hs.raw_checked;
+    c.distinct_blocks = hs.distinct;
+    c.finest_boxes_computed = hs.boxes_computed;
+    if (hz->cache() != nullptr) c.cache_bytes = hz->cache()->charge();
+    out.dense = c;
+  }
+  return out;
+}
+
+nlohmann::ordered_json ExtractStatsJson(const ExtractResult& r) {
+  nlohmann::ordered_json j;
+  const SourceInfo& info = r.info;
+  const QueryStats& stats = r.stats;
+  const int d = info.dimension;
+  SetJsonBytes(j, "store", info.path);
+  j["hierarchy"] = d == 3 ? "ht" : "hp";
+  j["algorithm"] = AlgorithmName(r.algorithm);
+  j["threshold"] = r.threshold;
+  j["simplices"] = stats.simplices;
+  j["full_resolution_simplices"] =
+      static_cast<double>(d == 3 ? SimplexCode<3>::kRoots : SimplexCode<4>::kRoots) * std::ldexp(1.0, info.leaf_level());
+  j["splits"] = stats.splits;
+  j["merges"] = stats.merges;
+  j["cluster_computations"] = stats.cluster_computations;
+  j["candidates"] = stats.candidates;
+  j["error_lookups"] = stats.error_lookups;
+  j["field_lookups"] = stats.field_lookups;
+  j["blocks_read"] = stats.blocks_read;
+  j["blocks_skipped"] = stats.blocks_skipped;
+  j["seconds"] = stats.seconds;
+  if (r.algorithm == Algorithm::kSaturated) j["saturation_seconds"] = stats.saturation_seconds;
+  if (r.algorithm == Algorithm::kPriority) j["interrupted"] = stats.interrupted;
+  j["splits_per_second"] = stats.seconds > 0 ? stats.splits / stats.seconds : 0.0;
+  if (r.slice_tetrahedra) {
+    j["slice_tetrahedra"] = *r.slice_tetrahedra;
+    // A full-resolution mesh cut at a grid time: 6 tetrahedra per cube of
+    // the 3D grid (the seed's 196,608 for 33^4). Between grid times the cut
+    // pentatopes give prisms and pyramids, so no such count.
+    if (r.given_time && *r.given_time == std::floor(*r.given_time)) {
+      j["full_resolution_slice_tetrahedra"] = 6 * std::ldexp(1.0, 3 * (info.leaf_level() / 4));
+    }
+  }
+  j["peak_memory_bytes"] = r.peak_memory_bytes;
+  j["anonymous_memory_bytes"] = r.anonymous_memory_bytes;
+  if (r.dense) {
+    j["blocks_decoded"] = r.dense->blocks_decoded;
+    j["distinct_blocks"] = r.dense->distinct_blocks;
+    j["finest_boxes_computed"] = r.dense->finest_boxes_computed;
+    if (r.dense->cache_bytes) j["cache_bytes"] = *r.dense->cache_bytes;
+  }
+  if (r.conformity) {
+    j["conforming"] = r.conformity->ok;
+    if (!r.conformity->ok) j["conformity_problem"] = r.conformity->problem;
+  }
+  return j;
+}
+
+Result<std::vector<uint64_t>> ReadLeafCodes(const std::string& path, int dimension) {
+  return dimension == 3 ? ReadCodesOf<3>(path) : ReadCodesOf<4>(path);
+}
+
+}  // namespace simplexdb

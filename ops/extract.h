@@ -1,0 +1,121 @@
+// Extract: the mesh a store's LOD criteria give (selective refinement,
+// query/refine.h), `simplexdb extract` and the Python package's
+// Store.extract. One function from the request to the result: the
+// criteria in the grid's or physical units, the algorithm, the leaves, the
+// tetrahedra (the HT's, or an HP's time slices) clipped to the grid and
+// placed physically, the statistics. The front ends only parse the options
+// into an ExtractRequest and print or hand over the result; files are
+// written from it by ops/extract_output.h.
+//
+// Thread safety: reentrant over a const AnyStore (each call makes its own
+// source); the slice callback is called from the calling thread.
+//
+// Lifetimes: the result is a value; the store is read during the call.
+//
+// Errors: CheckExtract's InvalidArgument (below), naming the option as the
+// command spells it; then the refinement's and the store's (Corruption,
+// IOError), ResourceExhausted "not enough memory for the mesh ..." when the
+// mesh outgrows memory, InvalidArgument for a previous mesh (--from) that
+// is not a conforming mesh of the domain, and the slice callback's.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "query/conformity.h"
+#include "query/criteria.h"
+#include "query/mesh_io.h"
+#include "query/open_store.h"
+#include "query/refine.h"
+#include "util/status.h"
+
+namespace simplexdb {
+
+struct ExtractRequest {
+  Amount error;  // --error: the threshold, in field units or percent of the range
+  // --box x0,y0,z0,x1,y1,z1[,t0,t1], in `units`: only simplices meeting it
+  // are held to the threshold.
+  std::optional<std::vector<double>> box;
+  std::optional<double> iso;   // --iso
+  std::optional<double> time;  // --time: HP, the slice t = T, in `units`
+  // --units: "grid" (point i of an axis is at i) or "physical" (the
+  // store's origin + i x spacing) for box, time and slices.
+  std::string units = "grid";
+  std::string algorithm = "depth-first";  // --algorithm (ParseAlgorithm)
+  uint64_t budget = 0;                    // --budget: priority's simplex budget; 0: none
+  double time_limit = 0;                  // --time-limit: priority's seconds; 0: none
+  // --from: the previous mesh of --algorithm incremental as its leaves'
+  // packed codes (SimplexCode::key); checked to be a conforming mesh.
+  std::optional<std::vector<uint64_t>> from;
+  // --slices: HP, the times (in `units`) of a series of time slices, each
+  // handed to Extract's slice callback (or kept in the result).
+  std::vector<double> slices;
+  // What to collect besides the statistics.
+  bool leaves = true;       // the leaves' codes
+  bool tetrahedra = false;  // the HT's tetrahedra, or the slice at `time` of an HP
+  bool count_slice = false;  // HP with `time`: the slice's tetrahedra counted (statistics)
+  bool check = false;        // --check: the result's conformity, from geometry
+};
+
+// An HP time slice's tetrahedra, clipped and placed, and its physical time.
+struct ExtractSlice {
+  double time = 0;  // origin[3] + t x spacing[3]
+  TetMeshData mesh;
+};
+
+struct ExtractResult {
+  SourceInfo info;  // the store's
+  Algorithm algorithm = Algorithm::kDepthFirst;
+  double threshold = 0;  // --error in field units
+  QueryStats stats;
+  std::vector<uint64_t> leaves;          // request.leaves: packed codes, ascending
+  std::optional<TetMeshData> mesh;       // request.tetrahedra (an HP: with a time only)
+  std::optional<double> mesh_time;       // an HP with `time`: the slice's physical time
+  std::vector<ExtractSlice> slices;      // request.slices, without a slice callback
+  std::optional<uint64_t> slice_tetrahedra;  // an HP slice at `time`, counted or collected
+  std::optional<double> given_time;          // request.time, as given
+  std::optional<ConformityReport> conformity;  // request.check
+  // A dense store's counters since it opened (HzStore::Stats): blocks and
+  // bricks decoded or checked, distinct ones, bricks' finest errors
+  // computed, and the decoded bytes its cache holds.
+  struct DenseCounters {
+    uint64_t blocks_decoded = 0, distinct_blocks = 0, finest_boxes_computed = 0;
+    std::optional<uint64_t> cache_bytes;
+  };
+  std::optional<DenseCounters> dense;
+  // This process's memory when the mesh was complete (ops/process_memory.h).
+  uint64_t peak_memory_bytes = 0, anonymous_memory_bytes = 0;
+};
+
+// The request's checks against the store `info` describes, nothing read:
+// --units, --error, --box (count, bounds, missing the grid), --iso (outside
+// the field's range), --time (an HT's, outside the store's times),
+// --algorithm, --from without incremental, --slices (an HT's). O(1).
+Status CheckExtract(const SourceInfo& info, const ExtractRequest& request);
+
+// Called with each time slice of request.slices in order: its index, then
+// the slice (moved from). Its error stops the extraction.
+using SliceSink = std::function<Status(size_t index, ExtractSlice&& slice)>;
+
+// Runs the request over `store` (CheckExtract first). Slices go to
+// `on_slice` when given (one slice in memory at a time), else into the
+// result. Cost: the refinement's, then O(leaves) per mesh collected.
+Result<ExtractResult> Extract(const AnyStore& store, const ExtractRequest& request,
+                              const SliceSink& on_slice = {});
+
+// The statistics as `simplexdb extract --format json` prints them (the
+// keys DESIGN.md's contract names and more), and the Python package's
+// Mesh.stats holds.
+nlohmann::ordered_json ExtractStatsJson(const ExtractResult& result);
+
+// The leaf codes in a file, "T:bits" a line (blank lines skipped), as
+// packed codes of the hierarchy of `dimension` (3 or 4). NotFound or
+// IOError naming the file; InvalidArgument "<path>:<line>: <reason>".
+Result<std::vector<uint64_t>> ReadLeafCodes(const std::string& path, int dimension);
+
+}  // namespace simplexdb

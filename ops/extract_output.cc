@@ -1,0 +1,127 @@
+#include "ops/extract_output.h"
+
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "hierarchy/simplex_code.h"
+#include "query/pvd_writer.h"
+#include "storage/io/file.h"
+
+namespace simplexdb {
+namespace {
+
+bool EndsWith(const std::string& s, std::string_view suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string Folderless(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+// The format an output file's extension names, or "" for another one.
+std::string FormatOfExtension(const std::string& output) {
+  const size_t slash = output.find_last_of('/'), dot = output.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+  const std::string ext = output.substr(dot + 1);
+  if (ext == "vtu" || ext == "pvd" || ext == "json") return ext;
+  if (ext == "codes" || ext == "txt") return "codes";
+  return "";
+}
+
+template <int D>
+Status WriteLeafCodes(const std::vector<uint64_t>& keys, const std::string& path) {
+  std::vector<SimplexCode<D>> codes;
+  codes.reserve(keys.size());
+  for (const uint64_t k : keys) codes.push_back(SimplexCode<D>::FromKey(k));
+  return WriteCodes<D>(codes, path);
+}
+
+}  // namespace
+
+Result<std::string> ResolveExtractFormat(const std::string& format, const std::string& path) {
+  const std::string implied = path == "-" ? "" : FormatOfExtension(path);
+  const std::string chosen = format.empty() ? (implied.empty() ? "json" : implied) : format;
+  if (!format.empty() && !implied.empty() && implied != format) {
+    return Status::InvalidArgument(
+        fmt::format("--format {} contradicts the output's extension: {} names {} (leave --format out, "
+                    "or name the file for what it holds)",
+                    format, path, implied));
+  }
+  if (chosen != "codes" && chosen != "json" && chosen != "vtu" && chosen != "pvd") {
+    return Status::InvalidArgument(fmt::format("--format {}: expected codes, vtu, pvd or json", chosen));
+  }
+  return chosen;
+}
+
+Status CheckExtractOutput(const SourceInfo& info, const ExtractRequest& request,
+                          const std::string& format, const std::string& path) {
+  if ((format == "vtu" || format == "pvd") && path == "-") {
+    return Status::InvalidArgument(fmt::format("--format {} needs -o FILE", format));
+  }
+  if (format == "vtu" && info.dimension == 4 && !request.time) {
+    return Status::InvalidArgument(
+        "--format vtu of an HP writes the 3D mesh of a time slice: give --time T");
+  }
+  if (format == "pvd") {
+    if (info.dimension != 4) {
+      return Status::InvalidArgument("--format pvd writes a series of HP time slices; the HT has no time");
+    }
+    if (request.slices.empty()) {
+      return Status::InvalidArgument("--format pvd needs --slices T1,T2,... (times in --units)");
+    }
+  }
+  return Status::OK();
+}
+
+ExtractRequest RequestFor(ExtractRequest request, const std::string& format) {
+  request.leaves = format == "codes";
+  request.tetrahedra = format == "vtu";
+  request.count_slice = format == "vtu" || format == "json";
+  if (format != "pvd") request.slices.clear();
+  return request;
+}
+
+Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest& request,
+                                    const std::string& format, const std::string& path) {
+  SDB_RETURN_IF_ERROR(CheckExtractOutput(store.info(), request, format, path));
+  // OUTPUT.pvd and one OUTPUT_<i>.vtu per time beside it.
+  const std::string stem = EndsWith(path, ".pvd") && path.size() > 4 ? path.substr(0, path.size() - 4) : path;
+  std::vector<PvdDataSet> pvd;
+  const SliceSink write_slice = [&](size_t i, ExtractSlice&& slice) -> Status {
+    const std::string file = fmt::format("{}_{}.vtu", stem, i);
+    SDB_RETURN_IF_ERROR(WriteVtu(slice.mesh, file));
+    pvd.push_back({slice.time, Folderless(file)});
+    return Status::OK();
+  };
+  SDB_ASSIGN_OR_RETURN(ExtractResult result,
+                       Extract(store, RequestFor(request, format), format == "pvd" ? write_slice : SliceSink{}));
+  if (format == "codes") {
+    SDB_RETURN_IF_ERROR(result.info.dimension == 3 ? WriteLeafCodes<3>(result.leaves, path)
+                                                   : WriteLeafCodes<4>(result.leaves, path));
+  } else if (format == "vtu") {
+    SDB_RETURN_IF_ERROR(WriteVtu(*result.mesh, path));
+  } else if (format == "pvd") {
+    SDB_RETURN_IF_ERROR(WritePvd(pvd, path));
+  } else if (format == "json" && path != "-") {
+    SDB_RETURN_IF_ERROR(WriteFileAtomically(path, ExtractStatsJson(result).dump(2) + "\n"));
+  }
+  return result;
+}
+
+Status WriteMeshFile(const TetMeshData& mesh, const std::string& path, double time) {
+  if (EndsWith(path, ".vtu")) return WriteVtu(mesh, path);
+  if (!EndsWith(path, ".pvd")) {
+    return Status::InvalidArgument(path + ": a mesh is saved as .vtu (an unstructured grid) or .pvd (a "
+                                          "ParaView collection of one .vtu), named by the extension");
+  }
+  const std::string vtu = path.substr(0, path.size() - 4) + ".vtu";
+  // The .vtu first: the collection never names a missing file.
+  SDB_RETURN_IF_ERROR(WriteVtu(mesh, vtu));
+  const PvdDataSet set{time, Folderless(vtu)};
+  return WritePvd({&set, 1}, path);
+}
+
+}  // namespace simplexdb

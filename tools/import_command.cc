@@ -1,0 +1,232 @@
+// `simplexdb import`: a volume into a dense or a sparse store, through
+// ImportVolume (ops/import.h), which the Python package's import_volume
+// calls too. Here: the options parsed, the report printed.
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "ops/import.h"
+#include "ops/process_memory.h"
+#include "tools/build_reports.h"
+#include "tools/cli_util.h"
+#include "tools/commands.h"
+
+namespace simplexdb::tools {
+
+namespace {
+
+using json = nlohmann::ordered_json;
+
+// Domain vertices: (2^k + 1)^D.
+double DomainVertices(const HzSparseHeader& h) {
+  return std::pow(std::ldexp(1.0, h.domain_bits) + 1, h.dimension);
+}
+
+}  // namespace
+
+void PrintDenseBuild(const HzBuildReport& built, const VolumeInfo& input, const std::string& output,
+                     const std::string& compression, bool as_json, bool quiet) {
+  const HzHeader& h = built.header;
+  const double points_per_second = built.grid_points / std::max(built.seconds, 1e-9);
+  const uint64_t peak = PeakResidentBytes();
+  if (as_json) {
+    json j;
+    SetJsonBytes(j, "store", output);
+    j["hierarchy"] = h.dimension == 3 ? "ht" : "hp";
+    j["format_version"] = h.version;
+    j["dims"] = std::vector<uint32_t>(h.dims.begin(), h.dims.begin() + h.dimension);
+    j["domain_bits"] = h.domain_bits;
+    j["leaf_level"] = h.leaf_level();
+    j["grid_points"] = built.grid_points;
+    j["seconds"] = built.seconds;
+    j["grid_points_per_second"] = points_per_second;
+    j["peak_memory_bytes"] = peak;
+    j["file_bytes"] = h.file_size;
+    j["stored_blocks"] = h.stored_blocks;
+    j["error_method"] = built.method;
+    if (input.scaled()) j["scaling"] = {{"slope", input.scale}, {"intercept", input.shift}};
+    std::cout << j.dump() << "\n";
+    return;
+  }
+  if (quiet) return;
+  fmt::print("{}: {} over {} {} (domain 2^{} + 1 per axis, {} levels), {} errors, {}\n", output,
+             h.dimension == 3 ? "HT" : "HP", FormatDims(h.dimension, h.dims), VoxelTypeName(h.voxel_type),
+             h.domain_bits, h.leaf_level(), QuantizationName(h.quantization), compression);
+  if (input.scaled()) {
+    fmt::print("  scaled: {} -> {}\n", FormatScaling(input), VoxelTypeName(h.voxel_type));
+  }
+  fmt::print("  built in {:.2f} s: {:.3g} grid points/s, peak memory {}\n", built.seconds,
+             points_per_second, HumanBytes(peak));
+  if (std::string(built.method) == "engine") {
+    fmt::print("  errors per node through format 1 (a mask or missing values), all stored\n");
+  } else if (std::string(built.method) == "streamed") {
+    fmt::print("  the field read a window of planes at a time (larger than --memory-mb)\n");
+  }
+  fmt::print("  {} on disk ({:.2f} bytes per grid point, {} error blocks, {} bricks)\n",
+             HumanBytes(h.file_size), static_cast<double>(h.file_size) / built.grid_points,
+             h.stored_blocks, h.bricks);
+}
+
+void PrintSparseBuild(const HzSparseBuildReport& r, const std::string& output, bool as_json, bool quiet) {
+  const HzSparseHeader& h = r.header;
+  const double points = static_cast<double>(h.points());
+  if (as_json) {
+    json j;
+    SetJsonBytes(j, "store", output);
+    j["kind"] = h.dimension == 3 ? "ht-sparse" : "hp-sparse";
+    j["format_version"] = h.version;
+    j["tolerance"] = h.tolerance;
+    j["kept"] = h.kept;
+    j["blocks"] = h.blocks;
+    j["rounds"] = r.rounds;
+    j["kept_by_check"] = r.kept_by_check;
+    j["seconds"] = r.seconds;
+    j["grid_points_per_second"] = points / std::max(r.seconds, 1e-9);
+    j["file_bytes"] = r.file_bytes;
+    j["bytes_per_grid_point"] = static_cast<double>(r.file_bytes) / points;
+    j["peak_memory_bytes"] = PeakResidentBytes();
+    std::cout << j.dump() << "\n";
+  } else if (!quiet) {
+    fmt::print("{}: sparse {} store, tolerance {:.6g}: {} of {:.4g} vertices kept ({:.3g}%) in {} "
+               "blocks\n",
+               output, h.dimension == 3 ? "HT" : "HP", h.tolerance, h.kept, DomainVertices(h),
+               100.0 * static_cast<double>(h.kept) / DomainVertices(h), h.blocks);
+    fmt::print("  built in {:.2f} s ({:.3g} grid points/s); {} on disk ({:.2f} bytes per grid "
+               "point), peak memory {}\n",
+               r.seconds, points / std::max(r.seconds, 1e-9), HumanBytes(r.file_bytes),
+               static_cast<double>(r.file_bytes) / points, HumanBytes(PeakResidentBytes()));
+  }
+}
+
+namespace {
+
+struct ImportArgs {
+  std::vector<std::string> inputs;
+  std::string output;
+  std::string hierarchy;
+  RawInputOptions raw;
+  std::string spacing, origin;
+  std::string quantization = "u16";
+  std::string compression = "zstd";
+  bool sparse = false;
+  std::string tolerance = "0";
+  std::string mask;
+  size_t memory_mb = 1024;
+  int threads = 0;
+  int zstd_level = 0;  // 0: the store's default
+  bool json = false;
+  bool quiet = false;
+  bool force = false;
+};
+
+void RunImport(ImportArgs a) {
+  const VolumeInfo input = OpenInputs(a.inputs, a.raw);
+  ImportOptions options;
+  options.hierarchy = a.hierarchy;
+  Result<Quantization> q = ParseQuantization(a.quantization);
+  if (!q.ok()) throw CommandError("--quantization: " + std::string(q.status().message()), 2);
+  options.quantization = *q;
+  Result<Compression> c = ParseCompression(a.compression);
+  if (!c.ok()) throw CommandError("--compression: " + std::string(c.status().message()), 2);
+  options.compression = *c;
+  options.memory_bytes = MebibytesOption(a.memory_mb);
+  options.threads = a.threads;
+  options.zstd_level = a.zstd_level;
+  options.sparse = a.sparse;
+  options.tolerance = ParseAmountOption(a.tolerance, "--tolerance");
+  if (!a.spacing.empty()) options.spacing = ParseNumberList(a.spacing, "--spacing", 1, 4);
+  if (!a.origin.empty()) options.origin = ParseNumberList(a.origin, "--origin", 1, 4);
+  if (!a.mask.empty()) {
+    Result<VolumeInfo> mask = OpenVolume(a.mask);
+    if (!mask.ok()) Fail(mask.status());
+    options.mask = *std::move(mask);
+  }
+  CheckUsage(CheckImport(input, options));
+  // Before anything is written: the output is none of the files read, the
+  // data files a detached header names included.
+  std::vector<std::string> inputs = a.inputs;
+  inputs.insert(inputs.end(), input.files.begin(), input.files.end());
+  if (options.mask) {
+    inputs.push_back(a.mask);
+    inputs.insert(inputs.end(), options.mask->files.begin(), options.mask->files.end());
+  }
+  a.output = CheckOutput(a.output, inputs, a.force);
+  ProgressLine line(!a.quiet && !(a.sparse && a.json));
+  options.progress = ProgressTo(line, a.output);
+  const Result<ImportReport> imported = ImportVolume(input, a.output, options);
+  line.Finish();
+  if (!imported.ok()) Fail(imported.status());
+  if (imported->dense) {
+    PrintDenseBuild(*imported->dense, input, a.output, a.compression, a.json, a.quiet);
+    return;
+  }
+  PrintSparseBuild(*imported->sparse, a.output, a.json, a.quiet);
+  if (input.scaled() && !a.quiet && !a.json) {
+    fmt::print("  scaled: {} -> {}\n", FormatScaling(input), VoxelTypeName(imported->sparse->header.voxel_type));
+  }
+}
+
+}  // namespace
+
+void RegisterImportCommand(CLI::App& app) {
+  auto a = std::make_shared<ImportArgs>();
+  auto* cmd = app.add_subcommand(
+      "import",
+      "Build a store from a volume (dense; or sparse with --sparse): NRRD (.nrrd, .nhdr) and NIfTI-1 (.nii)\n"
+      "files describe themselves; raw files need --dims and --type. A 3D volume\n"
+      "builds a Hierarchy of Tetrahedra, a 4D one (or several 3D volumes, a time\n"
+      "series) a Hierarchy of Pentatopes. Any grid size: the domain is the\n"
+      "smallest cube of side 2^k + 1 points covering it (see README: padding).\n"
+      "NIfTI scl_slope/scl_inter are applied (a scaled integer volume is stored as\n"
+      "float32). NaN marks a missing value; Inf or a value beyond float32's range\n"
+      "(+-3.4e38) is an error naming the voxel, and nothing is written.\n"
+      "Example: simplexdb import tooth.raw --dims 103,94,161 --type uint8 -o tooth.sdb");
+  cmd->add_option("input", a->inputs, "volume file(s); several 3D files form a time series")->required();
+  cmd->add_option("-o,--output", a->output, "the store to write")->required();
+  cmd->add_option("--hierarchy", a->hierarchy, "ht or hp (checked against the volume)")
+      ->check(CLI::IsMember({"ht", "hp"}));
+  AddRawInputOptions(cmd, &a->raw, "raw input: X,Y,Z or X,Y,Z,T (x fastest)");
+  cmd->add_option("--spacing", a->spacing,
+                  "grid spacing X,Y,Z[,T]; a negative X, Y or Z flips that axis, as "
+                  "--spacing=-2,2,2.2 (stored in the header; replaces the file's)");
+  cmd->add_option("--origin", a->origin,
+                  "position of grid point 0, X,Y,Z[,T] (stored in the header; replaces the file's)");
+  cmd->add_option("--quantization", a->quantization,
+                  "errors as u16 (the seed's 14n bytes), u8 (7n) or f32; always rounded up")
+      ->capture_default_str();
+  cmd->add_option("--compression", a->compression, "blocks as zstd frames or none (raw)")->capture_default_str();
+  cmd->add_flag("--sparse", a->sparse,
+                "build the variable-resolution LMDB store instead (in memory: 8 bytes "
+                "per grid point and 23 per vertex near the grid)");
+  cmd->add_option("--tolerance", a->tolerance,
+                  "--sparse: drop the diamonds whose errors are within this, and keep the "
+                  "rest's values to within it (7.3, or 1% of the field range; 0: lossless)")
+      ->capture_default_str();
+  cmd->add_option("--mask", a->mask,
+                  "a volume of the same grid, 0 where the field is not available: those points "
+                  "become missing values (NaN; integer fields are then stored as float32). NaN "
+                  "in a float input is missing too")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--memory-mb", a->memory_mb,
+                  "the builder's memory bound, block index included; a volume larger than it is read a "
+                  "window of planes at a time; too small fails at once with the need")
+      ->capture_default_str();
+  cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")->capture_default_str();
+  cmd->add_option("--zstd-level", a->zstd_level,
+                  "zstd compression level (default 3; 19 with --sparse, whose blocks are few "
+                  "and built for size)")
+      ->check(CLI::Range(1, 22));
+  cmd->add_flag("--json", a->json, "print the build report as JSON");
+  cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
+  AddForceOption(cmd, &a->force);
+  cmd->callback([a] { RunImport(*a); });
+}
+
+}  // namespace simplexdb::tools
