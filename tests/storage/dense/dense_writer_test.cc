@@ -15,6 +15,7 @@
 #include "storage/dense/hz_writer.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/dense/dense_test_util.h"
+#include "tests/util/long_run.h"
 
 namespace simplexdb {
 namespace {
@@ -231,15 +232,27 @@ void ExpectStreamedBuildMatchesDirect(const TestVolume& v, const std::string& na
   ExpectSameContent(**a, **b);
 }
 
+// HT slabs are 64 planes with a halo of 32, HP slabs 32 with a halo of 8
+// (hz_streamed_build.cc). At domain side 128 (HT) and 32 (HP) the default
+// cases cross slabs: 2 and 3 HT slabs (the second with local chunks of 128
+// and 256 planes spanning them), 2 HP slabs (the second holds the last
+// plane only). The long run (`ctest -L long`) adds a side of 256 (HT, a
+// third scanned scale) and of 64 (HP, a second slab of 8 real planes).
 TEST(DenseWriter, StreamedBuildMatchesDirect) {
   ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {65, 40, 77, 1}, VoxelType::kU8, 51), "ht_u8", 6);
-  ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {70, 66, 150, 1}, VoxelType::kF32, 52), "ht_f32", 9);
+  ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {70, 66, 129, 1}, VoxelType::kF32, 52), "ht_f32", 9);
   ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {33, 17, 20, 9}, VoxelType::kI16, 53), "hp_i16", 6);
-  ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {9, 12, 10, 40}, VoxelType::kF32, 54), "hp_long_t", 6);
+  ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {9, 12, 10, 33}, VoxelType::kF32, 54), "hp_long_t", 6);
+  if (testing::LongRun()) {
+    ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {70, 66, 150, 1}, VoxelType::kF32, 52),
+                                        "ht_f32_256", 9);
+    ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {9, 12, 10, 40}, VoxelType::kF32, 54),
+                                        "hp_long_t_64", 6);
+  }
 }
 
 TEST(DenseWriter, StreamedBuildMatchesDirectWithMissingValues) {
-  TestVolume ht = TestVolume::Random(3, {70, 66, 150, 1}, VoxelType::kF32, 55);
+  TestVolume ht = TestVolume::Random(3, {70, 66, 129, 1}, VoxelType::kF32, 55);
   testing::PunchHoles(ht, 55, 12, 101);
   ExpectStreamedBuildMatchesDirect<3>(ht, "ht_holes", 9);
   TestVolume hp = TestVolume::Random(4, {33, 17, 20, 9}, VoxelType::kF32, 56);

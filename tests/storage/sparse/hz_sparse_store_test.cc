@@ -360,7 +360,7 @@ std::array<std::vector<size_t>, kPageKinds> PagesByKind(const std::vector<uint8_
 // tests, storage/io/lmdb_check_test.cc, run the cases in child processes;
 // these run in process: a crash fails the whole test.) The count is
 // SIMPLEXDB_DAMAGE_CASES (default 150; the `long` test HzSparseDamageLong
-// runs 1000: `ctest --preset asan -R HzSparseDamageLong`).
+// runs 1000: `ctest --test-dir build/asan -R HzSparseDamageLong`).
 TEST(HzSparseStore, DamageIsReportedOrHarmless) {
   const char* env_cases = std::getenv("SIMPLEXDB_DAMAGE_CASES");
   const int cases = env_cases != nullptr ? std::atoi(env_cases) : 150;
