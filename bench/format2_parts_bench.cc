@@ -26,7 +26,7 @@
 
 #include "storage/dense/brick_codec.h"
 #include "storage/dense/field_bricks.h"
-#include "storage/dense/hz_format.h"
+#include "storage/dense/dense_format.h"
 #include "storage/error/diamond_errors.h"
 #include "storage/error/finest_box_errors.h"
 #include "storage/volume/generate.h"
@@ -157,7 +157,7 @@ void DiamondErrorsBench(benchmark::State& state) {
   }
   const BrickGrid grid(D, {static_cast<uint32_t>(n), static_cast<uint32_t>(n),
                            static_cast<uint32_t>(n), D == 4 ? static_cast<uint32_t>(n) : 1u},
-                       k, HzDefaultBrickBits(D));
+                       k, DenseDefaultBrickBits(D));
   for (auto _ : state) {
     if (s > 0) {
       for (const uint64_t i : items) errors.ComputeItem(0, i);

@@ -36,18 +36,18 @@
 #include "query/mesh.h"
 #include "query/refine.h"
 #include "query/source.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_store.h"
-#include "storage/sparse/hz_sparse_builder.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
 
 namespace simplexdb {
 namespace {
 
 struct Stores {
-  std::unique_ptr<HzStore> in_memory, warm;
-  std::unique_ptr<HzSparseStore> sparse;
+  std::unique_ptr<DenseStore> in_memory, warm;
+  std::unique_ptr<SparseStore> sparse;
   std::string path;
   size_t decoded_bytes = 0;
 };
@@ -63,20 +63,20 @@ Stores Make(int dimension, uint32_t side) {
   Stores s;
   // As `simplexdb import` builds it: the finest octave's errors are computed
   // by the reader from the field, a box at a time.
-  HzBuildOptions o;
+  DenseBuildOptions o;
   o.memory_bytes = size_t{16} << 30;
-  if (Status st = BuildHzStore(in, base + ".sdb", o).status(); !st.ok()) Die(st);
+  if (Status st = BuildDenseStore(in, base + ".sdb", o).status(); !st.ok()) Die(st);
   s.path = base + ".sdb";
-  HzStore::Options mem, warm;
+  DenseStore::Options mem, warm;
   mem.in_memory = true;
   warm.cache_bytes = size_t{16} << 30;
-  s.in_memory = *HzStore::Open(s.path, mem);
-  s.warm = *HzStore::Open(s.path, warm);
-  HzSparseBuildOptions sparse;
-  if (Status st = BuildHzSparseStore(in, base + "_sparse.sdb", sparse).status(); !st.ok()) Die(st);
-  HzSparseStore::Options sparse_open;
+  s.in_memory = *DenseStore::Open(s.path, mem);
+  s.warm = *DenseStore::Open(s.path, warm);
+  SparseBuildOptions sparse;
+  if (Status st = BuildSparseStore(in, base + "_sparse.sdb", sparse).status(); !st.ok()) Die(st);
+  SparseStore::Options sparse_open;
   sparse_open.cache_bytes = size_t{16} << 30;
-  s.sparse = *HzSparseStore::Open(base + "_sparse.sdb", sparse_open);
+  s.sparse = *SparseStore::Open(base + "_sparse.sdb", sparse_open);
   // Error blocks and field bricks (the finest octave's error boxes, computed
   // from the bricks, are not counted).
   s.decoded_bytes = s.in_memory->stored_blocks() * s.in_memory->block_bytes() +
@@ -107,7 +107,7 @@ void Register(const std::string& name, uint32_t side) {
     uint64_t splits = 0;
     QueryStats last;
     for (auto _ : state) {
-      HzSource<D> source(*stores.in_memory);
+      DenseSource<D> source(*stores.in_memory);
       last = Query<D>(source);
       splits += last.splits;
     }
@@ -116,10 +116,10 @@ void Register(const std::string& name, uint32_t side) {
   // Distinct blocks: a store opened anew with a cache holding everything
   // decodes each block the query needs once.
   static uint64_t distinct = [] {
-    HzStore::Options o;
+    DenseStore::Options o;
     o.cache_bytes = size_t{16} << 30;
-    auto fresh = *HzStore::Open(stores.path, o);
-    HzSource<D> source(*fresh);
+    auto fresh = *DenseStore::Open(stores.path, o);
+    DenseSource<D> source(*fresh);
     Query<D>(source);
     return fresh->stats().blocks_decoded;
   }();
@@ -127,7 +127,7 @@ void Register(const std::string& name, uint32_t side) {
     uint64_t splits = 0;
     QueryStats last;
     for (auto _ : state) {
-      HzSource<D> source(*stores.warm);
+      DenseSource<D> source(*stores.warm);
       last = Query<D>(source);
       splits += last.splits;
     }
@@ -135,7 +135,7 @@ void Register(const std::string& name, uint32_t side) {
   })->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark(("Format2/" + name + "/sparse-warm").c_str(), [report](benchmark::State& state) {
     static const bool warmed = [] {
-      HzSparseSource<D> source(*stores.sparse);
+      SparseSource<D> source(*stores.sparse);
       Query<D>(source);
       return true;
     }();
@@ -143,7 +143,7 @@ void Register(const std::string& name, uint32_t side) {
     uint64_t splits = 0;
     QueryStats last;
     for (auto _ : state) {
-      HzSparseSource<D> source(*stores.sparse);
+      SparseSource<D> source(*stores.sparse);
       last = Query<D>(source);
       splits += last.splits;
     }
@@ -154,11 +154,11 @@ void Register(const std::string& name, uint32_t side) {
     QueryStats last;
     for (auto _ : state) {
       state.PauseTiming();
-      HzStore::Options o;
+      DenseStore::Options o;
       o.cache_bytes = stores.decoded_bytes / 50;
-      auto cold = *HzStore::Open(stores.path, o);
+      auto cold = *DenseStore::Open(stores.path, o);
       state.ResumeTiming();
-      HzSource<D> source(*cold);
+      DenseSource<D> source(*cold);
       last = Query<D>(source);
       splits += last.splits;
       decoded += cold->stats().blocks_decoded;

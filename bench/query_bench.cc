@@ -31,8 +31,8 @@
 #include "query/open_store.h"
 #include "query/refine.h"
 #include "query/source.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/sparse/sparse_builder.h"
 #include "storage/volume/volume.h"
 
 namespace simplexdb {
@@ -58,11 +58,11 @@ QueryStores MakeStores(int dimension, uint32_t side) {
   QueryStores s;
   const VolumeInfo in = *OpenVolume(PerlinVolume(dimension, side));
   const std::string base = WorkDir() + "/query" + std::to_string(dimension);
-  HzBuildOptions options;
+  DenseBuildOptions options;
   options.compression = Compression::kNone;
-  if (!BuildHzStore(in, base + "_raw.sdb", options).ok()) std::abort();
+  if (!BuildDenseStore(in, base + "_raw.sdb", options).ok()) std::abort();
   options.compression = Compression::kZstd;
-  if (!BuildHzStore(in, base + "_zstd.sdb", options).ok()) std::abort();
+  if (!BuildDenseStore(in, base + "_zstd.sdb", options).ok()) std::abort();
   s.zstd_path = base + "_zstd.sdb";
   StoreOptions in_memory, raw, warm, nocache;
   in_memory.in_memory = true;
@@ -73,7 +73,7 @@ QueryStores MakeStores(int dimension, uint32_t side) {
   s.open.emplace_back("zstd-warm", OpenOrDie(s.zstd_path, warm));
   s.open.emplace_back("zstd-nocache", OpenOrDie(s.zstd_path, nocache));
   // The lossless sparse store, as import --sparse.
-  if (!BuildHzSparseStore(in, base + ".lmdb", HzSparseBuildOptions{}).ok()) std::abort();
+  if (!BuildSparseStore(in, base + ".lmdb", SparseBuildOptions{}).ok()) std::abort();
   s.open.emplace_back("lmdb", OpenOrDie(base + ".lmdb", StoreOptions{}));
   return s;
 }

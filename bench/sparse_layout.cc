@@ -1,5 +1,5 @@
 // sparse_layout: the sparse store of format 2 (storage/sparse/
-// hz_sparse_format.h) built from a volume at each tolerance asked for; one
+// sparse_format.h) built from a volume at each tolerance asked for; one
 // JSON line each with the file's size per grid point, the kept fraction,
 // the blocks, the build's time and peak work, and the time to verify it
 // (every block read). bench/README.md ("Sparse store format 2") sets them
@@ -18,8 +18,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "storage/sparse/hz_sparse_builder.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
 #include "bench/bench_util.h"
 #include "storage/volume/volume.h"
 
@@ -49,25 +49,25 @@ int main(int argc, char** argv) {
   }
   const std::string out = std::string(argv[2]) + "/sparse_layout.sdb";
   for (const double percent : percents) {
-    HzSparseBuildOptions o;
+    SparseBuildOptions o;
     o.block_bits = block_bits;
     if (level > 0) o.zstd_level = level;
     o.tolerance = percent;
     o.tolerance_percent = true;
-    const Result<HzSparseBuildReport> built = BuildHzSparseStore(*info, out, o);
+    const Result<SparseBuildReport> built = BuildSparseStore(*info, out, o);
     if (!built.ok()) {
       std::fprintf(stderr, "sparse_layout: %s\n", std::string(built.status().message()).c_str());
       return 1;
     }
     const auto start = std::chrono::steady_clock::now();
-    auto store = HzSparseStore::Open(out, {});
+    auto store = SparseStore::Open(out, {});
     const Status verified = store.ok() ? (*store)->Verify() : store.status();
     const double verify_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (!verified.ok()) {
       std::fprintf(stderr, "sparse_layout: %s\n", std::string(verified.message()).c_str());
       return 1;
     }
-    const HzSparseHeader& h = built->header;
+    const SparseHeader& h = built->header;
     const double points = static_cast<double>(h.points());
     nlohmann::json j;
     j["volume"] = argv[1];

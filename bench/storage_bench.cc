@@ -32,13 +32,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
 #include "storage/error/finest_diamonds.h"
 #include "storage/volume/generate.h"
 #include "storage/volume/nrrd_writer.h"
-#include "storage/sparse/hz_sparse_builder.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
 #include "bench/bench_util.h"
 
@@ -50,8 +50,8 @@ namespace fs = std::filesystem;
 // --- lookups ------------------------------------------------------------------
 
 struct LookupStores {
-  std::unique_ptr<HzStore> in_memory, raw, zstd_warm, zstd_cold;
-  std::unique_ptr<HzSparseStore> sparse;  // lossless, from the same volume
+  std::unique_ptr<DenseStore> in_memory, raw, zstd_warm, zstd_cold;
+  std::unique_ptr<SparseStore> sparse;  // lossless, from the same volume
   std::vector<TetCode> random, depth_first;
 };
 
@@ -59,23 +59,23 @@ LookupStores& Stores() {
   static LookupStores s = [] {
     LookupStores l;
     const VolumeInfo in = *OpenVolume(PerlinVolume(3, 129));
-    HzBuildOptions options;
+    DenseBuildOptions options;
     options.compression = Compression::kNone;
     const std::string raw = WorkDir() + "/lookup_raw.sdb", zstd = WorkDir() + "/lookup_zstd.sdb";
-    if (!BuildHzStore(in, raw, options).ok()) std::abort();
+    if (!BuildDenseStore(in, raw, options).ok()) std::abort();
     options.compression = Compression::kZstd;
-    if (!BuildHzStore(in, zstd, options).ok()) std::abort();
-    HzStore::Options o;
-    l.raw = *HzStore::Open(raw, o);
+    if (!BuildDenseStore(in, zstd, options).ok()) std::abort();
+    DenseStore::Options o;
+    l.raw = *DenseStore::Open(raw, o);
     o.cache_bytes = size_t{1} << 30;
-    l.zstd_warm = *HzStore::Open(zstd, o);
+    l.zstd_warm = *DenseStore::Open(zstd, o);
     o.cache_bytes = 0;
-    l.zstd_cold = *HzStore::Open(zstd, o);
+    l.zstd_cold = *DenseStore::Open(zstd, o);
     o.in_memory = true;
-    l.in_memory = *HzStore::Open(zstd, o);
+    l.in_memory = *DenseStore::Open(zstd, o);
     const std::string sparse = WorkDir() + "/lookup.lmdb";
-    if (!BuildHzSparseStore(in, sparse, HzSparseBuildOptions{}).ok()) std::abort();
-    l.sparse = *HzSparseStore::Open(sparse, HzSparseStore::Options{});
+    if (!BuildSparseStore(in, sparse, SparseBuildOptions{}).ok()) std::abort();
+    l.sparse = *SparseStore::Open(sparse, SparseStore::Options{});
     const int leaf = l.raw->header().leaf_level();
     std::mt19937_64 rng(1);
     for (int i = 0; i < (1 << 16); ++i) {
@@ -112,7 +112,7 @@ void MeasureLookups(benchmark::State& state, const Store& store, const std::vect
 }
 
 void RegisterLookups() {
-  const std::pair<const char*, std::unique_ptr<HzStore> LookupStores::*> stores[] = {
+  const std::pair<const char*, std::unique_ptr<DenseStore> LookupStores::*> stores[] = {
       {"in-memory", &LookupStores::in_memory},
       {"mapped-raw", &LookupStores::raw},
       {"zstd-warm", &LookupStores::zstd_warm},

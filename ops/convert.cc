@@ -70,7 +70,7 @@ Result<VolumeInfo> FieldInMemory(const AnyStore& store, const ConvertOptions& op
     if (options.progress) options.progress({"reading", k + 1, planes, SecondsSince(start)});
   }
   std::shared_ptr<const std::byte> view(bytes, bytes.get());
-  const std::string source = store.hz() ? store.hz()->header().source : store.sparse()->header().source;
+  const std::string source = store.dense() ? store.dense()->header().source : store.sparse()->header().source;
   SDB_ASSIGN_OR_RETURN(VolumeInfo volume, MemoryVolume(info.dimension, info.dims, type,
                                                        NativeByteOrder(), std::move(view), source));
   volume.spacing = info.spacing;  // the store's placement
@@ -141,7 +141,7 @@ Result<ConvertReport> Convert(const std::string& input, const std::string& outpu
   }
   ImportOptions build;
   build.sparse = to_sparse;
-  build.quantization = store.hz() ? store.hz()->header().quantization : store.sparse()->header().quantization;
+  build.quantization = store.dense() ? store.dense()->header().quantization : store.sparse()->header().quantization;
   build.compression = options.compression;
   build.tolerance = options.tolerance;
   build.memory_bytes = options.memory_bytes;

@@ -57,8 +57,8 @@ Status CheckConvert(const std::string& input, StoreKind from, const ConvertOptio
 
 // Exactly one report is set, the builder's of the new store.
 struct ConvertReport {
-  std::optional<HzBuildReport> dense;
-  std::optional<HzSparseBuildReport> sparse;
+  std::optional<DenseBuildReport> dense;
+  std::optional<SparseBuildReport> sparse;
   double seconds = 0;  // the whole conversion, verifying and reading included
 };
 

@@ -268,17 +268,17 @@ Result<ExtractResult> Extract(const AnyStore& store, const ExtractRequest& reque
     return NotEnoughMemory("the mesh extracted from " + store.path() + " and its output", "size not known");
   }
   SDB_RETURN_IF_ERROR(s);
-  if (const HzStore* hz = store.hz(); hz != nullptr) {
+  if (const DenseStore* dense = store.dense(); dense != nullptr) {
     // Zstd frames decoded plus raw ones read, blocks and bricks (repeats
     // counted), how many different ones the store was asked for, and how
     // many bricks' finest errors it computed from the field; the decoded
     // blocks held at the end (never more than the cache's budget).
-    const HzStore::Stats hs = hz->stats();
+    const DenseStore::Stats hs = dense->stats();
     ExtractResult::DenseCounters c;
     c.blocks_decoded = hs.blocks_decoded + hs.raw_checked;
     c.distinct_blocks = hs.distinct;
     c.finest_boxes_computed = hs.boxes_computed;
-    if (hz->cache() != nullptr) c.cache_bytes = hz->cache()->charge();
+    if (dense->cache() != nullptr) c.cache_bytes = dense->cache()->charge();
     out.dense = c;
   }
   return out;

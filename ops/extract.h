@@ -80,7 +80,7 @@ struct ExtractResult {
   std::optional<uint64_t> slice_tetrahedra;  // an HP slice at `time`, counted or collected
   std::optional<double> given_time;          // request.time, as given
   std::optional<ConformityReport> conformity;  // request.check
-  // A dense store's counters since it opened (HzStore::Stats): blocks and
+  // A dense store's counters since it opened (DenseStore::Stats): blocks and
   // bricks decoded or checked, distinct ones, bricks' finest errors
   // computed, and the decoded bytes its cache holds.
   struct DenseCounters {

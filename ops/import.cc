@@ -86,7 +86,7 @@ Result<ImportReport> ImportVolume(const VolumeInfo& input, const std::string& ou
   const VolumeInfo placed = PlacedInput(input, options);
   ImportReport report;
   if (options.sparse) {
-    HzSparseBuildOptions o;
+    SparseBuildOptions o;
     o.quantization = options.quantization;
     if (options.zstd_level > 0) o.zstd_level = options.zstd_level;
     o.memory_bytes = options.memory_bytes;
@@ -94,10 +94,10 @@ Result<ImportReport> ImportVolume(const VolumeInfo& input, const std::string& ou
     o.tolerance = options.tolerance.value;  // a percentage is applied to the range the builder finds
     o.tolerance_percent = options.tolerance.percent;
     o.progress = options.progress;
-    SDB_ASSIGN_OR_RETURN(report.sparse, BuildHzSparseStore(placed, output, o));
+    SDB_ASSIGN_OR_RETURN(report.sparse, BuildSparseStore(placed, output, o));
     return report;
   }
-  HzBuildOptions o;
+  DenseBuildOptions o;
   o.quantization = options.quantization;
   o.compression = options.compression;
   if (options.zstd_level > 0) o.zstd_level = options.zstd_level;
@@ -105,7 +105,7 @@ Result<ImportReport> ImportVolume(const VolumeInfo& input, const std::string& ou
   o.threads = options.threads;
   o.mask = options.mask;
   o.progress = options.progress;
-  SDB_ASSIGN_OR_RETURN(report.dense, BuildHzStore(placed, output, o));
+  SDB_ASSIGN_OR_RETURN(report.dense, BuildDenseStore(placed, output, o));
   return report;
 }
 

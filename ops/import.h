@@ -1,7 +1,7 @@
 // ImportVolume: a volume (a file's VolumeInfo, or voxels in memory:
 // storage/volume/volume.h MemoryVolume) built into a store of either kind,
-// the dense .sdb (storage/dense/hz_builder.h) or the sparse LMDB store
-// (storage/sparse/hz_sparse_builder.h). The one place `simplexdb import`
+// the dense .sdb (storage/dense/dense_builder.h) or the sparse LMDB store
+// (storage/sparse/sparse_builder.h). The one place `simplexdb import`
 // and the Python package's import_volume decide which builder runs with
 // which options, so the two build the same store from the same voxels.
 // Printing reports and parsing option text stay with each caller.
@@ -26,10 +26,10 @@
 #include <vector>
 
 #include "query/criteria.h"  // Amount
-#include "storage/dense/hz_builder.h"  // HzBuildOptions; also declares Compression
+#include "storage/dense/dense_builder.h"  // DenseBuildOptions; also declares Compression
 #include "storage/error/progress.h"
 #include "storage/error/quantization.h"
-#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/sparse/sparse_builder.h"
 #include "storage/volume/volume.h"
 #include "util/status.h"
 
@@ -58,8 +58,8 @@ struct ImportOptions {
 
 // Exactly one is set: the dense or the sparse builder's report.
 struct ImportReport {
-  std::optional<HzBuildReport> dense;
-  std::optional<HzSparseBuildReport> sparse;
+  std::optional<DenseBuildReport> dense;
+  std::optional<SparseBuildReport> sparse;
 };
 
 // The options' checks against `input`, nothing read or written: a

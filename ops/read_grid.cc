@@ -6,8 +6,8 @@
 #include <limits>
 #include <string>
 
-#include "storage/dense/hz_store.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_store.h"
 
 namespace simplexdb {
 namespace {
@@ -51,8 +51,8 @@ Status ReadPoints(Reader& reader, const ExportBox& box, const std::array<uint32_
 }
 
 template <int D>
-Result<std::vector<double>> ReadHz(const HzStore& store, const ExportBox& box) {
-  const HzHeader& h = store.header();
+Result<std::vector<double>> ReadDense(const DenseStore& store, const ExportBox& box) {
+  const DenseHeader& h = store.header();
   const std::array<uint32_t, 4> dims = ExportDims(box, D);
   std::vector<double> values(Count(dims));
   const int lattice = std::countr_zero(static_cast<uint64_t>(box.step));
@@ -62,16 +62,16 @@ Result<std::vector<double>> ReadHz(const HzStore& store, const ExportBox& box) {
     SDB_RETURN_IF_ERROR(ReadLattice(store, lattice, box.lo, box.hi, values.data()));
     return values;
   }
-  HzStore::Reader<D> reader(store);
+  DenseStore::Reader<D> reader(store);
   SDB_RETURN_IF_ERROR(ReadPoints<D>(reader, box, dims, values));
   return values;
 }
 
 template <int D>
-Result<std::vector<double>> ReadSparse(const HzSparseStore& store, const ExportBox& box) {
+Result<std::vector<double>> ReadSparse(const SparseStore& store, const ExportBox& box) {
   const std::array<uint32_t, 4> dims = ExportDims(box, D);
   std::vector<double> values(Count(dims));
-  typename HzSparseStore::template Reader<D> reader(store);
+  typename SparseStore::template Reader<D> reader(store);
   SDB_RETURN_IF_ERROR(ReadPoints<D>(reader, box, dims, values));
   return values;
 }
@@ -93,14 +93,14 @@ std::array<uint32_t, 4> ExportDims(const ExportBox& box, int dimension) {
   return dims;
 }
 
-Result<std::vector<double>> ReadGridBox(const HzStore& store, const ExportBox& box) {
-  const HzHeader& h = store.header();
+Result<std::vector<double>> ReadGridBox(const DenseStore& store, const ExportBox& box) {
+  const DenseHeader& h = store.header();
   SDB_RETURN_IF_ERROR(CheckBox(box, h.dimension, h.dims, store.path()));
-  return h.dimension == 3 ? ReadHz<3>(store, box) : ReadHz<4>(store, box);
+  return h.dimension == 3 ? ReadDense<3>(store, box) : ReadDense<4>(store, box);
 }
 
 VoxelType StoreVoxelType(const AnyStore& store) {
-  return store.hz() != nullptr ? store.hz()->header().voxel_type : store.sparse()->header().voxel_type;
+  return store.dense() != nullptr ? store.dense()->header().voxel_type : store.sparse()->header().voxel_type;
 }
 
 void RoundToVoxelType(VoxelType type, std::span<double> values) {
@@ -116,7 +116,7 @@ void RoundToVoxelType(VoxelType type, std::span<double> values) {
 }
 
 Result<std::vector<double>> ReadGridBox(const AnyStore& store, const ExportBox& box) {
-  if (store.hz() != nullptr) return ReadGridBox(*store.hz(), box);
+  if (store.dense() != nullptr) return ReadGridBox(*store.dense(), box);
   const SourceInfo& info = store.info();
   SDB_RETURN_IF_ERROR(CheckBox(box, info.dimension, info.dims, info.path));
   SDB_ASSIGN_OR_RETURN(std::vector<double> values,

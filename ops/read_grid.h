@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "query/open_store.h"
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_store.h"
 #include "storage/volume/voxel_type.h"
 #include "util/status.h"
 
@@ -54,7 +54,7 @@ void RoundToVoxelType(VoxelType type, std::span<double> values);
 // store holds them. A power-of-two step from a multiple of it reads one
 // lattice's bricks (a coarse read decodes only them); otherwise point by
 // point. O(points + voxels of the bricks met).
-Result<std::vector<double>> ReadGridBox(const HzStore& store, const ExportBox& box);
+Result<std::vector<double>> ReadGridBox(const DenseStore& store, const ExportBox& box);
 
 // The same for a store of either kind, every value one its voxel type
 // holds: a dense store's are its input's own; a sparse store's value at a

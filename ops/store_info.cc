@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "storage/dense/brick_codec.h"
-#include "storage/dense/hz_format.h"  // BlockEncoding
+#include "storage/dense/dense_format.h"  // BlockEncoding
 #include "storage/error/quantization.h"
 #include "storage/volume/voxel_type.h"
 #include "util/utf8.h"
@@ -49,8 +49,8 @@ void Field(const Header& h, json& j) {
 
 }  // namespace
 
-json StoreInfoJson(const HzStore& store, const std::string& path) {
-  const HzHeader& h = store.header();
+json StoreInfoJson(const DenseStore& store, const std::string& path) {
+  const DenseHeader& h = store.header();
   uint64_t points = 1;
   for (int a = 0; a < h.dimension; ++a) points *= h.dims[a];
   uint64_t raw = 0, zstd = 0;
@@ -62,7 +62,7 @@ json StoreInfoJson(const HzStore& store, const std::string& path) {
   uint64_t codings[4] = {0, 0, 0, 0}, error_bytes = 0, field_bytes = 0, brick_voxels = 0;
   for (uint64_t i = 0; i < h.stored_blocks; ++i) error_bytes += store.entry(i).stored_size;
   for (uint64_t b = 0; b < h.bricks; ++b) {
-    const HzIndexEntry e = store.brick_entry(b);
+    const DenseIndexEntry e = store.brick_entry(b);
     ++codings[e.encoding & 3];
     field_bytes += e.stored_size;
     brick_voxels += BrickVoxels(h.dimension, store.grid().Place(b).extent);
@@ -96,8 +96,8 @@ json StoreInfoJson(const HzStore& store, const std::string& path) {
   return j;
 }
 
-json StoreInfoJson(const HzSparseStore& store, const std::string& path) {
-  const HzSparseHeader& h = store.header();
+json StoreInfoJson(const SparseStore& store, const std::string& path) {
+  const SparseHeader& h = store.header();
   const uint64_t points = h.points();
   const uint64_t bytes = store.file_bytes();
   json j = Opening(h, path, "sparse");
@@ -120,7 +120,7 @@ json StoreInfoJson(const HzSparseStore& store, const std::string& path) {
 }
 
 json StoreInfoJson(const AnyStore& store) {
-  if (store.hz() != nullptr) return StoreInfoJson(*store.hz(), store.path());
+  if (store.dense() != nullptr) return StoreInfoJson(*store.dense(), store.path());
   return StoreInfoJson(*store.sparse(), store.path());
 }
 

@@ -34,15 +34,15 @@
 #include <nlohmann/json.hpp>
 
 #include "query/open_store.h"
-#include "storage/dense/hz_store.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_store.h"
 
 namespace simplexdb {
 
 // The description of a dense store opened from `path`.
-nlohmann::ordered_json StoreInfoJson(const HzStore& store, const std::string& path);
+nlohmann::ordered_json StoreInfoJson(const DenseStore& store, const std::string& path);
 // The description of a sparse store opened from `path`.
-nlohmann::ordered_json StoreInfoJson(const HzSparseStore& store, const std::string& path);
+nlohmann::ordered_json StoreInfoJson(const SparseStore& store, const std::string& path);
 // The description of either kind.
 nlohmann::ordered_json StoreInfoJson(const AnyStore& store);
 

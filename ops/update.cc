@@ -36,14 +36,14 @@ Result<GridBox> CheckUpdate(const std::string& store, StoreKind kind, const Volu
   return box;
 }
 
-Result<HzSparseUpdateReport> UpdateStore(const std::string& store, const VolumeInfo& volume,
-                                         const UpdateOptions& options) {
+Result<SparseUpdateReport> UpdateStore(const std::string& store, const VolumeInfo& volume,
+                                       const UpdateOptions& options) {
   SDB_ASSIGN_OR_RETURN(const GridBox box, CheckUpdate(store, ProbeStoreKind(store), volume, options));
-  HzSparseUpdateOptions o;
+  SparseUpdateOptions o;
   o.progress = options.progress;
   o.memory_bytes = options.memory_bytes;
   o.threads = options.threads;
-  return UpdateHzSparseStore(store, volume, box, o);
+  return UpdateSparseStore(store, volume, box, o);
 }
 
 }  // namespace simplexdb

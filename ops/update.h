@@ -1,5 +1,5 @@
 // Update: a box of a volume re-imported into a sparse store in one LMDB
-// transaction (storage/sparse/hz_sparse_update.h), `simplexdb update`.
+// transaction (storage/sparse/sparse_update.h), `simplexdb update`.
 // The request's checks live here with the call, so every front end that
 // offers it refuses the same things.
 //
@@ -7,7 +7,7 @@
 // Lifetimes: the report is a value.
 //
 // Errors: CheckUpdate's InvalidArgument naming the option as the command
-// spells it; then UpdateHzSparseStore's (the volume's, a point outside the
+// spells it; then UpdateSparseStore's (the volume's, a point outside the
 // box that differs from the store, the store's, ResourceExhausted).
 #pragma once
 
@@ -18,7 +18,7 @@
 
 #include "query/open_store.h"
 #include "storage/error/progress.h"
-#include "storage/sparse/hz_sparse_update.h"
+#include "storage/sparse/sparse_update.h"
 #include "storage/volume/volume.h"
 #include "util/status.h"
 
@@ -39,7 +39,7 @@ Result<GridBox> CheckUpdate(const std::string& store, StoreKind kind, const Volu
                             const UpdateOptions& options);
 
 // CheckUpdate, then the update.
-Result<HzSparseUpdateReport> UpdateStore(const std::string& store, const VolumeInfo& volume,
-                                         const UpdateOptions& options);
+Result<SparseUpdateReport> UpdateStore(const std::string& store, const VolumeInfo& volume,
+                                       const UpdateOptions& options);
 
 }  // namespace simplexdb

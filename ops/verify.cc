@@ -6,14 +6,14 @@ Result<VerifyReport> VerifyStore(const AnyStore& store,
                                  const std::function<void(uint64_t, uint64_t)>& progress) {
   VerifyReport report;
   report.kind = store.kind();
-  if (const HzStore* hz = store.hz(); hz != nullptr) {
-    SDB_RETURN_IF_ERROR(hz->Verify(progress));
-    report.blocks = hz->stored_blocks();
-    report.bricks = hz->bricks();
-    report.finest_recomputed = !hz->header().finest_stored();
+  if (const DenseStore* dense = store.dense(); dense != nullptr) {
+    SDB_RETURN_IF_ERROR(dense->Verify(progress));
+    report.blocks = dense->stored_blocks();
+    report.bricks = dense->bricks();
+    report.finest_recomputed = !dense->header().finest_stored();
     return report;
   }
-  const HzSparseStore& sparse = *store.sparse();
+  const SparseStore& sparse = *store.sparse();
   SDB_RETURN_IF_ERROR(sparse.Verify(progress));
   report.blocks = sparse.header().blocks;
   report.kept = sparse.header().kept;

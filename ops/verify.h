@@ -1,7 +1,7 @@
 // Verify: every checksum and invariant of a store, `simplexdb verify` (and
 // the Python package's Store.verify). One function for both kinds: a dense
-// store's blocks, bricks and finest errors (HzStore::Verify), a sparse
-// store's pages, blocks, counts and values (HzSparseStore::Verify).
+// store's blocks, bricks and finest errors (DenseStore::Verify), a sparse
+// store's pages, blocks, counts and values (SparseStore::Verify).
 //
 // Thread safety: reentrant over a const store; `progress` is called from
 // the calling thread. Lifetimes: the report is a value.

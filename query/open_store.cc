@@ -25,19 +25,19 @@ Result<AnyStore> AnyStore::Open(const std::string& path, const StoreOptions& opt
       return Status::InvalidArgument(path +
                                      ": in_memory applies to dense stores; a sparse store's blocks are decoded as read");
     }
-    HzSparseStore::Options sparse;
+    SparseStore::Options sparse;
     sparse.cache_bytes = options.cache_bytes;
     sparse.cache = options.cache;
-    SDB_ASSIGN_OR_RETURN(store.sparse_, HzSparseStore::Open(path, sparse));
+    SDB_ASSIGN_OR_RETURN(store.sparse_, SparseStore::Open(path, sparse));
     store.info_ = InfoFromHeader(store.sparse_->header(), store.sparse_->path());
     return store;
   }
-  HzStore::Options hz;
-  hz.cache_bytes = options.cache_bytes;
-  hz.in_memory = options.in_memory;
-  hz.cache = options.cache;
-  SDB_ASSIGN_OR_RETURN(store.hz_, HzStore::Open(path, hz));
-  store.info_ = InfoFromHeader(store.hz_->header(), store.hz_->path());
+  DenseStore::Options dense;
+  dense.cache_bytes = options.cache_bytes;
+  dense.in_memory = options.in_memory;
+  dense.cache = options.cache;
+  SDB_ASSIGN_OR_RETURN(store.dense_, DenseStore::Open(path, dense));
+  store.info_ = InfoFromHeader(store.dense_->header(), store.dense_->path());
   return store;
 }
 

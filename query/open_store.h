@@ -15,11 +15,11 @@
 // visitor). The dispatch costs a branch per Visit() call; inside the visitor
 // every error lookup is a direct (inlinable) call on the concrete source:
 // no virtual call in the refinement's hot path. Each Visit() instantiates
-// the visitor four times (HzSource and HzSparseSource, each for D = 3 and 4).
+// the visitor four times (DenseSource and SparseSource, each for D = 3 and 4).
 //
 // The kind is recognized from the file's first bytes (an LMDB meta page is
-// the sparse store of format 2, storage/sparse/hz_sparse_store.h; anything
-// else is opened as a dense store of format 2, storage/dense/hz_store.h), so
+// the sparse store of format 2, storage/sparse/sparse_store.h; anything
+// else is opened as a dense store of format 2, storage/dense/dense_store.h), so
 // a file that is neither gets the dense store's InvalidArgument naming it,
 // and a store of format 1 (dense: the engine's scratch format; sparse: one
 // LMDB entry per node) is refused with a message that says to import the
@@ -30,10 +30,10 @@
 // its own source. The source a visitor gets is its thread's alone.
 //
 // Lifetimes: the source passed to the visitor lives only for that call;
-// the visitor must not keep a reference or pointer to it. hz() and
+// the visitor must not keep a reference or pointer to it. dense() and
 // sparse() point into the AnyStore and live as long as it does; moving an
 // AnyStore keeps them valid (the stores are held by pointer). Sources made
-// by hand over hz() or sparse() must not outlive the AnyStore.
+// by hand over dense() or sparse() must not outlive the AnyStore.
 #pragma once
 
 #include <cstddef>
@@ -44,8 +44,8 @@
 
 #include "query/source.h"
 #include "storage/common/block_cache.h"
-#include "storage/dense/hz_store.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_store.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -71,9 +71,9 @@ StoreKind ProbeStoreKind(const std::string& path);
 class AnyStore {
  public:
   // Opens and validates the store at `path`. Errors: those of
-  // HzStore::Open (NotFound, InvalidArgument when the file is not a store,
+  // DenseStore::Open (NotFound, InvalidArgument when the file is not a store,
   // NotSupported for format 1 and other format versions, Corruption) or of
-  // HzSparseStore::Open (the same codes; InvalidArgument also for another
+  // SparseStore::Open (the same codes; InvalidArgument also for another
   // program's LMDB file); InvalidArgument for options.in_memory on a sparse
   // store (its blocks are decoded as read).
   static Result<AnyStore> Open(const std::string& path, const StoreOptions& options = {});
@@ -88,8 +88,8 @@ class AnyStore {
   const SourceInfo& info() const { return info_; }
   // The store itself, for what only one kind has (a dense store's cache, a
   // sparse store's header); null for the other kind.
-  const HzStore* hz() const { return hz_.get(); }
-  const HzSparseStore* sparse() const { return sparse_.get(); }
+  const DenseStore* dense() const { return dense_.get(); }
+  const SparseStore* sparse() const { return sparse_.get(); }
 
   // Makes a source of this store's kind and dimension and calls
   // `visitor.template operator()<D>(source)` with it: a generic lambda
@@ -98,19 +98,19 @@ class AnyStore {
   // Returns the visitor's status.
   template <class Visitor>
   Status Visit(Visitor&& visitor) const {
-    if (hz_) {
-      if (hz_->dimension() == 3) {
-        HzSource<3> source(*hz_);
+    if (dense_) {
+      if (dense_->dimension() == 3) {
+        DenseSource<3> source(*dense_);
         return Call<3>(visitor, source);
       }
-      HzSource<4> source(*hz_);
+      DenseSource<4> source(*dense_);
       return Call<4>(visitor, source);
     }
     if (sparse_->dimension() == 3) {
-      HzSparseSource<3> source(*sparse_);
+      SparseSource<3> source(*sparse_);
       return Call<3>(visitor, source);
     }
-    HzSparseSource<4> source(*sparse_);
+    SparseSource<4> source(*sparse_);
     return Call<4>(visitor, source);
   }
 
@@ -132,8 +132,8 @@ class AnyStore {
   }
 
   // Exactly one is set.
-  std::unique_ptr<HzStore> hz_;
-  std::unique_ptr<HzSparseStore> sparse_;
+  std::unique_ptr<DenseStore> dense_;
+  std::unique_ptr<SparseStore> sparse_;
   SourceInfo info_;
 };
 

@@ -1,16 +1,16 @@
 // Sources: the one read interface the query layer sees, over every store,
 // written as the concept ReadSource<S, D> below with its contract. The
 // refinement templates (query/refine.h, mesh_io.h, slice.h) take any type
-// that models it; HzSource<D> (the dense store, mapped, through a bounded
-// cache or decoded in memory) and HzSparseSource<D> (the LMDB store) are
+// that models it; DenseSource<D> (the dense store, mapped, through a bounded
+// cache or decoded in memory) and SparseSource<D> (the LMDB store) are
 // the ones over stores, and query/open_store.h makes the right one for a
 // store path.
 //
 // Refinement is a template over the source (static dispatch): an error lookup
 // is a few nanoseconds in core and a virtual call would show.
 //
-// The in-memory (in-core) case is an HzStore opened with
-// Options::in_memory; it reads through the same HzSource.
+// The in-memory (in-core) case is an DenseStore opened with
+// Options::in_memory; it reads through the same DenseSource.
 //
 // Thread safety: a source is one thread's at a time (no locks inside; it
 // keeps the blocks, snapshot and counters of one walk). Make one source per
@@ -23,7 +23,7 @@
 // reference to it). Everything a source hands back is a value (Result<double>,
 // SourceStats, ...) except info(), a reference that lives as long as the
 // source; no span or pointer into a block or the LMDB map escapes a source.
-// An HzSparseSource reads one LMDB snapshot for its whole life (a read
+// An SparseSource reads one LMDB snapshot for its whole life (a read
 // transaction, begun at its first lookup): it sees no commit made after it was created, and while it
 // lives LMDB keeps that snapshot's pages from reuse, so a writer's file can
 // grow; make a source per query rather than one for the program's life.
@@ -32,7 +32,7 @@
 //
 // Errors: lookups return the store reader's Status (Corruption naming the
 // file and block for damaged data, IOError for a failed read: the contract
-// below); making a source cannot fail (an HzSparseSource's first lookup
+// below); making a source cannot fail (an SparseSource's first lookup
 // reports a read transaction that cannot begin).
 #pragma once
 
@@ -44,8 +44,8 @@
 #include <type_traits>
 
 #include "hierarchy/simplex_code.h"
-#include "storage/dense/hz_store.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_store.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -70,8 +70,8 @@ struct SourceInfo {
   double field_range() const { return field_max - field_min; }
 };
 
-// The SourceInfo of a store whose header has the usual fields (HzHeader,
-// HzSparseHeader).
+// The SourceInfo of a store whose header has the usual fields (DenseHeader,
+// SparseHeader).
 template <class Header>
 SourceInfo InfoFromHeader(const Header& h, const std::string& path) {
   SourceInfo info;
@@ -176,14 +176,14 @@ concept OrderedReadSource =
       { s.ErrorForThresholdAt(code, order, t) } -> std::same_as<Result<double>>;
     };
 
-// A format-2 store's source (storage/dense/hz_store.h: one record per
+// A format-2 store's source (storage/dense/dense_store.h: one record per
 // diamond in hierarchical Z-order): a node's error is its diamond's. Models
-// ThresholdReadSource<HzSource<D>, D>; making one reads nothing.
+// ThresholdReadSource<DenseSource<D>, D>; making one reads nothing.
 template <int D>
-class HzSource {
+class DenseSource {
  public:
   // REQUIRES: store.dimension() == D; the store outlives the source.
-  explicit HzSource(const HzStore& store)
+  explicit DenseSource(const DenseStore& store)
       : reader_(store),
         block_bits_(store.header().block_bits),
         info_(InfoFromHeader(store.header(), store.path())) {}
@@ -223,21 +223,21 @@ class HzSource {
   }
 
  private:
-  HzStore::Reader<D> reader_;
+  DenseStore::Reader<D> reader_;
   int block_bits_;
   SourceInfo info_;
   SourceStats stats_;
 };
 
-// A sparse store of format 2's source (storage/sparse/hz_sparse_store.h):
+// A sparse store of format 2's source (storage/sparse/sparse_store.h):
 // every grid point has a value (the kept ones stored, the dropped ones
-// rebuilt), a dropped diamond's bound is 0. Models ReadSource<HzSparseSource<D>, D>;
+// rebuilt), a dropped diamond's bound is 0. Models ReadSource<SparseSource<D>, D>;
 // making one reads nothing.
 template <int D>
-class HzSparseSource {
+class SparseSource {
  public:
   // REQUIRES: store.dimension() == D; the store outlives the source.
-  explicit HzSparseSource(const HzSparseStore& store)
+  explicit SparseSource(const SparseStore& store)
       : reader_(store), info_(InfoFromHeader(store.header(), store.path())) {}
 
   const SourceInfo& info() const { return info_; }
@@ -255,11 +255,11 @@ class HzSparseSource {
   }
 
  private:
-  HzSparseStore::Reader<D> reader_;
+  SparseStore::Reader<D> reader_;
   SourceInfo info_;
   SourceStats stats_;
 };
 
-static_assert(ThresholdReadSource<HzSource<3>, 3> && ThresholdReadSource<HzSource<4>, 4>);
+static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);
 
 }  // namespace simplexdb

@@ -4,19 +4,19 @@
 
 #include <string>
 
-#include "storage/dense/hz_builder.h"
-#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/sparse/sparse_builder.h"
 #include "storage/volume/volume.h"
 
 namespace simplexdb::tools {
 
 // A dense store built from `input` (the scaling it applied is said).
 // `compression` as the option gave it.
-void PrintDenseBuild(const HzBuildReport& built, const VolumeInfo& input, const std::string& output,
+void PrintDenseBuild(const DenseBuildReport& built, const VolumeInfo& input, const std::string& output,
                      const std::string& compression, bool as_json, bool quiet);
 
 // A sparse store built at `output`.
-void PrintSparseBuild(const HzSparseBuildReport& built, const std::string& output, bool as_json,
+void PrintSparseBuild(const SparseBuildReport& built, const std::string& output, bool as_json,
                       bool quiet);
 
 }  // namespace simplexdb::tools

@@ -48,7 +48,7 @@ void RunConvert(ConvertArgs a) {
     PrintSparseBuild(*r->sparse, a.output, a.json, a.quiet);
     return;
   }
-  const HzHeader& h = r->dense->header;
+  const DenseHeader& h = r->dense->header;
   if (a.json) {
     json j;
     SetJsonBytes(j, "store", a.output);
@@ -81,7 +81,7 @@ void RunUpdate(const UpdateArgs& a) {
   CheckUsage(CheckUpdate(a.store, kind, *volume, options).status());
   ProgressLine line(!a.quiet && !a.json);
   options.progress = ProgressTo(line, a.store);
-  const Result<HzSparseUpdateReport> r = UpdateStore(a.store, *volume, options);
+  const Result<SparseUpdateReport> r = UpdateStore(a.store, *volume, options);
   line.Finish();
   if (!r.ok()) Fail(r.status());
   if (a.json) {

@@ -25,15 +25,15 @@ namespace {
 using json = nlohmann::ordered_json;
 
 // Domain vertices: (2^k + 1)^D.
-double DomainVertices(const HzSparseHeader& h) {
+double DomainVertices(const SparseHeader& h) {
   return std::pow(std::ldexp(1.0, h.domain_bits) + 1, h.dimension);
 }
 
 }  // namespace
 
-void PrintDenseBuild(const HzBuildReport& built, const VolumeInfo& input, const std::string& output,
+void PrintDenseBuild(const DenseBuildReport& built, const VolumeInfo& input, const std::string& output,
                      const std::string& compression, bool as_json, bool quiet) {
-  const HzHeader& h = built.header;
+  const DenseHeader& h = built.header;
   const double points_per_second = built.grid_points / std::max(built.seconds, 1e-9);
   const uint64_t peak = PeakResidentBytes();
   if (as_json) {
@@ -74,8 +74,8 @@ void PrintDenseBuild(const HzBuildReport& built, const VolumeInfo& input, const 
              h.stored_blocks, h.bricks);
 }
 
-void PrintSparseBuild(const HzSparseBuildReport& r, const std::string& output, bool as_json, bool quiet) {
-  const HzSparseHeader& h = r.header;
+void PrintSparseBuild(const SparseBuildReport& r, const std::string& output, bool as_json, bool quiet) {
+  const SparseHeader& h = r.header;
   const double points = static_cast<double>(h.points());
   if (as_json) {
     json j;

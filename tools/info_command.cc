@@ -28,8 +28,8 @@ AnyStore OpenStore(const std::string& path) {
   return *std::move(store);
 }
 
-void PrintDenseInfo(const HzStore& store, const std::string& path, const json& j) {
-  const HzHeader& h = store.header();
+void PrintDenseInfo(const DenseStore& store, const std::string& path, const json& j) {
+  const DenseHeader& h = store.header();
   const auto n = [&](const char* key) { return j[key].get<uint64_t>(); };
   const uint64_t points = n("grid_points"), error_bytes = n("error_bytes"), field_bytes = n("field_bytes");
   const uint64_t raw = n("blocks_raw"), zstd = n("blocks_zstd");
@@ -60,8 +60,8 @@ void PrintDenseInfo(const HzStore& store, const std::string& path, const json& j
              static_cast<double>(logical) / static_cast<double>(h.file_size), per_point);
 }
 
-void PrintSparseInfo(const HzSparseStore& store, const std::string& path) {
-  const HzSparseHeader& h = store.header();
+void PrintSparseInfo(const SparseStore& store, const std::string& path) {
+  const SparseHeader& h = store.header();
   const uint64_t points = h.points();
   const uint64_t bytes = store.file_bytes();
   const double domain_vertices = std::pow(std::ldexp(1.0, h.domain_bits) + 1, h.dimension);
@@ -90,8 +90,8 @@ void RunInfo(const std::string& path, bool as_json) {
   const json j = StoreInfoJson(store);
   if (as_json) {
     std::cout << j.dump() << "\n";
-  } else if (store.hz() != nullptr) {
-    PrintDenseInfo(*store.hz(), path, j);
+  } else if (store.dense() != nullptr) {
+    PrintDenseInfo(*store.dense(), path, j);
   } else {
     PrintSparseInfo(*store.sparse(), path);
   }

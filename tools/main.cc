@@ -7,8 +7,8 @@
 
 #include <CLI/CLI.hpp>
 
-#include "storage/dense/hz_format.h"
-#include "storage/sparse/hz_sparse_format.h"
+#include "storage/dense/dense_format.h"
+#include "storage/sparse/sparse_format.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 
@@ -24,8 +24,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version",
                        std::string("simplexdb ") + SIMPLEXDB_VERSION + " (writes dense stores of header version " +
-                           std::to_string(simplexdb::kHzFormatVersion) + ", sparse stores of header version " +
-                           std::to_string(simplexdb::kHzSparseFormatVersion) + ")",
+                           std::to_string(simplexdb::kDenseFormatVersion) + ", sparse stores of header version " +
+                           std::to_string(simplexdb::kSparseFormatVersion) + ")",
                        "Print the version and the store formats this build writes, then exit");
   simplexdb::tools::RegisterCodesCommand(app);
   simplexdb::tools::RegisterInspectCommand(app);

@@ -183,7 +183,7 @@ TEST(Convert, BothWaysKeepTheVoxelsAndTheirType) {
     ASSERT_TRUE(r->dense.has_value());
     const AnyStore store = Open(back);
     EXPECT_EQ(StoreVoxelType(store), VoxelType::kU8);
-    EXPECT_EQ(store.hz()->header().source, "test voxels");
+    EXPECT_EQ(store.dense()->header().source, "test voxels");
     Result<FieldImage> image = ReadExport(store, {});
     ASSERT_TRUE(image.ok()) << image.status().ToString();
     EXPECT_EQ(image->values, v.values);

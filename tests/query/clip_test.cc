@@ -157,10 +157,10 @@ void CheckHtMeshesCoverTheRealGrid(Source& source, const TestVolume& volume) {
 TEST(ClipToGrid, HtMeshesCoverTheRealGridWithinTheErrorBound) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(3, {11, 7, 13, 1}, VoxelType::kU8, 5);
-  const auto dense = testing::BuildDense(volume, dir.path(), "ht", HzBuildOptions{});
-  const auto sparse = testing::BuildSparse(volume, dir.path(), "ht", HzSparseBuildOptions{});
-  HzSource<3> d(*dense);
-  HzSparseSource<3> s(*sparse);
+  const auto dense = testing::BuildDense(volume, dir.path(), "ht", DenseBuildOptions{});
+  const auto sparse = testing::BuildSparse(volume, dir.path(), "ht", SparseBuildOptions{});
+  DenseSource<3> d(*dense);
+  SparseSource<3> s(*sparse);
   {
     SCOPED_TRACE("dense");
     CheckHtMeshesCoverTheRealGrid(d, volume);
@@ -174,11 +174,11 @@ TEST(ClipToGrid, HtMeshesCoverTheRealGridWithinTheErrorBound) {
 TEST(ClipToGrid, AMeshInsideTheGridIsUnchanged) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(3, {9, 9, 9, 1}, VoxelType::kU8, 6);
-  const auto store = testing::BuildDense(volume, dir.path(), "ht", HzBuildOptions{});
-  HzSource<3> source(*store);
+  const auto store = testing::BuildDense(volume, dir.path(), "ht", DenseBuildOptions{});
+  DenseSource<3> source(*store);
   Criteria<3> criteria;
   criteria.threshold = source.info().field_range() / 5;
-  Refiner<3, HzSource<3>> refiner(source, criteria);
+  Refiner<3, DenseSource<3>> refiner(source, criteria);
   Mesh<3> mesh;
   QueryStats stats;
   ASSERT_TRUE(refiner.Run({Algorithm::kDepthFirst}, mesh, stats).ok());
@@ -193,13 +193,13 @@ TEST(ClipToGrid, AMeshInsideTheGridIsUnchanged) {
 TEST(ClipToGrid, HpSlicesCoverTheRealGrid) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(4, {7, 9, 5, 6}, VoxelType::kU8, 7);
-  const auto store = testing::BuildDense(volume, dir.path(), "hp", HzBuildOptions{});
-  HzSource<4> source(*store);
+  const auto store = testing::BuildDense(volume, dir.path(), "hp", DenseBuildOptions{});
+  DenseSource<4> source(*store);
   const double scale = std::ldexp(1.0, kCoordBits<4> - source.info().domain_bits);
   for (double pct : {0.0, 30.0}) {
     Criteria<4> criteria;
     criteria.threshold = source.info().field_range() * pct / 100;
-    Refiner<4, HzSource<4>> refiner(source, criteria);
+    Refiner<4, DenseSource<4>> refiner(source, criteria);
     Mesh<4> mesh;
     QueryStats stats;
     ASSERT_TRUE(refiner.Run({Algorithm::kDepthFirst}, mesh, stats).ok());

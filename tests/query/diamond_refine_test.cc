@@ -101,8 +101,8 @@ void CheckDiamondMeshes(uint32_t side, uint64_t seed, bool smooth) {
   const TestVolume volume = MakeVolume<D>(side, seed, smooth);
   const auto dense_store = testing::BuildDense(volume, dir.path(), "d");
   const auto sparse_store = testing::BuildSparse(volume, dir.path(), "s");
-  HzSource<D> dense(*dense_store);
-  HzSparseSource<D> sparse(*sparse_store);
+  DenseSource<D> dense(*dense_store);
+  SparseSource<D> sparse(*sparse_store);
   const SourceInfo& info = dense.info();
   const int k = info.domain_bits;
   const double range = info.field_range();

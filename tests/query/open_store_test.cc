@@ -13,8 +13,8 @@
 #include "query/refine.h"
 #include "query/source.h"
 #include "storage/io/lmdb.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/sparse/sparse_builder.h"
 #include "tests/query/query_test_util.h"
 
 namespace simplexdb {
@@ -25,12 +25,12 @@ using testing::TestVolume;
 
 // The read interface's concept: the stores' sources and the tests' own model
 // it.
-static_assert(ThresholdReadSource<HzSource<3>, 3> && ThresholdReadSource<HzSource<4>, 4>);
-static_assert(OrderedReadSource<HzSource<3>, 3> && OrderedReadSource<HzSource<4>, 4>);
-static_assert(ReadSource<HzSparseSource<3>, 3> && ReadSource<HzSparseSource<4>, 4>);
+static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);
+static_assert(OrderedReadSource<DenseSource<3>, 3> && OrderedReadSource<DenseSource<4>, 4>);
+static_assert(ReadSource<SparseSource<3>, 3> && ReadSource<SparseSource<4>, 4>);
 static_assert(ReadSource<testing::FullSource<3>, 3> && ReadSource<testing::FullSource<4>, 4>);
 static_assert(!ThresholdReadSource<testing::FullSource<3>, 3>);
-static_assert(!ReadSource<HzSource<3>, 4> && !ReadSource<HzSparseSource<4>, 3>);  // one hierarchy each
+static_assert(!ReadSource<DenseSource<3>, 4> && !ReadSource<SparseSource<4>, 3>);  // one hierarchy each
 static_assert(!ReadSource<int, 3>);
 
 template <int D>
@@ -46,13 +46,13 @@ std::vector<uint64_t> DepthFirstLeaves(auto& source, double threshold) {
 
 // The stores of `volume` as import makes them, at dir/name.sdb (dense) and
 // dir/name.lmdb (sparse, at tolerance t).
-std::unique_ptr<HzStore> BuildHz(const TestVolume& volume, const std::string& dir,
-                                 const std::string& name) {
-  return testing::BuildDense(volume, dir, name, HzBuildOptions{});
+std::unique_ptr<DenseStore> ImportDense(const TestVolume& volume, const std::string& dir,
+                                        const std::string& name) {
+  return testing::BuildDense(volume, dir, name, DenseBuildOptions{});
 }
-std::unique_ptr<HzSparseStore> BuildHzSparse(const TestVolume& volume, const std::string& dir,
-                                             const std::string& name, double t) {
-  HzSparseBuildOptions options;
+std::unique_ptr<SparseStore> BuildSparse(const TestVolume& volume, const std::string& dir,
+                                         const std::string& name, double t) {
+  SparseBuildOptions options;
   options.tolerance = t;
   return testing::BuildSparse(volume, dir, name, options);
 }
@@ -61,13 +61,13 @@ template <int D>
 void CheckVisits(uint32_t side) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(D, {side, side, side, D == 4 ? side : 1}, VoxelType::kU8, 3);
-  auto hz = BuildHz(volume, dir.path(), "d");
+  auto dense = ImportDense(volume, dir.path(), "d");
   // At a tolerance the sparse store's mesh is its own.
-  auto sparse = BuildHzSparse(volume, dir.path(), "s", 2.0);
-  const double threshold = (hz->header().field_max - hz->header().field_min) * 0.1;
-  HzSource<D> hz_direct(*hz);
-  HzSparseSource<D> sparse_direct(*sparse);
-  const std::vector<uint64_t> want_dense = DepthFirstLeaves<D>(hz_direct, threshold);
+  auto sparse = BuildSparse(volume, dir.path(), "s", 2.0);
+  const double threshold = (dense->header().field_max - dense->header().field_min) * 0.1;
+  DenseSource<D> dense_direct(*dense);
+  SparseSource<D> sparse_direct(*sparse);
+  const std::vector<uint64_t> want_dense = DepthFirstLeaves<D>(dense_direct, threshold);
   const std::vector<uint64_t> want_sparse = DepthFirstLeaves<D>(sparse_direct, threshold);
   ASSERT_GT(want_dense.size(), size_t{SimplexCode<D>::kRoots});
   ASSERT_GT(want_sparse.size(), size_t{SimplexCode<D>::kRoots});
@@ -84,14 +84,14 @@ void CheckVisits(uint32_t side) {
     EXPECT_EQ(store->kind(), kind);
     EXPECT_EQ(store->dimension(), D);
     EXPECT_EQ(store->path(), path);
-    EXPECT_EQ(store->hz() != nullptr, kind == StoreKind::kDense);
+    EXPECT_EQ(store->dense() != nullptr, kind == StoreKind::kDense);
     EXPECT_EQ(store->sparse() != nullptr, kind == StoreKind::kSparse);
     int calls = 0;
     const Status s = store->Visit([&]<int E, class Source>(Source& source) -> Status {
       ++calls;
       EXPECT_EQ(E, D);
-      EXPECT_EQ((std::is_same_v<Source, HzSource<E>>), kind == StoreKind::kDense);
-      EXPECT_EQ((std::is_same_v<Source, HzSparseSource<E>>), kind == StoreKind::kSparse);
+      EXPECT_EQ((std::is_same_v<Source, DenseSource<E>>), kind == StoreKind::kDense);
+      EXPECT_EQ((std::is_same_v<Source, SparseSource<E>>), kind == StoreKind::kSparse);
       EXPECT_EQ(source.info().path, path);
       EXPECT_EQ(source.info().domain_bits, store->info().domain_bits);
       if constexpr (E == D) {
@@ -106,10 +106,10 @@ void CheckVisits(uint32_t side) {
                     .IsCorruption());
     EXPECT_TRUE(store->Visit([]<int E, class Source>(Source&) {}).ok());
     // Moving the handle keeps the stores where they are.
-    const HzStore* d = store->hz();
-    const HzSparseStore* sp = store->sparse();
+    const DenseStore* d = store->dense();
+    const SparseStore* sp = store->sparse();
     AnyStore moved = *std::move(store);
-    EXPECT_EQ(moved.hz(), d);
+    EXPECT_EQ(moved.dense(), d);
     EXPECT_EQ(moved.sparse(), sp);
     // VisitStore opens, visits once and closes.
     calls = 0;
@@ -124,23 +124,23 @@ TEST(OpenStore, VisitsEveryKindWithItsSourceHp) { CheckVisits<4>(5); }
 TEST(OpenStore, OptionsReachTheDenseStore) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(3, {9, 9, 9, 1}, VoxelType::kU8, 4);
-  BuildHz(volume, dir.path(), "d");
-  BuildHzSparse(volume, dir.path(), "s", 0);
+  ImportDense(volume, dir.path(), "d");
+  BuildSparse(volume, dir.path(), "s", 0);
   StoreOptions options;
   options.cache_bytes = 12345;
   Result<AnyStore> cached = AnyStore::Open(dir.path() + "/d.sdb", options);
   ASSERT_TRUE(cached.ok());
-  ASSERT_NE(cached->hz()->cache(), nullptr);
-  EXPECT_EQ(cached->hz()->cache()->capacity(), 12345u);
+  ASSERT_NE(cached->dense()->cache(), nullptr);
+  EXPECT_EQ(cached->dense()->cache()->capacity(), 12345u);
   options.in_memory = true;
   Result<AnyStore> in_memory = AnyStore::Open(dir.path() + "/d.sdb", options);
   ASSERT_TRUE(in_memory.ok());
   // Every block and brick decoded at open; the cache holds only the finest
   // errors computed from them, unbounded.
-  const HzStore::Stats opened = in_memory->hz()->stats();
+  const DenseStore::Stats opened = in_memory->dense()->stats();
   EXPECT_EQ(opened.blocks_decoded + opened.raw_checked,
-            in_memory->hz()->stored_blocks() + in_memory->hz()->bricks());
-  EXPECT_GT(in_memory->hz()->cache()->capacity(), options.cache_bytes);
+            in_memory->dense()->stored_blocks() + in_memory->dense()->bricks());
+  EXPECT_GT(in_memory->dense()->cache()->capacity(), options.cache_bytes);
   // A shared cache is the sparse store's too.
   StoreOptions shared;
   shared.cache = std::make_shared<BlockCache>(size_t{1} << 20);
@@ -176,11 +176,11 @@ TEST(OpenStore, SaysWhyAPathIsNotAStore) {
 // A store of format 1 (dense: one error per simplex; sparse: one LMDB
 // entry per node) is refused, saying to import again. The dense one is a
 // store of today with format 1's version number: format 1 had the same
-// magic and version field (storage/dense/hz_format.h).
+// magic and version field (storage/dense/dense_format.h).
 TEST(OpenStore, RefusesFormatOneSayingToImportAgain) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(3, {9, 9, 9, 1}, VoxelType::kU8, 5);
-  BuildHz(volume, dir.path(), "f1");
+  ImportDense(volume, dir.path(), "f1");
   {
     std::fstream f(dir.path() + "/f1.sdb", std::ios::binary | std::ios::in | std::ios::out);
     f.seekp(8);
@@ -251,13 +251,13 @@ TEST(AnyStore, SourceInfoHasTheInputsSpacingAndOrigin) {
         << c.fields << "\n" << ones;
     const Result<VolumeInfo> volume = OpenVolume(name + ".nrrd");
     ASSERT_TRUE(volume.ok()) << volume.status().ToString();
-    ASSERT_TRUE(BuildHzStore(*volume, name + ".sdb", HzBuildOptions{}).ok());
-    HzBuildOptions masked;  // the format-1 engine's path
+    ASSERT_TRUE(BuildDenseStore(*volume, name + ".sdb", DenseBuildOptions{}).ok());
+    DenseBuildOptions masked;  // the format-1 engine's path
     masked.mask = *OpenVolume(name + "-mask.nrrd");
-    ASSERT_TRUE(BuildHzStore(*volume, name + "-masked.sdb", masked).ok());
-    HzSparseBuildOptions sparse;
+    ASSERT_TRUE(BuildDenseStore(*volume, name + "-masked.sdb", masked).ok());
+    SparseBuildOptions sparse;
     sparse.tolerance = 3;
-    ASSERT_TRUE(BuildHzSparseStore(*volume, name + ".lmdb", sparse).ok());
+    ASSERT_TRUE(BuildSparseStore(*volume, name + ".lmdb", sparse).ok());
     for (const std::string& store : {name + ".sdb", name + "-masked.sdb", name + ".lmdb"}) {
       SCOPED_TRACE(store);
       const Result<AnyStore> opened = AnyStore::Open(store);

@@ -14,10 +14,10 @@
 
 #include "query/refine.h"
 #include "query/source.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_store.h"
-#include "storage/sparse/hz_sparse_builder.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 
@@ -27,8 +27,8 @@ namespace simplexdb::testing {
 // is the exact error moved up by at most a float's rounding
 // (BruteForceErrors::UpperBound), and small blocks, so that even a 9^3 grid
 // has several.
-inline HzBuildOptions ExactDenseOptions(Compression compression = Compression::kZstd) {
-  HzBuildOptions o;
+inline DenseBuildOptions ExactDenseOptions(Compression compression = Compression::kZstd) {
+  DenseBuildOptions o;
   o.quantization = Quantization::kF32;
   o.compression = compression;
   o.block_bits = 8;
@@ -37,8 +37,8 @@ inline HzBuildOptions ExactDenseOptions(Compression compression = Compression::k
 
 // The sparse build to compare with it: lossless, float32 errors (the
 // dense store's quantizer), small blocks.
-inline HzSparseBuildOptions ExactSparseOptions() {
-  HzSparseBuildOptions o;
+inline SparseBuildOptions ExactSparseOptions() {
+  SparseBuildOptions o;
   o.quantization = Quantization::kF32;
   o.block_bits = 9;
   return o;
@@ -52,27 +52,27 @@ inline std::string WriteInput(const TestVolume& volume, const std::string& dir, 
 }
 
 // The dense store of `volume` at dir/name.sdb, opened with `open`.
-inline std::unique_ptr<HzStore> BuildDense(const TestVolume& volume, const std::string& dir,
-                                           const std::string& name,
-                                           const HzBuildOptions& options = ExactDenseOptions(),
-                                           const HzStore::Options& open = {}) {
+inline std::unique_ptr<DenseStore> BuildDense(const TestVolume& volume, const std::string& dir,
+                                              const std::string& name,
+                                              const DenseBuildOptions& options = ExactDenseOptions(),
+                                              const DenseStore::Options& open = {}) {
   const std::string path = dir + "/" + name + ".sdb";
-  const auto built = BuildHzStore(*OpenVolume(WriteInput(volume, dir, name)), path, options);
+  const auto built = BuildDenseStore(*OpenVolume(WriteInput(volume, dir, name)), path, options);
   EXPECT_TRUE(built.ok()) << built.status().ToString();
-  auto store = HzStore::Open(path, open);
+  auto store = DenseStore::Open(path, open);
   EXPECT_TRUE(store.ok()) << store.status().ToString();
   return store.ok() ? std::move(store).value() : nullptr;
 }
 
 // The sparse store of `volume` at dir/name.lmdb, opened with `open`.
-inline std::unique_ptr<HzSparseStore> BuildSparse(const TestVolume& volume, const std::string& dir,
-                                                  const std::string& name,
-                                                  const HzSparseBuildOptions& options = ExactSparseOptions(),
-                                                  const HzSparseStore::Options& open = {}) {
+inline std::unique_ptr<SparseStore> BuildSparse(const TestVolume& volume, const std::string& dir,
+                                                const std::string& name,
+                                                const SparseBuildOptions& options = ExactSparseOptions(),
+                                                const SparseStore::Options& open = {}) {
   const std::string path = dir + "/" + name + ".lmdb";
-  const auto built = BuildHzSparseStore(*OpenVolume(WriteInput(volume, dir, name)), path, options);
+  const auto built = BuildSparseStore(*OpenVolume(WriteInput(volume, dir, name)), path, options);
   EXPECT_TRUE(built.ok()) << built.status().ToString();
-  auto store = HzSparseStore::Open(path, open);
+  auto store = SparseStore::Open(path, open);
   EXPECT_TRUE(store.ok()) << store.status().ToString();
   return store.ok() ? std::move(store).value() : nullptr;
 }

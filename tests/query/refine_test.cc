@@ -31,8 +31,8 @@ template <int D>
 struct Fixture {
   TestVolume volume;
   int k = 0;
-  std::unique_ptr<HzStore> dense;
-  std::unique_ptr<HzSparseStore> sparse;
+  std::unique_ptr<DenseStore> dense;
+  std::unique_ptr<SparseStore> sparse;
   std::unique_ptr<BruteForceErrors<D>> oracle;
 };
 
@@ -138,8 +138,8 @@ void CheckAgainstBruteForce(uint32_t side, uint64_t seed, const std::vector<doub
   TempDir dir;
   const Fixture<D> s = MakeFixture<D>(dir, side, seed);
   const BruteForceErrors<D>& oracle = *s.oracle;
-  HzSource<D> dense(*s.dense);
-  HzSparseSource<D> sparse(*s.sparse);
+  DenseSource<D> dense(*s.dense);
+  SparseSource<D> sparse(*s.sparse);
   const SourceInfo& info = dense.info();
   for (const auto& [name, criteria] : CriteriaCases<D>(
            oracle, info.field_range(), info.field_min + info.field_range() / 3 + 1.0 / 3, percents)) {
@@ -211,8 +211,8 @@ TEST(Refine, EveryNewLeafIsChecked) {
   }
   EXPECT_GT(seed_failing, 0u) << "no longer a witness of the erratum: choose another seed";
 
-  HzSource<3> dense(*s.dense);
-  HzSparseSource<3> sparse(*s.sparse);
+  DenseSource<3> dense(*s.dense);
+  SparseSource<3> sparse(*s.sparse);
   for (const Algorithm a : {Algorithm::kDepthFirst, Algorithm::kPriority, Algorithm::kLevelOrder}) {
     SCOPED_TRACE(AlgorithmName(a));
     Mesh<3> d, sp;
@@ -265,7 +265,7 @@ void CheckIncremental(uint32_t side, uint64_t seed, size_t from_step) {
   TempDir dir;
   const Fixture<D> s = MakeFixture<D>(dir, side, seed);
   const BruteForceErrors<D>& oracle = *s.oracle;
-  HzSource<D> source(*s.dense);
+  DenseSource<D> source(*s.dense);
   const auto cases = CriteriaCases<D>(oracle, source.info().field_range(), source.info().field_min + 40 + 1.0 / 3,
                                       {0, 10, 25, 50});
   for (size_t to = 1; to < cases.size(); to += 3) {
@@ -295,10 +295,10 @@ TEST(Refine, PriorityStopsAtTheBudget) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(3, {33, 33, 33, 1}, VoxelType::kU8, 5);
   const auto store = testing::BuildDense(volume, dir.path(), "d");
-  HzSource<3> source(*store);
+  DenseSource<3> source(*store);
   Criteria<3> c;
   c.threshold = 0;
-  Refiner<3, HzSource<3>> refiner(source, c);
+  Refiner<3, DenseSource<3>> refiner(source, c);
   std::vector<uint64_t> previous;
   for (uint64_t budget : {6u, 50u, 1000u, 20000u}) {
     SCOPED_TRACE(budget);

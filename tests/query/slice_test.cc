@@ -88,10 +88,10 @@ void CheckSlices(Source& source, const TestVolume& volume) {
 TEST(Slice, HpSlicesAreConformingMeshesOfTheCube) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kU8, 31);
-  const auto dense = testing::BuildDense(volume, dir.path(), "hp", HzBuildOptions{});
-  const auto sparse = testing::BuildSparse(volume, dir.path(), "hp", HzSparseBuildOptions{});
-  HzSource<4> d(*dense);
-  HzSparseSource<4> s(*sparse);
+  const auto dense = testing::BuildDense(volume, dir.path(), "hp", DenseBuildOptions{});
+  const auto sparse = testing::BuildSparse(volume, dir.path(), "hp", SparseBuildOptions{});
+  DenseSource<4> d(*dense);
+  SparseSource<4> s(*sparse);
   {
     SCOPED_TRACE("dense");
     CheckSlices(d, volume);

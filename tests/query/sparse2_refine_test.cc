@@ -1,4 +1,4 @@
-// Queries over the sparse store of format 2 (storage/sparse/hz_sparse_store.h):
+// Queries over the sparse store of format 2 (storage/sparse/sparse_store.h):
 // lossless, the meshes of the dense store of format 2 under every
 // criterion and algorithm; at a tolerance t, every leaf of a mesh at
 // threshold e within max(e, t) of its brute-force error.
@@ -10,10 +10,10 @@
 
 #include "query/refine.h"
 #include "query/source.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_store.h"
-#include "storage/sparse/hz_sparse_builder.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
 #include "tests/query/query_test_util.h"
 
 namespace simplexdb {
@@ -42,15 +42,15 @@ TestVolume Mixed(int dimension, std::array<uint32_t, 4> dims, uint64_t seed) {
 }
 
 struct Stores {
-  std::unique_ptr<HzStore> dense;
-  std::unique_ptr<HzSparseStore> sparse;
+  std::unique_ptr<DenseStore> dense;
+  std::unique_ptr<SparseStore> sparse;
 };
 
 // The dense store as import makes it, the sparse one at `tolerance`.
 Stores Build(const TestVolume& volume, const TempDir& dir, double tolerance) {
-  HzBuildOptions dense;
+  DenseBuildOptions dense;
   dense.threads = 1;
-  HzSparseBuildOptions o;
+  SparseBuildOptions o;
   o.tolerance = tolerance;
   o.block_bits = 9;
   return Stores{testing::BuildDense(volume, dir.path(), "dense", dense),
@@ -87,8 +87,8 @@ template <int D>
 void ExpectLosslessMeshesAreDense(const TestVolume& volume) {
   TempDir dir;
   const Stores s = Build(volume, dir, 0);
-  HzSource<D> dense(*s.dense);
-  HzSparseSource<D> sparse(*s.sparse);
+  DenseSource<D> dense(*s.dense);
+  SparseSource<D> sparse(*s.sparse);
   const SourceInfo& info = dense.info();
   ASSERT_EQ(sparse.info().field_range(), info.field_range());
   for (const auto& [name, spec] : Specs<D>(info.domain_bits, info.field_min, info.field_range())) {
@@ -102,8 +102,8 @@ void ExpectLosslessMeshesAreDense(const TestVolume& volume) {
     for (const Algorithm a : algorithms) {
       Mesh<D> want, got;
       QueryStats stats;
-      ASSERT_TRUE((Refiner<D, HzSource<D>>(dense, c).Run({a}, want, stats).ok()));
-      ASSERT_TRUE((Refiner<D, HzSparseSource<D>>(sparse, c).Run({a}, got, stats).ok()));
+      ASSERT_TRUE((Refiner<D, DenseSource<D>>(dense, c).Run({a}, want, stats).ok()));
+      ASSERT_TRUE((Refiner<D, SparseSource<D>>(sparse, c).Run({a}, got, stats).ok()));
       EXPECT_EQ(SplitKeys(got), SplitKeys(want));
       EXPECT_GT(want.split_count(), 0u);
     }
@@ -124,7 +124,7 @@ void ExpectLeavesWithinTolerance(const TestVolume& volume, double tolerance) {
   SCOPED_TRACE("tolerance " + std::to_string(tolerance));
   TempDir dir;
   const Stores s = Build(volume, dir, tolerance);
-  HzSparseSource<D> sparse(*s.sparse);
+  SparseSource<D> sparse(*s.sparse);
   const SourceInfo& info = sparse.info();
   for (const double threshold : {tolerance / 2, tolerance, 2 * tolerance}) {
     CriteriaSpec spec;
@@ -132,7 +132,7 @@ void ExpectLeavesWithinTolerance(const TestVolume& volume, double tolerance) {
     const Criteria<D> c = *MakeCriteria<D>(spec, info.domain_bits, info.field_range());
     Mesh<D> mesh;
     QueryStats stats;
-    ASSERT_TRUE((Refiner<D, HzSparseSource<D>>(sparse, c).Run({Algorithm::kDepthFirst}, mesh, stats).ok()));
+    ASSERT_TRUE((Refiner<D, SparseSource<D>>(sparse, c).Run({Algorithm::kDepthFirst}, mesh, stats).ok()));
     const double bound = std::max(threshold, tolerance);
     for (const SimplexCode<D> leaf : mesh.Leaves()) {
       const long double exact = testing::BruteForceError<D>(leaf, info.domain_bits, volume);

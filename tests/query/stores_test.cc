@@ -106,18 +106,18 @@ void CheckStoresAgree(uint32_t side, const std::vector<double>& percents, size_t
   const TestVolume volume = Structured(D, side);
   const auto zstd = testing::BuildDense(volume, dir.path(), "z");
   const auto raw = testing::BuildDense(volume, dir.path(), "r", testing::ExactDenseOptions(Compression::kNone));
-  HzStore::Options in_memory;
+  DenseStore::Options in_memory;
   in_memory.in_memory = true;
-  const auto resident = *HzStore::Open(dir.path() + "/z.sdb", in_memory);
-  HzStore::Options small_cache;
+  const auto resident = *DenseStore::Open(dir.path() + "/z.sdb", in_memory);
+  DenseStore::Options small_cache;
   small_cache.cache_bytes = small;
-  const auto starved = *HzStore::Open(dir.path() + "/z.sdb", small_cache);
+  const auto starved = *DenseStore::Open(dir.path() + "/z.sdb", small_cache);
   const auto sparse = testing::BuildSparse(volume, dir.path(), "s");
-  HzSparseStore::Options sparse_small_cache;
+  SparseStore::Options sparse_small_cache;
   sparse_small_cache.cache_bytes = sparse_small;
-  const auto sparse_starved = *HzSparseStore::Open(dir.path() + "/s.lmdb", sparse_small_cache);
-  HzSource<D> z(*zstd), r(*raw), m(*resident), t(*starved);
-  HzSparseSource<D> sp(*sparse), spt(*sparse_starved);
+  const auto sparse_starved = *SparseStore::Open(dir.path() + "/s.lmdb", sparse_small_cache);
+  DenseSource<D> z(*zstd), r(*raw), m(*resident), t(*starved);
+  SparseSource<D> sp(*sparse), spt(*sparse_starved);
   const testing::BruteForceErrors<D> oracle(volume, zstd->header().domain_bits);
   const SourceInfo& info = z.info();
   for (const auto& [name, c] : Queries<D>(oracle, info.field_min, info.field_range(), percents)) {
@@ -168,13 +168,13 @@ TEST(Stores, BlockMaximaSkipBlocksAndChangeNothing) {
   TempDir dir;
   const TestVolume volume = Structured(3, 33);
   testing::BuildDense(volume, dir.path(), "z");
-  HzStore::Options in_memory;
+  DenseStore::Options in_memory;
   in_memory.in_memory = true;
-  const auto resident = *HzStore::Open(dir.path() + "/z.sdb", in_memory);
-  HzStore::Options no_cache;
+  const auto resident = *DenseStore::Open(dir.path() + "/z.sdb", in_memory);
+  DenseStore::Options no_cache;
   no_cache.cache_bytes = 0;
-  const auto cold = *HzStore::Open(dir.path() + "/z.sdb", no_cache);
-  HzSource<3> m(*resident), c(*cold);
+  const auto cold = *DenseStore::Open(dir.path() + "/z.sdb", no_cache);
+  DenseSource<3> m(*resident), c(*cold);
   const double range = m.info().field_range();
   uint64_t skipped = 0;
   for (double pct : {0.0, 3.0, 20.0, 60.0}) {
@@ -183,7 +183,7 @@ TEST(Stores, BlockMaximaSkipBlocksAndChangeNothing) {
       SCOPED_TRACE(std::to_string(pct) + "% " + AlgorithmName(a));
       Criteria<3> crit;
       crit.threshold = range * pct / 100;
-      Refiner<3, HzSource<3>> rm(m, crit), rc(c, crit);
+      Refiner<3, DenseSource<3>> rm(m, crit), rc(c, crit);
       Mesh<3> mm, mc;
       QueryStats sm, sc;
       ASSERT_TRUE(rm.Run({a}, mm, sm).ok());

@@ -15,7 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "storage/dense/hz_format.h"
+#include "storage/dense/dense_format.h"
 
 #include "tests/storage/address_space_limit.h"
 #include "tests/storage/store_test_util.h"
@@ -89,10 +89,10 @@ TEST(BytesCli, PathThatIsNotUtf8IsCarriedThroughInfoJsonAndConvert) {
 
 TEST(BytesCli, SourceLongerThanTheHeaderFieldIsCutBetweenCharacters) {
   const TempDir dir;
-  // The dense header holds kHzMaxSource (1024) bytes of "NRRD file <path>":
+  // The dense header holds kDenseMaxSource (1024) bytes of "NRRD file <path>":
   // put a two-byte character across byte 1024, in a path of components of
   // é (a name has at most 255 bytes).
-  constexpr size_t kMax = kHzMaxSource;
+  constexpr size_t kMax = kDenseMaxSource;
   std::string e100;
   for (int i = 0; i < 100; ++i) e100 += "\xC3\xA9";  // é
   std::string sub, in, full;

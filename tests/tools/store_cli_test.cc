@@ -15,7 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "storage/dense/hz_format.h"
+#include "storage/dense/dense_format.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 #include "tests/tools/cli_runner.h"
@@ -153,7 +153,7 @@ TEST(StoreCli, ImportInfoVerifyExtractExport) {
 TEST(StoreCli, FormatOneStoresAreRefusedSayingToImportAgain) {
   const TempDir dir;
   const std::string f1 = dir.path() + "/old.sdb";
-  fs::copy_file(std::string(SIMPLEXDB_GOLDEN_DIR) + "/ht_7x6x5_u8_u16.sdb", f1);
+  fs::copy_file(std::string(SIMPLEXDB_GOLDEN_DIR) + "/format1_ht_7x6x5_u8_u16.sdb", f1);
   for (const std::string& command :
        {"info " + f1, "verify " + f1, "extract " + f1 + " --error 1%",
         "export " + f1 + " -o " + dir.path() + "/x.nrrd",
@@ -271,7 +271,7 @@ TEST(StoreCli, BadInputSaysWhatAndWhere) {
   ASSERT_EQ(RunCli("import " + dir.path() + "/g.nrrd -o " + dir.path() + "/g.sdb").exit_code, 0);
   {
     std::fstream f(dir.path() + "/g.sdb", std::ios::in | std::ios::out | std::ios::binary);
-    f.seekp(kHzHeaderSize + 10);  // in the first block or brick
+    f.seekp(kDenseHeaderSize + 10);  // in the first block or brick
     f.put('\x5a');
   }
   r = RunCli("verify " + dir.path() + "/g.sdb");

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "storage/common/block_cache.h"
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_store.h"
 #include "tests/storage/common/smooth_store.h"
 #include "tests/storage/store_test_util.h"
 
@@ -25,8 +25,8 @@ struct SmallStore : SmoothHtStore {
       : SmoothHtStore(dir.path(), name, 17, seed, /*block_bits=*/7) {}
 
   // Nodes whose bound read through `store` differs from the store's own.
-  int Mismatches(const HzStore& store) const {
-    HzStore::Reader<3> reader(store);
+  int Mismatches(const DenseStore& store) const {
+    DenseStore::Reader<3> reader(store);
     int bad = 0;
     for (size_t k = 0; k < codes.size(); ++k) {
       const Result<double> e = reader.ErrorBound(codes[k]);
@@ -36,8 +36,8 @@ struct SmallStore : SmoothHtStore {
   }
 };
 
-HzStore::Options Shared(const std::shared_ptr<BlockCache>& cache) {
-  HzStore::Options o;
+DenseStore::Options Shared(const std::shared_ptr<BlockCache>& cache) {
+  DenseStore::Options o;
   o.cache = cache;
   return o;
 }
@@ -51,19 +51,19 @@ TEST(BlockCacheSharing, StoreIdsDoNotWrapAfter65536Opens) {
   ASSERT_EQ(a.codes, b.codes);
   ASSERT_NE(a.expected, b.expected) << "the two stores must differ";
   auto cache = std::make_shared<BlockCache>(size_t{64} << 20);
-  auto store_a = *HzStore::Open(a.path, Shared(cache));
+  auto store_a = *DenseStore::Open(a.path, Shared(cache));
   ASSERT_EQ(a.Mismatches(*store_a), 0);  // a's blocks are now in the cache
   ASSERT_GT(store_a->stats().blocks_decoded, 0u) << "the store must have zstd blocks";
   // Open (and close) 65,535 more stores: each open draws one store id.
   const auto start = std::chrono::steady_clock::now();
   for (int i = 0; i < 65535; ++i) {
-    auto s = HzStore::Open(b.path, Shared(cache));
+    auto s = DenseStore::Open(b.path, Shared(cache));
     ASSERT_TRUE(s.ok()) << s.status().ToString();
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   RecordProperty("seconds_for_65535_opens", std::to_string(seconds));
-  auto store_b = *HzStore::Open(b.path, Shared(cache));
+  auto store_b = *DenseStore::Open(b.path, Shared(cache));
   EXPECT_EQ(b.Mismatches(*store_b), 0) << "b was served a's blocks";
   EXPECT_EQ(a.Mismatches(*store_a), 0) << "a was served b's blocks";
 }
@@ -73,12 +73,12 @@ TEST(BlockCacheSharing, ClosingAStoreErasesItsBlocks) {
   const SmallStore a(dir, "a", 1);
   const SmallStore b(dir, "b", 2);
   auto cache = std::make_shared<BlockCache>(size_t{64} << 20);
-  auto store_b = *HzStore::Open(b.path, Shared(cache));
+  auto store_b = *DenseStore::Open(b.path, Shared(cache));
   ASSERT_EQ(b.Mismatches(*store_b), 0);
   const size_t b_charge = cache->charge();
   ASSERT_GT(b_charge, 0u);
   {
-    auto store_a = *HzStore::Open(a.path, Shared(cache));
+    auto store_a = *DenseStore::Open(a.path, Shared(cache));
     ASSERT_EQ(a.Mismatches(*store_a), 0);
     EXPECT_GT(cache->charge(), b_charge);
   }

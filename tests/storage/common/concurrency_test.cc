@@ -10,7 +10,7 @@
 #include <thread>
 
 #include "storage/common/block_cache.h"
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_store.h"
 #include "storage/volume/generate.h"
 #include "tests/storage/common/smooth_store.h"
 #include "tests/storage/store_test_util.h"
@@ -29,14 +29,14 @@ struct Fixture {
 
 TEST(Concurrency, ThreadsShareAStoreAndASmallCache) {
   const Fixture f;
-  HzStore::Options options;
+  DenseStore::Options options;
   options.cache_bytes = 16 << 10;  // far smaller than the store: constant eviction
-  auto store = *HzStore::Open(f.store.path, options);
+  auto store = *DenseStore::Open(f.store.path, options);
   std::vector<std::thread> threads;
   std::atomic<int> mismatches{0};
   for (int t = 0; t < 8; ++t) {
     threads.emplace_back([&, t] {
-      HzStore::Reader<3> reader(*store);
+      DenseStore::Reader<3> reader(*store);
       std::mt19937_64 rng(t);
       for (int i = 0; i < 20000; ++i) {
         const size_t k = rng() % f.store.codes.size();
@@ -60,9 +60,9 @@ TEST(Concurrency, ProcessesOpenTheSameStore) {
     ASSERT_GE(pid, 0);
     if (pid == 0) {
       // In the child: no gtest assertions, just an exit status.
-      auto store = HzStore::Open(f.store.path);
+      auto store = DenseStore::Open(f.store.path);
       if (!store.ok()) _exit(2);
-      HzStore::Reader<3> reader(**store);
+      DenseStore::Reader<3> reader(**store);
       for (size_t k = 0; k < f.store.codes.size(); ++k) {
         const Result<double> e = reader.ErrorBound(f.store.codes[k]);
         if (!e.ok() || *e != f.store.expected[k]) _exit(1);

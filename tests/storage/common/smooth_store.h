@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "hierarchy/simplex_code.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
 #include "storage/volume/generate.h"
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
@@ -40,12 +40,12 @@ struct SmoothHtStore {
     for (double& v : values) v = std::round(v);
     const std::string nrrd = folder + "/" + name + ".nrrd";
     EXPECT_TRUE(WriteNrrd(nrrd, 3, g.dims, VoxelType::kU8, values).ok());
-    HzBuildOptions options;
+    DenseBuildOptions options;
     options.block_bits = block_bits;
     path = folder + "/" + name + ".sdb";
-    EXPECT_TRUE(BuildHzStore(*OpenVolume(nrrd), path, options).ok());
-    auto store = *HzStore::Open(path);
-    HzStore::Reader<3> reader(*store);
+    EXPECT_TRUE(BuildDenseStore(*OpenVolume(nrrd), path, options).ok());
+    auto store = *DenseStore::Open(path);
+    DenseStore::Reader<3> reader(*store);
     std::function<void(TetCode)> visit = [&](TetCode c) {
       if (c.level() >= store->header().leaf_level()) return;
       codes.push_back(c);

@@ -7,8 +7,8 @@
 #include <fstream>
 #include <random>
 
-#include "storage/dense/hz_store.h"
-#include "tests/fuzz/hz_checksums.h"
+#include "storage/dense/dense_store.h"
+#include "tests/fuzz/dense_checksums.h"
 #include "tests/storage/dense/dense_test_util.h"
 
 namespace simplexdb {
@@ -35,7 +35,7 @@ template <int D>
 void DamageCampaign(TestVolume volume, Compression compression, int block_bits, uint64_t seed,
                     int cases, bool computed) {
   TempDir dir;
-  HzBuildOptions o;
+  DenseBuildOptions o;
   o.compression = compression;
   o.block_bits = block_bits;
   if (!computed) {
@@ -43,7 +43,7 @@ void DamageCampaign(TestVolume volume, Compression compression, int block_bits, 
     for (size_t i = 0; i < volume.values.size(); i += 29) volume.values[i] = std::nan("");
   }
   ASSERT_NE(BuildStore(volume, dir, "good", o), nullptr);
-  auto good = HzStore::Open(dir / "good.sdb");
+  auto good = DenseStore::Open(dir / "good.sdb");
   ASSERT_TRUE(good.ok()) << good.status().message();
   ASSERT_EQ((*good)->header().finest_stored(), !computed);
   const auto truth = AllAnswers<D>(**good);
@@ -68,10 +68,10 @@ void DamageCampaign(TestVolume volume, Compression compression, int block_bits, 
     // The same damage behind repaired checksums reaches the structural
     // checks: it may change answers, but must fail cleanly if at all.
     std::vector<uint8_t> repaired = damaged;
-    fuzz::RepairHzChecksums(repaired);
+    fuzz::RepairDenseChecksums(repaired);
     const std::string path = dir / "damaged.sdb";
     WriteBytes(path, repaired);
-    if (auto store = HzStore::Open(path); store.ok()) {
+    if (auto store = DenseStore::Open(path); store.ok()) {
       (void)AllAnswers<D>(**store);
       (void)(*store)->Verify();
     } else {
@@ -79,10 +79,10 @@ void DamageCampaign(TestVolume volume, Compression compression, int block_bits, 
           << store.status().ToString();
     }
     WriteBytes(path, damaged);
-    HzStore::Options options;
+    DenseStore::Options options;
     options.in_memory = i % 4 == 0;
     options.cache_bytes = 16 << 10;  // a few blocks: evictions too
-    auto store = HzStore::Open(path, options);
+    auto store = DenseStore::Open(path, options);
     if (!store.ok()) {
       const Status& s = store.status();
       ASSERT_TRUE(s.IsCorruption() || s.IsInvalidArgument() || s.IsNotSupported()) << s.ToString();

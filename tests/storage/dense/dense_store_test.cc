@@ -12,8 +12,8 @@
 #include <set>
 
 #include "hierarchy/hz_order.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/dense/dense_test_util.h"
 
@@ -31,10 +31,10 @@ using testing::TestVolume;
 // The blocks stored are exactly block 0 and those holding a non-zero error,
 // counted over every node; every brick of every lattice is stored.
 template <int D>
-void ExpectOnlyBlocksWithData(const HzStore& store) {
-  const HzHeader& h = store.header();
+void ExpectOnlyBlocksWithData(const DenseStore& store) {
+  const DenseHeader& h = store.header();
   const HzOrder<D> order(h.domain_bits);
-  HzStore::Reader<D> reader(store);
+  DenseStore::Reader<D> reader(store);
   std::set<uint64_t> needed = {0};
   ForEachInternalCode<D>(h.leaf_level(), [&](SimplexCode<D> c) {
     const uint64_t p = order.PositionOf(c);
@@ -52,7 +52,7 @@ void ExpectOnlyBlocksWithData(const HzStore& store) {
 TEST(DenseStore, Ht17DiamondErrorsAndFields) {
   TempDir dir;
   const TestVolume v = TestVolume::Random(3, {17, 17, 17, 1}, VoxelType::kU8, 1);
-  HzBuildOptions o;
+  DenseBuildOptions o;
   o.quantization = Quantization::kF32;
   const auto store = BuildStore(v, dir, "v", o);
   ASSERT_NE(store, nullptr);
@@ -64,7 +64,7 @@ TEST(DenseStore, Ht17DiamondErrorsAndFields) {
 TEST(DenseStore, Hp9DiamondErrorsAndFields) {
   TempDir dir;
   const TestVolume v = TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kI16, 2);
-  HzBuildOptions o;
+  DenseBuildOptions o;
   o.quantization = Quantization::kF32;
   o.block_bits = 6;
   const auto store = BuildStore(v, dir, "v", o);
@@ -79,7 +79,7 @@ TEST(DenseStore, Hp9DiamondErrorsAndFields) {
 TEST(DenseStore, HtNonCubicKeepsOnlyBlocksWithData) {
   TempDir dir;
   const TestVolume v = TestVolume::Random(3, {11, 6, 17, 1}, VoxelType::kF32, 3);
-  HzBuildOptions o;
+  DenseBuildOptions o;
   o.quantization = Quantization::kF32;
   o.block_bits = 6;
   const auto store = BuildStore(v, dir, "v", o);
@@ -94,7 +94,7 @@ TEST(DenseStore, HtNonCubicKeepsOnlyBlocksWithData) {
 TEST(DenseStore, HpShortFourthAxisKeepsOnlyBlocksWithData) {
   TempDir dir;
   const TestVolume v = TestVolume::Random(4, {7, 5, 6, 3}, VoxelType::kU8, 4);
-  HzBuildOptions o;
+  DenseBuildOptions o;
   o.quantization = Quantization::kF32;
   o.block_bits = 6;
   const auto store = BuildStore(v, dir, "v", o);
@@ -118,25 +118,25 @@ void ExpectQuantizedErrors(const TestVolume& v, const std::string& name) {
   TempDir dir;
   for (const Quantization q : {Quantization::kU16, Quantization::kU8}) {
     SCOPED_TRACE(static_cast<int>(q));
-    HzBuildOptions zstd, raw;
+    DenseBuildOptions zstd, raw;
     zstd.quantization = raw.quantization = q;
     raw.compression = Compression::kNone;
     const auto z = BuildStore(v, dir, "z", zstd);
     const auto r = BuildStore(v, dir, "r", raw);
     ASSERT_TRUE(z != nullptr && r != nullptr);
     ExpectDiamondErrors<D>(*z, v);
-    HzStore::Options in_memory;
+    DenseStore::Options in_memory;
     in_memory.in_memory = true;
-    auto resident = HzStore::Open(dir / "z.sdb", in_memory);
+    auto resident = DenseStore::Open(dir / "z.sdb", in_memory);
     ASSERT_TRUE(resident.ok()) << resident.status().message();
     ASSERT_TRUE((*resident)->Verify().ok());
-    HzStore::Reader<D> zr(*z), rr(*r), mr(**resident);
+    DenseStore::Reader<D> zr(*z), rr(*r), mr(**resident);
     ForEachInternalCode<D>(z->header().leaf_level(), [&](SimplexCode<D> c) {
       const double e = *zr.ErrorBound(c);
       ASSERT_EQ(e, *rr.ErrorBound(c)) << c.ToString();
       ASSERT_EQ(e, *mr.ErrorBound(c)) << c.ToString();
       for (const double t : {0.0, e / 2, e}) {
-        for (HzStore::Reader<D>* reader : {&zr, &mr}) {
+        for (DenseStore::Reader<D>* reader : {&zr, &mr}) {
           const double a = *reader->ErrorBoundForThreshold(c, t);
           ASSERT_GE(a, e) << c.ToString() << " threshold " << t;
           if (e > t) {
@@ -165,9 +165,9 @@ TEST(DenseStore, QuantizedErrorsRoundUpAndEncodingsAgree) {
 // A store of format 1 (the layout before 2026-11-26; tests/storage/dense/
 // golden keeps two) is refused, naming the file and saying to import again.
 TEST(DenseStore, FormatOneIsRefusedSayingToImportAgain) {
-  for (const char* file : {"ht_7x6x5_u8_u16.sdb", "hp_3x3x3x3_i16_f32.sdb"}) {
+  for (const char* file : {"format1_ht_7x6x5_u8_u16.sdb", "format1_hp_3x3x3x3_i16_f32.sdb"}) {
     const std::string path = std::string(SIMPLEXDB_GOLDEN_DIR) + "/" + file;
-    const auto old = HzStore::Open(path);
+    const auto old = DenseStore::Open(path);
     ASSERT_FALSE(old.ok()) << file;
     EXPECT_EQ(old.status().code(), Status::Code::kNotSupported);
     EXPECT_NE(old.status().message().find(path + ": a format-1 dense store"), std::string::npos)
@@ -198,9 +198,9 @@ TEST(DenseStore, TheFirstBadValueInFileOrderIsReported) {
   v.values[1000000] = 1e39;                                      // (121, 11, 60)
   v.values[2100000] = std::numeric_limits<double>::infinity();  // (9, 25, 126)
   ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
-  HzBuildOptions options;
+  DenseBuildOptions options;
   options.threads = 2;
-  const auto built = BuildHzStore(*OpenVolume(dir / "v.nrrd"), dir / "w.sdb", options);
+  const auto built = BuildDenseStore(*OpenVolume(dir / "v.nrrd"), dir / "w.sdb", options);
   ASSERT_FALSE(built.ok());
   EXPECT_TRUE(built.status().IsInvalidArgument()) << built.status().ToString();
   EXPECT_NE(built.status().message().find("value 1e+39 at voxel (121, 11, 60) is beyond float32's range"),
@@ -220,7 +220,7 @@ void ExpectMissingValues(TestVolume v, const std::string& name, uint64_t seed, d
   TempDir dir;
   for (const Quantization q : {Quantization::kF32, Quantization::kU16}) {
     SCOPED_TRACE(static_cast<int>(q));
-    HzBuildOptions o;
+    DenseBuildOptions o;
     o.quantization = q;
     o.block_bits = 6;
     const auto store = BuildStore(v, dir, "v", o);
@@ -268,7 +268,7 @@ TEST(DenseStore, MaskMakesMissingValues) {
     mask.values[i] = drop ? 0 : (mask.values[i] < 128 ? 1 : 200);
     if (drop) masked.values[i] = std::nan("");
   }
-  HzBuildOptions o;
+  DenseBuildOptions o;
   o.block_bits = 6;
   const auto store = BuildStore(v, dir, "v", o, &mask);
   ASSERT_NE(store, nullptr);
@@ -281,7 +281,7 @@ TEST(DenseStore, MaskMakesMissingValues) {
   TestVolume small = TestVolume::Random(3, {13, 10, 10, 1}, VoxelType::kU8, 47);
   ASSERT_TRUE(small.WriteNrrd(dir / "small.nrrd").ok());
   o.mask = *OpenVolume(dir / "small.nrrd");
-  const auto refused = BuildHzStore(*OpenVolume(dir / "v.nrrd"), dir / "x.sdb", o);
+  const auto refused = BuildDenseStore(*OpenVolume(dir / "v.nrrd"), dir / "x.sdb", o);
   ASSERT_FALSE(refused.ok());
   EXPECT_TRUE(refused.status().IsInvalidArgument()) << refused.status().ToString();
   EXPECT_NE(refused.status().message().find("13x10x10"), std::string_view::npos)

@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "hierarchy/cluster.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 
@@ -25,19 +25,19 @@ namespace simplexdb::testing {
 // Builds `volume` (written as dir/name.nrrd, with dir/name_mask.nrrd when
 // `mask` is given) into dir/name.sdb and opens it; null after a failed
 // expectation.
-inline std::unique_ptr<HzStore> BuildStore(const TestVolume& volume, const TempDir& dir,
-                                           const std::string& name, HzBuildOptions options = {},
-                                           const TestVolume* mask = nullptr) {
+inline std::unique_ptr<DenseStore> BuildStore(const TestVolume& volume, const TempDir& dir,
+                                              const std::string& name, DenseBuildOptions options = {},
+                                              const TestVolume* mask = nullptr) {
   const std::string nrrd = dir / (name + ".nrrd");
   EXPECT_TRUE(volume.WriteNrrd(nrrd).ok());
   if (mask != nullptr) {
     EXPECT_TRUE(mask->WriteNrrd(dir / (name + "_mask.nrrd")).ok());
     options.mask = *OpenVolume(dir / (name + "_mask.nrrd"));
   }
-  const auto report = BuildHzStore(*OpenVolume(nrrd), dir / (name + ".sdb"), options);
+  const auto report = BuildDenseStore(*OpenVolume(nrrd), dir / (name + ".sdb"), options);
   EXPECT_TRUE(report.ok()) << report.status().message();
   if (!report.ok()) return nullptr;
-  auto store = HzStore::Open(dir / (name + ".sdb"));
+  auto store = DenseStore::Open(dir / (name + ".sdb"));
   EXPECT_TRUE(store.ok()) << store.status().message();
   return store.ok() ? *std::move(store) : nullptr;
 }
@@ -68,12 +68,12 @@ long double BruteForceNodeError(SimplexCode<D> m, int k, const TestVolume& volum
 // quantum for u16/u8, float32 rounding for f32. The field range is the
 // store's (the volume's, missing values skipped).
 template <int D>
-void ExpectDiamondErrors(const HzStore& store, const TestVolume& volume) {
-  const HzHeader& h = store.header();
+void ExpectDiamondErrors(const DenseStore& store, const TestVolume& volume) {
+  const DenseHeader& h = store.header();
   const int k = h.domain_bits;
   const double range = h.field_max - h.field_min;
   const long double step = h.quantization == Quantization::kF32 ? 0 : h.quantum * (1 + 1e-9);
-  HzStore::Reader<D> reader(store);
+  DenseStore::Reader<D> reader(store);
   std::unordered_map<uint64_t, long double> brute;  // each node's error, once
   int nonzero = 0;
   ForEachInternalCode<D>(h.leaf_level(), [&](SimplexCode<D> c) {
@@ -95,8 +95,8 @@ void ExpectDiamondErrors(const HzStore& store, const TestVolume& volume) {
 // Every domain point's field: the volume's, clamped to the real grid (NaN
 // where it is missing).
 template <int D>
-void ExpectFields(const HzStore& store, const TestVolume& volume) {
-  HzStore::Reader<D> reader(store);
+void ExpectFields(const DenseStore& store, const TestVolume& volume) {
+  DenseStore::Reader<D> reader(store);
   const int64_t side = int64_t{1} << store.header().domain_bits;
   std::array<int64_t, D> p{};
   while (true) {
@@ -123,8 +123,8 @@ void ExpectFields(const HzStore& store, const TestVolume& volume) {
 // Every answer a store gives (each node's bound and threshold answer, each
 // real grid point's field); nullopt when some lookup fails.
 template <int D>
-std::optional<std::vector<double>> AllAnswers(const HzStore& store) {
-  HzStore::Reader<D> reader(store);
+std::optional<std::vector<double>> AllAnswers(const DenseStore& store) {
+  DenseStore::Reader<D> reader(store);
   std::vector<double> out;
   bool failed = false;
   ForEachInternalCode<D>(store.header().leaf_level(), [&](SimplexCode<D> c) {
@@ -139,7 +139,7 @@ std::optional<std::vector<double>> AllAnswers(const HzStore& store) {
     out.push_back(*t);
   });
   // Every real grid point's field, x fastest.
-  const HzHeader& h = store.header();
+  const DenseHeader& h = store.header();
   std::array<int64_t, D> p{};
   while (!failed) {
     const Result<double> f = reader.Field(p);

@@ -10,9 +10,9 @@
 
 #include "hierarchy/geometry.h"
 #include "hierarchy/hz_order.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_store.h"
-#include "storage/dense/hz_writer.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
+#include "storage/dense/dense_writer.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/dense/dense_test_util.h"
 #include "tests/util/long_run.h"
@@ -36,33 +36,33 @@ TEST(DenseWriter, WriterTakesBlocksAndBricksInRunsInAnyOrder) {
   // values), so the writer asks for every block and no brick maxima.
   TestVolume v = TestVolume::Random(3, {21, 17, 40, 1}, VoxelType::kF32, 41);
   testing::PunchHoles(v, 41, 3, 0);
-  HzBuildOptions o;
+  DenseBuildOptions o;
   o.quantization = Quantization::kF32;  // copied exactly (errors_are_bounds)
   o.block_bits = 6;                      // many blocks
   const auto reference = BuildStore(v, dir, "v", o);
   ASSERT_NE(reference, nullptr);
   ASSERT_TRUE(reference->header().finest_stored());
-  const HzStore& b = *reference;
-  const HzHeader& ref = b.header();
-  const HzFill fill = [&](int, uint64_t first, size_t count, double* errors) -> Status {
+  const DenseStore& b = *reference;
+  const DenseHeader& ref = b.header();
+  const DenseFill fill = [&](int, uint64_t first, size_t count, double* errors) -> Status {
     const std::optional<uint64_t> stored = b.StoredIndex(first >> ref.block_bits);
     if (!stored) return Status::OK();  // zeros
-    SDB_ASSIGN_OR_RETURN(const HzStore::BlockHandle h, b.Block(*stored));
+    SDB_ASSIGN_OR_RETURN(const DenseStore::BlockHandle h, b.Block(*stored));
     for (size_t i = 0; i < count; ++i) {
       errors[i] = b.quantizer().Decode(b.StoredErrorAt(h.data, static_cast<uint32_t>(i)));
     }
     return Status::OK();
   };
-  HzWriteOptions w;
+  DenseWriteOptions w;
   w.errors_are_bounds = true;
   w.threads = 2;
   {
-    auto unfinished = HzStoreWriter::Create(dir / "unfinished.sdb", ref, w);
+    auto unfinished = DenseStoreWriter::Create(dir / "unfinished.sdb", ref, w);
     ASSERT_TRUE(unfinished.ok()) << unfinished.status().message();
     std::vector<uint64_t> all((*unfinished)->candidate_blocks().size());
     for (uint64_t i = 0; i < all.size(); ++i) all[i] = i;
     ASSERT_TRUE((*unfinished)->WriteBlocks(all, fill).ok());
-    const Result<HzHeader> refused = (*unfinished)->Finish();
+    const Result<DenseHeader> refused = (*unfinished)->Finish();
     ASSERT_FALSE(refused.ok());
     EXPECT_NE(refused.status().message().find("brick 0 was not written"), std::string_view::npos)
         << refused.status().message();
@@ -71,9 +71,9 @@ TEST(DenseWriter, WriterTakesBlocksAndBricksInRunsInAnyOrder) {
     EXPECT_EQ(entry.path().filename().string().find("unfinished"), std::string::npos) << entry.path();
   }
 
-  auto writer = HzStoreWriter::Create(dir / "runs.sdb", ref, w);
+  auto writer = DenseStoreWriter::Create(dir / "runs.sdb", ref, w);
   ASSERT_TRUE(writer.ok()) << writer.status().message();
-  HzStoreWriter& out = **writer;
+  DenseStoreWriter& out = **writer;
   const uint64_t blocks = out.candidate_blocks().size(), bricks = out.header().bricks;
   ASSERT_GT(blocks, 8u);
   // Odd candidates from the last down, then the even ones.
@@ -104,11 +104,11 @@ TEST(DenseWriter, WriterTakesBlocksAndBricksInRunsInAnyOrder) {
   ASSERT_TRUE(out.WriteBricks(thirds[0], whole, nullptr).ok());
   ASSERT_TRUE(out.Finish().ok());
 
-  auto runs = HzStore::Open(dir / "runs.sdb");
+  auto runs = DenseStore::Open(dir / "runs.sdb");
   ASSERT_TRUE(runs.ok()) << runs.status().message();
   ASSERT_TRUE((*runs)->Verify().ok());
   EXPECT_EQ((*runs)->stored_blocks(), b.stored_blocks());
-  HzStore::Reader<3> got(**runs), want(b);
+  DenseStore::Reader<3> got(**runs), want(b);
   ForEachInternalCode<3>(ref.leaf_level(), [&](SimplexCode<3> c) {
     ASSERT_EQ(*got.ErrorBound(c), *want.ErrorBound(c)) << c.ToString();
   });
@@ -124,22 +124,22 @@ template <int D>
 void ExpectBlockSpans(const std::array<uint32_t, 4>& dims, int block_bits) {
   SCOPED_TRACE("block_bits " + std::to_string(block_bits));
   TempDir dir;
-  HzHeader params;
+  DenseHeader params;
   params.dimension = static_cast<uint8_t>(D);
   params.domain_bits = static_cast<uint8_t>(std::max(1, DomainBitsFor(D, dims)));
   params.block_bits = static_cast<uint8_t>(block_bits);
-  params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(D));
+  params.brick_bits = static_cast<uint8_t>(DenseDefaultBrickBits(D));
   params.dims = dims;
   params.field_max = 1;
-  auto writer = HzStoreWriter::Create(dir / "s.sdb", params, HzWriteOptions{});
+  auto writer = DenseStoreWriter::Create(dir / "s.sdb", params, DenseWriteOptions{});
   ASSERT_TRUE(writer.ok()) << writer.status().message();
-  const HzHeader& h = (*writer)->header();
+  const DenseHeader& h = (*writer)->header();
   const HzOrder<D> order(h.domain_bits);
   const std::set<uint64_t> candidates((*writer)->candidate_blocks().begin(),
                                       (*writer)->candidate_blocks().end());
   int spans = 0;
   for (uint64_t b = 0; b < h.virtual_blocks; ++b) {
-    const HzStoreWriter::BlockSpan span = (*writer)->SpanOf(b);
+    const DenseStoreWriter::BlockSpan span = (*writer)->SpanOf(b);
     spans += span.scale >= 0;
     bool real = false;
     for (uint64_t p = b << h.block_bits; p < std::min(order.size(), (b + 1) << h.block_bits); ++p) {
@@ -173,8 +173,8 @@ TEST(DenseWriter, BlockSpansHoldTheirVertices) {
 // Stores with the same blocks and bricks, byte for byte (each entry's size,
 // coding and checksum), wherever each lies in its file, and the same header
 // but for where things are.
-void ExpectSameContent(const HzStore& a, const HzStore& b) {
-  const HzHeader &x = a.header(), &y = b.header();
+void ExpectSameContent(const DenseStore& a, const DenseStore& b) {
+  const DenseHeader &x = a.header(), &y = b.header();
   EXPECT_EQ(x.flags, y.flags);
   EXPECT_EQ(x.field_min, y.field_min);
   EXPECT_EQ(x.field_max, y.field_max);
@@ -186,7 +186,7 @@ void ExpectSameContent(const HzStore& a, const HzStore& b) {
   for (uint64_t v = 0; v < x.virtual_blocks; ++v) {
     ASSERT_EQ(a.StoredIndex(v), b.StoredIndex(v)) << "block " << v;
   }
-  const auto same = [](const HzIndexEntry& e, const HzIndexEntry& f) {
+  const auto same = [](const DenseIndexEntry& e, const DenseIndexEntry& f) {
     return e.stored_size == f.stored_size && e.encoding == f.encoding && e.checksum == f.checksum &&
            e.field_min == f.field_min && e.field_max == f.field_max && e.error_max == f.error_max;
   };
@@ -212,28 +212,28 @@ void ExpectStreamedBuildMatchesDirect(const TestVolume& v, const std::string& na
   TempDir dir;
   const std::string nrrd = dir / (name + ".nrrd");
   ASSERT_TRUE(v.WriteNrrd(nrrd).ok());
-  HzBuildOptions options;
+  DenseBuildOptions options;
   options.block_bits = block_bits;
   if (mask != nullptr) {
     ASSERT_TRUE(mask->WriteNrrd(dir / "mask.nrrd").ok());
     options.mask = *OpenVolume(dir / "mask.nrrd");
   }
-  const auto direct = BuildHzStore(*OpenVolume(nrrd), dir / "direct.sdb", options);
+  const auto direct = BuildDenseStore(*OpenVolume(nrrd), dir / "direct.sdb", options);
   ASSERT_TRUE(direct.ok()) << direct.status().message();
   ASSERT_STREQ(direct->method, "diamonds");
   options.stream = true;
-  const auto streamed = BuildHzStore(*OpenVolume(nrrd), dir / "streamed.sdb", options);
+  const auto streamed = BuildDenseStore(*OpenVolume(nrrd), dir / "streamed.sdb", options);
   ASSERT_TRUE(streamed.ok()) << streamed.status().message();
   ASSERT_STREQ(streamed->method, "streamed");
-  auto a = HzStore::Open(dir / "direct.sdb");
-  auto b = HzStore::Open(dir / "streamed.sdb");
+  auto a = DenseStore::Open(dir / "direct.sdb");
+  auto b = DenseStore::Open(dir / "streamed.sdb");
   ASSERT_TRUE(a.ok() && b.ok());
   ASSERT_TRUE((*b)->Verify().ok());
   ExpectSameContent(**a, **b);
 }
 
 // HT slabs are 64 planes with a halo of 32, HP slabs 32 with a halo of 8
-// (hz_streamed_build.cc). At domain side 128 (HT) and 32 (HP) the default
+// (dense_streamed_build.cc). At domain side 128 (HT) and 32 (HP) the default
 // cases cross slabs: 2 and 3 HT slabs (the second with local chunks of 128
 // and 256 planes spanning them), 2 HP slabs (the second holds the last
 // plane only). The long run (`ctest -L long`) adds a side of 256 (HT, a
@@ -271,10 +271,10 @@ void ExpectLatticeReads(const TestVolume& v, const std::string& name) {
   SCOPED_TRACE(name);
   TempDir dir;
   ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
-  ASSERT_TRUE(BuildHzStore(*OpenVolume(dir / "v.nrrd"), dir / "v.sdb", HzBuildOptions{}).ok());
-  const auto store = *HzStore::Open(dir / "v.sdb");
-  HzStore::Reader<D> reader(*store);
-  const HzHeader& h = store->header();
+  ASSERT_TRUE(BuildDenseStore(*OpenVolume(dir / "v.nrrd"), dir / "v.sdb", DenseBuildOptions{}).ok());
+  const auto store = *DenseStore::Open(dir / "v.sdb");
+  DenseStore::Reader<D> reader(*store);
+  const DenseHeader& h = store->header();
   for (int s = 0; s <= h.domain_bits; ++s) {
     const int64_t step = int64_t{1} << s;
     std::array<int64_t, 4> lo{}, hi{}, inner_lo{}, inner_hi{};

@@ -14,7 +14,7 @@
 #include <random>
 #include <string>
 
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_store.h"
 
 namespace simplexdb {
 namespace {
@@ -82,7 +82,7 @@ int Main(int argc, char** argv) {
   const long before = AnonKib();
   const size_t cache_bytes = std::strtoull(argv[2], nullptr, 10);
   const uint64_t count = std::strtoull(argv[3], nullptr, 10);
-  return Probe<HzStore>(argv[1], cache_bytes, count, before);
+  return Probe<DenseStore>(argv[1], cache_bytes, count, before);
 }
 
 }  // namespace

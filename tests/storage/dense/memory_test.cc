@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <string>
 
-#include "storage/dense/hz_builder.h"
+#include "storage/dense/dense_builder.h"
 #include "storage/volume/generate.h"
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
@@ -54,7 +54,7 @@ std::string BuildStore(const TempDir& dir, const std::string& name, int dimensio
   const std::string input = dir.path() + "/" + name + ".nrrd";
   EXPECT_TRUE(WriteNrrd(input, dimension, dims, VoxelType::kF32, values).ok());
   const std::string path = dir.path() + "/" + name + ".sdb";
-  const auto built = BuildHzStore(*OpenVolume(input), path, HzBuildOptions{});
+  const auto built = BuildDenseStore(*OpenVolume(input), path, DenseBuildOptions{});
   EXPECT_TRUE(built.ok()) << built.status().ToString();
   return path;
 }

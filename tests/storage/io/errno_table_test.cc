@@ -20,10 +20,10 @@
 #include <vector>
 
 #include "query/mesh_io.h"
-#include "storage/dense/hz_builder.h"
+#include "storage/dense/dense_builder.h"
 #include "storage/io/file.h"
 #include "storage/io/lmdb.h"
-#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/sparse/sparse_builder.h"
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
@@ -103,9 +103,9 @@ class ErrnoFromWriters : public ::testing::Test {
     codes_.assign(2000, SimplexCode<3>::Root(0));
     writers_ = {
         {"dense store",
-         [&](const std::string& p) { return BuildHzStore(volume_, p, {}).status(); }},
+         [&](const std::string& p) { return BuildDenseStore(volume_, p, {}).status(); }},
         {"sparse store",
-         [&](const std::string& p) { return BuildHzSparseStore(volume_, p, {}).status(); }},
+         [&](const std::string& p) { return BuildSparseStore(volume_, p, {}).status(); }},
         {"volume (NRRD)",
          [&](const std::string& p) {
            return WriteNrrd(p, 3, {17, 17, 17, 1}, VoxelType::kU8, values_());

@@ -1,5 +1,5 @@
-// HzSparseStore: the sparse store of format 2 (storage/sparse/
-// hz_sparse_format.h), read-only: one LMDB value (in parts) per block of the
+// SparseStore: the sparse store of format 2 (storage/sparse/
+// sparse_format.h), read-only: one LMDB value (in parts) per block of the
 // hierarchical Z-order holding the diamonds kept at the store's tolerance t.
 //
 // What a reader answers, for a store built at tolerance t:
@@ -40,7 +40,7 @@
 #include "storage/common/block_cache.h"
 #include "storage/error/finest_diamonds.h"
 #include "storage/error/quantize.h"
-#include "storage/sparse/hz_sparse_format.h"
+#include "storage/sparse/sparse_format.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -50,21 +50,21 @@ class Env;
 class Txn;
 }  // namespace lmdb
 
-class HzSparseStore {
+class SparseStore {
  public:
   struct Options {
     size_t cache_bytes = size_t{256} << 20;  // decoded blocks, for all readers
     std::shared_ptr<BlockCache> cache;       // or this cache, shared with other stores
   };
 
-  static Result<std::unique_ptr<HzSparseStore>> Open(const std::string& path, const Options& options);
-  ~HzSparseStore();
+  static Result<std::unique_ptr<SparseStore>> Open(const std::string& path, const Options& options);
+  ~SparseStore();
 
-  const HzSparseHeader& header() const { return header_; }
+  const SparseHeader& header() const { return header_; }
   int dimension() const { return header_.dimension; }
   const std::string& path() const { return path_; }
   // Its error codes (stored and computed) and their values.
-  const HzSparseErrorCoder& errors() const { return *errors_; }
+  const SparseErrorCoder& errors() const { return *errors_; }
   uint64_t file_bytes() const;
 
   // Reads every block once (checksum, sizes, counts, the kept values rebuilt),
@@ -84,7 +84,7 @@ class HzSparseStore {
    public:
     // REQUIRES: store.dimension() == D. Errors of the first lookup include
     // those of beginning the read transaction.
-    explicit Reader(const HzSparseStore& store);
+    explicit Reader(const SparseStore& store);
     ~Reader();
 
     Result<double> ErrorBound(SimplexCode<D> code);
@@ -126,13 +126,13 @@ class HzSparseStore {
     Result<double> Value(const std::array<int64_t, D>& g);
     // A kept vertex's value from its residual and prediction p.
     double KeptValue(uint64_t residual, double p) const {
-      const HzSparseHeader& h = store_.header();
+      const SparseHeader& h = store_.header();
       return h.value_step > 0 ? HzFromStepResidual(residual, p, h.value_step)
                               : HzFromResidual(h.voxel_type, residual, p);
     }
     Result<uint32_t> FinestCode(const std::array<int64_t, D>& g);
 
-    const HzSparseStore& store_;
+    const SparseStore& store_;
     HzOrder<D> order_;
     SplitVertexCursor<D> cursor_;
     std::array<int64_t, D> dims_{};
@@ -165,11 +165,11 @@ class HzSparseStore {
   static constexpr uint32_t kFinestKept = 0xFFFFFFFEu;
 
  private:
-  HzSparseStore() = default;
+  SparseStore() = default;
 
   std::string path_;
-  HzSparseHeader header_;
-  std::unique_ptr<HzSparseErrorCoder> errors_;
+  SparseHeader header_;
+  std::unique_ptr<SparseErrorCoder> errors_;
   std::unique_ptr<lmdb::Env> env_;
   unsigned int db_ = 0;  // blocks and header
   std::shared_ptr<BlockCache> cache_;
@@ -181,7 +181,7 @@ class HzSparseStore {
 // (b, 1), ...) joined into `out`. False when the block has no entry.
 // Errors: Corruption naming `path` for parts out of sequence or a key that
 // is neither a block's nor the header's; LMDB's.
-Result<bool> ReadHzSparseBlockValue(lmdb::Txn& txn, unsigned int dbi, uint64_t b, const std::string& path,
-                                    std::vector<uint8_t>* out);
+Result<bool> ReadSparseBlockValue(lmdb::Txn& txn, unsigned int dbi, uint64_t b, const std::string& path,
+                                  std::vector<uint8_t>* out);
 
 }  // namespace simplexdb

@@ -29,7 +29,7 @@
 #include <string>
 
 #include "storage/error/progress.h"
-#include "storage/sparse/hz_sparse_format.h"
+#include "storage/sparse/sparse_format.h"
 #include "storage/volume/volume.h"
 #include "util/status.h"
 
@@ -42,7 +42,7 @@ struct GridBox {
   std::array<int64_t, 4> hi = {0, 0, 0, 0};
 };
 
-struct HzSparseUpdateOptions {
+struct SparseUpdateOptions {
   // Phases "compare" (the volume outside the box against the store), then
   // the builder's, then "write".
   std::function<void(const BuildProgress&)> progress;
@@ -50,8 +50,8 @@ struct HzSparseUpdateOptions {
   uint64_t memory_bytes = uint64_t{8} << 30;
 };
 
-struct HzSparseUpdateReport {
-  HzSparseHeader header;  // after the update
+struct SparseUpdateReport {
+  SparseHeader header;  // after the update
   uint64_t blocks_written = 0;    // added or changed
   uint64_t blocks_deleted = 0;
   uint64_t blocks_unchanged = 0;
@@ -61,10 +61,10 @@ struct HzSparseUpdateReport {
 // Updates the store at `path` with grid points `box` of `volume`, which must
 // have the store's dimension, grid and voxel type (InvalidArgument naming
 // both otherwise) and agree with the store outside the box. Errors also:
-// HzSparseStore::Open's (a damaged store is not updated), the builder's,
+// SparseStore::Open's (a damaged store is not updated), the builder's,
 // the write's (nothing written).
-Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const VolumeInfo& volume,
-                                                 const GridBox& box,
-                                                 const HzSparseUpdateOptions& options = {});
+Result<SparseUpdateReport> UpdateSparseStore(const std::string& path, const VolumeInfo& volume,
+                                             const GridBox& box,
+                                             const SparseUpdateOptions& options = {});
 
 }  // namespace simplexdb

@@ -1,8 +1,8 @@
-// Builds a format-2 store (storage/dense/hz_store.h): per grid vertex, the
+// Builds a format-2 store (storage/dense/dense_store.h): per grid vertex, the
 // error of its diamond (the largest of the seed's errors over the nodes
 // whose split creates it: one cluster), and the field as bricks.
 //
-// BuildHzStore reads the field into memory (or a window of it at a time)
+// BuildDenseStore reads the field into memory (or a window of it at a time)
 // and computes every diamond's error octave by octave on every core
 // (storage/error/diamond_errors.h), then writes the store, leaving the
 // finest octave's errors to the reader (it computes them from the field
@@ -18,7 +18,7 @@
 // brick's largest as they are computed, or computed again as the blocks
 // are written), a chunk of the input (and of the mask) per reader and the
 // writer's blocks per thread. When that exceeds memory_bytes (or
-// HzBuildOptions::stream), the build streams: it reads the input twice, a
+// DenseBuildOptions::stream), the build streams: it reads the input twice, a
 // plane at a time, and holds a window of planes of the last axis (64 + 2 x
 // 32 in the HT, 32 + 2 x 8 in the HP), tables for one run of blocks per
 // local scale, every scanned diamond's maximum (and, with missing values,
@@ -31,7 +31,7 @@
 // Thread safety: may run in several threads at once for different outputs.
 // Lifetimes: the input (and mask) is read during the call only.
 // Errors: those of reading the input and the mask (storage/volume/volume.h)
-// and of storable values (storage/error/field_values.h), of WriteHzStore;
+// and of storable values (storage/error/field_values.h), of WriteDenseStore;
 // InvalidArgument for a volume that is not 3D or 4D, a mask of another grid
 // (storage/error/mask.h) or a grid beyond the deepest level a location code
 // holds; ResourceExhausted naming the figures when the field and the
@@ -46,18 +46,18 @@
 #include <optional>
 #include <string>
 
-#include "storage/dense/hz_format.h"
+#include "storage/dense/dense_format.h"
 #include "storage/error/progress.h"
 #include "storage/volume/volume.h"
 #include "util/status.h"
 
 namespace simplexdb {
 
-struct HzBuildOptions {
+struct DenseBuildOptions {
   Quantization quantization = Quantization::kU16;
   Compression compression = Compression::kZstd;
   int zstd_level = 3;
-  int block_bits = kHzDefaultBlockBits;
+  int block_bits = kDenseDefaultBlockBits;
   size_t memory_bytes = size_t{1} << 30;
   int threads = 0;  // 0: one per core
   // Where the field is available: 0 (or NaN) marks a missing point
@@ -69,8 +69,8 @@ struct HzBuildOptions {
   std::function<void(const BuildProgress&)> progress;  // "field", "errors", "diamonds", "blocks", "bricks"
 };
 
-struct HzBuildReport {
-  HzHeader header;
+struct DenseBuildReport {
+  DenseHeader header;
   double seconds = 0;
   uint64_t grid_points = 0;  // real grid points
   // How the errors were computed: "diamonds" (the field in memory, octave
@@ -79,7 +79,7 @@ struct HzBuildReport {
 };
 
 // Builds `out_path` from `input` (3D: HT, 4D: HP).
-Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& out_path,
-                                   const HzBuildOptions& options);
+Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,
+                                         const DenseBuildOptions& options);
 
 }  // namespace simplexdb

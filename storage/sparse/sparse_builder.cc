@@ -1,4 +1,4 @@
-#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/sparse/sparse_builder.h"
 
 #include <algorithm>
 #include <chrono>
@@ -105,7 +105,7 @@ class NearGrid {
 template <int D>
 class Builder {
  public:
-  Builder(const VolumeInfo& input, const HzSparseBuildOptions& options, Clock::time_point start)
+  Builder(const VolumeInfo& input, const SparseBuildOptions& options, Clock::time_point start)
       : input_(input), options_(options), start_(start) {
     for (int a = 0; a < D; ++a) dims_[a] = input.dims[a];
     k_ = std::max(1, DomainBitsFor(D, input.dims));
@@ -116,7 +116,7 @@ class Builder {
 
   // Puts the blocks through `writer`, in key order; the header's counts in
   // `report`.
-  Status Run(lmdb::BatchWriter& writer, MDB_dbi dbi, size_t page_bytes, HzSparseBuildReport* report) {
+  Status Run(lmdb::BatchWriter& writer, MDB_dbi dbi, size_t page_bytes, SparseBuildReport* report) {
     const NearGrid<D> near(dims_, k_);
     const uint64_t points = input_.voxel_count();
     const uint64_t need = points * 8 + near.size() * (4 + 1 + 1 + 1 + 8 + 8);
@@ -127,7 +127,7 @@ class Builder {
           std::to_string(options_.memory_bytes >> 20) + " MiB");
     }
     SDB_RETURN_IF_ERROR(ReadField());
-    HzSparseHeader& h = report->header;
+    SparseHeader& h = report->header;
     h.dimension = D;
     h.dims = input_.dims;
     h.domain_bits = k_;
@@ -144,17 +144,17 @@ class Builder {
     const double range = fmax_ - fmin_;
     h.quantum = ErrorQuantizer::QuantumFor(h.quantization, range);
     // At a tolerance t, errors go up to the next multiple of t (u16, u8),
-    // and past 8t to the next step of 25% (HzSparseErrorCoder): smaller
+    // and past 8t to the next step of 25% (SparseErrorCoder): smaller
     // codes, and a query at a multiple of t up to 8t refines as with exact
     // errors (a code above its threshold is an error above it).
     if (h.tolerance > 0 && h.quantization != Quantization::kF32) h.quantum = std::max(h.quantum, h.tolerance);
-    const HzSparseErrorCoder coder(h);
+    const SparseErrorCoder coder(h);
 
     // 0. Every near vertex's diamond error: its code as the dense store
     // stores it (the same double, the same quantizer: lossless stores answer
     // alike) and whether it exceeds t.
     const double t = h.tolerance;
-    h.value_step = HzSparseValueStep(type_, t, fmin_, fmax_);
+    h.value_step = SparseValueStep(type_, t, fmin_, fmax_);
     const double step = h.value_step;
     std::vector<uint32_t> code(near.size(), 0);
     std::vector<uint8_t> above(near.size(), 0);
@@ -258,15 +258,15 @@ class Builder {
     const HzOrder<D> order(k_);
     const int bb = h.block_bits;
     const uint64_t nblocks = (order.size() + (uint64_t{1} << bb) - 1) >> bb;
-    const size_t ew = HzSparseErrorWidth(h.quantization), vw = HzSparseResidualWidth(h);
+    const size_t ew = SparseErrorWidth(h.quantization), vw = SparseResidualWidth(h);
     const int finest_first = D * (k_ - 1);
     ZstdCompressor zstd(options_.zstd_level);
-    HzSparsePartCutter cutter(page_bytes);
+    SparsePartCutter cutter(page_bytes);
     const auto kept_at = [&](const std::array<int64_t, D>& q) {
       const uint64_t j = near.Index(q);
       return j != NearGrid<D>::kFar && kept[j] != 0;
     };
-    HzSparseBlock block;
+    SparseBlock block;
     std::vector<uint8_t> every;  // the bitmap over every vertex
     bool closed = true;
     for (uint64_t b = 0; b < nblocks; ++b) {
@@ -288,7 +288,7 @@ class Builder {
         const uint64_t i = near.Index(g);
         const bool keep = i != NearGrid<D>::kFar && kept[i];
         set_bit(every, block.vertices++, keep);
-        if (!HzSparseMayBeKept<D>(g, k_, kept_at)) {
+        if (!SparseMayBeKept<D>(g, k_, kept_at)) {
           // The kept set is closed under these vertices (step 1).
           if (keep) closed = false;
           return;
@@ -313,22 +313,22 @@ class Builder {
       // file the same size and doubled the time of verify).
       std::vector<uint8_t> v;
       {
-        HzSparseBlock plain = block;
+        SparseBlock plain = block;
         plain.candidates = plain.vertices;
         plain.kept = every;
-        SDB_ASSIGN_OR_RETURN(v, EncodeHzSparseBlock(b, plain, ew, vw, zstd));
+        SDB_ASSIGN_OR_RETURN(v, EncodeSparseBlock(b, plain, ew, vw, zstd));
       }
       if (block.candidates < block.vertices) {
         SDB_ASSIGN_OR_RETURN(const std::vector<uint8_t> over_candidates, zstd.Compress(block.kept));
         SDB_ASSIGN_OR_RETURN(const std::vector<uint8_t> over_every, zstd.Compress(every));
         if (over_candidates.size() < over_every.size() &&
             (over_every.size() - over_candidates.size()) * 32 >= v.size()) {
-          SDB_ASSIGN_OR_RETURN(v, EncodeHzSparseBlock(b, block, ew, vw, zstd));
+          SDB_ASSIGN_OR_RETURN(v, EncodeSparseBlock(b, block, ew, vw, zstd));
         }
       }
       for (size_t from = 0, part = 0, n = 0; from < v.size(); from += n, ++part) {
         n = cutter.Next(v.size() - from);
-        const auto key = HzSparseKey(b, static_cast<uint32_t>(part));
+        const auto key = SparseKey(b, static_cast<uint32_t>(part));
         SDB_RETURN_IF_ERROR(writer.Put(dbi, key, std::span<const uint8_t>(v.data() + from, n), /*append=*/true));
       }
       ++h.blocks;
@@ -401,7 +401,7 @@ class Builder {
   }
 
   const VolumeInfo& input_;
-  const HzSparseBuildOptions& options_;
+  const SparseBuildOptions& options_;
   Clock::time_point start_;
   std::array<int64_t, D> dims_{};
   int k_ = 1;
@@ -413,8 +413,8 @@ class Builder {
 
 }  // namespace
 
-Result<HzSparseBuildReport> BuildHzSparseStore(const VolumeInfo& input, const std::string& out_path,
-                                               const HzSparseBuildOptions& options) {
+Result<SparseBuildReport> BuildSparseStore(const VolumeInfo& input, const std::string& out_path,
+                                           const SparseBuildOptions& options) {
   const Clock::time_point start = Clock::now();
   if (!(options.tolerance >= 0) || !std::isfinite(options.tolerance)) {
     return Status::InvalidArgument("tolerance " + std::to_string(options.tolerance) +
@@ -431,7 +431,7 @@ Result<HzSparseBuildReport> BuildHzSparseStore(const VolumeInfo& input, const st
   }
   SDB_RETURN_IF_ERROR(PrepareOutput(out_path));
   TemporaryFile temp(out_path);
-  HzSparseBuildReport report;
+  SparseBuildReport report;
   {
     lmdb::Env::Options env_options;
     env_options.read_only = false;
@@ -456,7 +456,7 @@ Result<HzSparseBuildReport> BuildHzSparseStore(const VolumeInfo& input, const st
       Builder<4> b(input, options, start);
       SDB_RETURN_IF_ERROR(b.Run(writer, dbi, env->page_bytes(), &report));
     }
-    SDB_RETURN_IF_ERROR(writer.Put(dbi, kHzSparseHeaderKey, EncodeHzSparseHeader(report.header), /*append=*/true));
+    SDB_RETURN_IF_ERROR(writer.Put(dbi, kSparseHeaderKey, EncodeSparseHeader(report.header), /*append=*/true));
     SDB_RETURN_IF_ERROR(writer.Flush());
     SDB_RETURN_IF_ERROR(env->Sync());
   }

@@ -1,4 +1,4 @@
-#include "storage/sparse/hz_sparse_update.h"
+#include "storage/sparse/sparse_update.h"
 
 #include <algorithm>
 #include <chrono>
@@ -14,10 +14,10 @@
 
 #include "storage/io/file.h"
 #include "storage/io/lmdb.h"
-#include "storage/sparse/hz_sparse_builder.h"
+#include "storage/sparse/sparse_builder.h"
 #include "storage/error/field_values.h"
 #include "storage/error/mask.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/sparse/sparse_store.h"
 
 namespace simplexdb {
 namespace {
@@ -31,10 +31,10 @@ double SecondsSince(Clock::time_point start) {
 // The volume outside `box` against the store, a chunk of rows at a time:
 // each value within the store's tolerance of what the store reads there.
 template <int D>
-Status CompareOutsideBox(const HzSparseStore& store, const VolumeInfo& volume, const GridBox& box,
-                         const HzSparseUpdateOptions& options, Clock::time_point start) {
-  const HzSparseHeader& h = store.header();
-  HzSparseStore::Reader<D> reader(store);
+Status CompareOutsideBox(const SparseStore& store, const VolumeInfo& volume, const GridBox& box,
+                         const SparseUpdateOptions& options, Clock::time_point start) {
+  const SparseHeader& h = store.header();
+  SparseStore::Reader<D> reader(store);
   SDB_ASSIGN_OR_RETURN(std::unique_ptr<VolumeReader> in, VolumeReader::Open(volume));
   const uint64_t count = volume.voxel_count();
   constexpr uint64_t kChunk = uint64_t{1} << 20;
@@ -89,14 +89,14 @@ Status ForEachEntry(lmdb::Txn& txn, MDB_dbi dbi, F&& f) {
 
 }  // namespace
 
-Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const VolumeInfo& volume,
-                                                 const GridBox& box,
-                                                 const HzSparseUpdateOptions& options) {
+Result<SparseUpdateReport> UpdateSparseStore(const std::string& path, const VolumeInfo& volume,
+                                             const GridBox& box,
+                                             const SparseUpdateOptions& options) {
   const Clock::time_point start = Clock::now();
-  HzSparseHeader old_header;
+  SparseHeader old_header;
   {
-    SDB_ASSIGN_OR_RETURN(std::unique_ptr<HzSparseStore> store, HzSparseStore::Open(path, {}));
-    const HzSparseHeader& h = store->header();
+    SDB_ASSIGN_OR_RETURN(std::unique_ptr<SparseStore> store, SparseStore::Open(path, {}));
+    const SparseHeader& h = store->header();
     bool same_grid = volume.dimension == h.dimension;
     for (int a = 0; same_grid && a < h.dimension; ++a) same_grid = volume.dims[a] == h.dims[a];
     const VoxelType type = StoredVoxelType(volume, false);
@@ -124,7 +124,7 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
 
   // The new store, whole, beside the old one.
   const TemporaryFile scratch(path, "update");
-  HzSparseBuildOptions build;
+  SparseBuildOptions build;
   build.tolerance = old_header.tolerance;
   build.quantization = old_header.quantization;
   build.block_bits = old_header.block_bits;
@@ -136,10 +136,10 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
   VolumeInfo placed = volume;
   placed.spacing = old_header.spacing;
   placed.origin = old_header.origin;
-  SDB_ASSIGN_OR_RETURN(const HzSparseBuildReport built, BuildHzSparseStore(placed, scratch.path(), build));
+  SDB_ASSIGN_OR_RETURN(const SparseBuildReport built, BuildSparseStore(placed, scratch.path(), build));
 
   // Its blocks into the old store, in one write transaction.
-  HzSparseUpdateReport report;
+  SparseUpdateReport report;
   report.header = built.header;
   lmdb::Env::Options new_options;
   new_options.name = path;
@@ -158,7 +158,7 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
   SDB_ASSIGN_OR_RETURN(const MDB_dbi in_db, in.OpenDb(nullptr, false));
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*env, /*read_only=*/false));
   SDB_ASSIGN_OR_RETURN(const MDB_dbi db, txn.OpenDb(nullptr, false));
-  // Entries are blocks' parts (hz_sparse_format.h), cut where each file's
+  // Entries are blocks' parts (sparse_format.h), cut where each file's
   // pages end: blocks are compared whole. A changed block's old parts are
   // deleted and the new ones put; the report counts blocks.
   std::map<uint64_t, uint32_t> old_parts, new_parts;
@@ -166,8 +166,8 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
     return [file, parts](std::span<const uint8_t> key, std::span<const uint8_t>) -> Status {
       uint64_t b = 0;
       uint32_t part = 0;
-      if (IsHzSparseHeaderKey(key)) return Status::OK();
-      if (!ParseHzSparseKey(key, &b, &part)) {
+      if (IsSparseHeaderKey(key)) return Status::OK();
+      if (!ParseSparseKey(key, &b, &part)) {
         return Status::Corruption(file + ": a key of " + std::to_string(key.size()) + " bytes");
       }
       ++(*parts)[b];
@@ -178,7 +178,7 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
   SDB_RETURN_IF_ERROR(ForEachEntry(in, in_db, count_parts(scratch.path(), &new_parts)));
   const auto remove = [&](uint64_t b, uint32_t parts) -> Status {
     for (uint32_t part = 0; part < parts; ++part) {
-      auto k = HzSparseKey(b, part);
+      auto k = SparseKey(b, part);
       MDB_val key{k.size(), k.data()};
       if (const int rc = mdb_del(txn.get(), db, &key, nullptr); rc != MDB_SUCCESS) {
         return env->FromCode(rc, "deleting block " + std::to_string(b));
@@ -188,10 +188,10 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
   };
   std::vector<uint8_t> old_value, new_value;
   for (const auto& [b, parts] : new_parts) {
-    SDB_RETURN_IF_ERROR(ReadHzSparseBlockValue(in, in_db, b, scratch.path(), &new_value).status());
+    SDB_RETURN_IF_ERROR(ReadSparseBlockValue(in, in_db, b, scratch.path(), &new_value).status());
     const auto old = old_parts.find(b);
     if (old != old_parts.end()) {
-      SDB_RETURN_IF_ERROR(ReadHzSparseBlockValue(txn, db, b, path, &old_value).status());
+      SDB_RETURN_IF_ERROR(ReadSparseBlockValue(txn, db, b, path, &old_value).status());
       if (old_value == new_value) {
         ++report.blocks_unchanged;
         continue;
@@ -199,7 +199,7 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
       SDB_RETURN_IF_ERROR(remove(b, old->second));
     }
     for (uint32_t part = 0; part < parts; ++part) {
-      const auto key = HzSparseKey(b, part);
+      const auto key = SparseKey(b, part);
       bool found = false;
       SDB_ASSIGN_OR_RETURN(const std::span<const uint8_t> value, in.Get(in_db, key, &found));
       if (!found) return Status::Corruption(scratch.path() + ": block " + std::to_string(b) + " lost a part");
@@ -212,7 +212,7 @@ Result<HzSparseUpdateReport> UpdateHzSparseStore(const std::string& path, const 
     SDB_RETURN_IF_ERROR(remove(b, parts));
     ++report.blocks_deleted;
   }
-  SDB_RETURN_IF_ERROR(txn.Put(db, kHzSparseHeaderKey, EncodeHzSparseHeader(built.header)));
+  SDB_RETURN_IF_ERROR(txn.Put(db, kSparseHeaderKey, EncodeSparseHeader(built.header)));
   in.Abort();
   SDB_RETURN_IF_ERROR(txn.Commit());
   if (options.progress) {

@@ -1,5 +1,5 @@
 // Stored reference files of the dense store, format 2 (tests/storage/dense/
-// golden/hz_*.sdb), so a change of its layout is a decision, not an accident:
+// golden/dense_*.sdb), so a change of its layout is a decision, not an accident:
 //
 // - a reference store keeps reading, verifying, and answering with the
 //   diamond errors and field values the brute force gives for the volume it
@@ -8,8 +8,8 @@
 //   dependence on scheduling or on the zstd version) reproduces the file
 //   byte for byte, but for the header's source name and checksum.
 //
-// To change the layout on purpose, bump kHzFormatVersion, then regenerate:
-//   SIMPLEXDB_REGENERATE_GOLDEN=1 build/release/tests/storage/dense_tests --gtest_filter='HzGolden*'
+// To change the layout on purpose, bump kDenseFormatVersion, then regenerate:
+//   SIMPLEXDB_REGENERATE_GOLDEN=1 build/release/tests/storage/dense_tests --gtest_filter='DenseGolden*'
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -17,9 +17,9 @@
 #include <unordered_map>
 
 #include "hierarchy/cluster.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_format.h"
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_format.h"
+#include "storage/dense/dense_store.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 
@@ -42,8 +42,8 @@ struct Golden {
 // Grids that do not fill their domains (the finest errors computed at the
 // real grid's faces) and both hierarchies.
 const Golden kGolden[] = {
-    {"hz_ht_7x6x5_u8_u16.sdb", 3, {7, 6, 5, 1}, VoxelType::kU8, Quantization::kU16, 201},
-    {"hz_hp_3x3x3x3_i16_f32.sdb", 4, {3, 3, 3, 3}, VoxelType::kI16, Quantization::kF32, 202},
+    {"ht_7x6x5_u8_u16.sdb", 3, {7, 6, 5, 1}, VoxelType::kU8, Quantization::kU16, 201},
+    {"hp_3x3x3x3_i16_f32.sdb", 4, {3, 3, 3, 3}, VoxelType::kI16, Quantization::kF32, 202},
 };
 
 std::string GoldenPath(const Golden& g) {
@@ -53,22 +53,22 @@ std::string GoldenPath(const Golden& g) {
 Status Build(const Golden& g, const std::string& dir, const std::string& out) {
   const TestVolume volume = TestVolume::Random(g.dimension, g.dims, g.type, g.seed);
   SDB_RETURN_IF_ERROR(volume.WriteNrrd(dir + "/in.nrrd"));
-  HzBuildOptions options;
+  DenseBuildOptions options;
   options.quantization = g.quantization;
   options.compression = Compression::kNone;
   options.block_bits = 6;  // several blocks on a small grid
   options.threads = 1;
   SDB_ASSIGN_OR_RETURN(const VolumeInfo input, OpenVolume(dir + "/in.nrrd"));
-  return BuildHzStore(input, out, options).status();
+  return BuildDenseStore(input, out, options).status();
 }
 
 // Every node's error bound is its diamond's: the largest brute-force error
 // of its cluster, rounded up by at most a quantum; every field value the
 // volume's.
 template <int D>
-void CheckAnswers(const HzStore& store, const TestVolume& volume) {
-  HzStore::Reader<D> reader(store);
-  const HzHeader& h = store.header();
+void CheckAnswers(const DenseStore& store, const TestVolume& volume) {
+  DenseStore::Reader<D> reader(store);
+  const DenseHeader& h = store.header();
   std::unordered_map<uint64_t, long double> exact;  // per node, computed once
   const auto error_of = [&](SimplexCode<D> m) {
     auto it = exact.find(m.key());
@@ -102,7 +102,7 @@ void CheckAnswers(const HzStore& store, const TestVolume& volume) {
   }
 }
 
-TEST(HzGolden, ReferenceStoresStillReadAndRebuildIdentically) {
+TEST(DenseGolden, ReferenceStoresStillReadAndRebuildIdentically) {
   const bool regenerate = std::getenv("SIMPLEXDB_REGENERATE_GOLDEN") != nullptr;
   for (const Golden& g : kGolden) {
     SCOPED_TRACE(g.file);
@@ -115,7 +115,7 @@ TEST(HzGolden, ReferenceStoresStillReadAndRebuildIdentically) {
                                  std::filesystem::copy_options::overwrite_existing);
     }
     ASSERT_TRUE(std::filesystem::exists(GoldenPath(g))) << "missing reference file";
-    auto store = HzStore::Open(GoldenPath(g));
+    auto store = DenseStore::Open(GoldenPath(g));
     ASSERT_TRUE(store.ok()) << store.status().ToString();
     ASSERT_TRUE((*store)->Verify().ok());
     const TestVolume volume = TestVolume::Random(g.dimension, g.dims, g.type, g.seed);
@@ -127,11 +127,11 @@ TEST(HzGolden, ReferenceStoresStillReadAndRebuildIdentically) {
     // A fresh build writes the same bytes, but for the header's source.
     const std::vector<uint8_t> a = ReadFileBytes(GoldenPath(g)), b = ReadFileBytes(fresh);
     ASSERT_EQ(a.size(), b.size());
-    ASSERT_TRUE(std::equal(a.begin() + kHzHeaderSize, a.end(), b.begin() + kHzHeaderSize))
+    ASSERT_TRUE(std::equal(a.begin() + kDenseHeaderSize, a.end(), b.begin() + kDenseHeaderSize))
         << "blocks, bricks or indexes changed: a layout change needs a new version";
-    HzHeader ha = *ParseHzHeader(a, g.file), hb = *ParseHzHeader(b, "fresh");
+    DenseHeader ha = *ParseDenseHeader(a, g.file), hb = *ParseDenseHeader(b, "fresh");
     ha.source = hb.source = "";
-    EXPECT_EQ(SerializeHzHeader(ha), SerializeHzHeader(hb)) << "the header changed";
+    EXPECT_EQ(SerializeDenseHeader(ha), SerializeDenseHeader(hb)) << "the header changed";
   }
 }
 

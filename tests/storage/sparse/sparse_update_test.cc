@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "storage/io/lmdb.h"
-#include "storage/sparse/hz_sparse_builder.h"
-#include "storage/sparse/hz_sparse_update.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_update.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 
@@ -50,7 +50,7 @@ Snapshot ReadPath(const std::string& path) {
   return Read(txn);
 }
 
-TEST(HzSparseUpdate, ReadersSeeTheOldStoreOrTheNewOneNeverAMix) {
+TEST(SparseUpdate, ReadersSeeTheOldStoreOrTheNewOneNeverAMix) {
   const TempDir dir;
   // Noise whose middle becomes flat: blocks change, some vanish.
   TestVolume before = TestVolume::Random(3, {20, 18, 22, 1}, VoxelType::kU8, 31);
@@ -67,14 +67,14 @@ TEST(HzSparseUpdate, ReadersSeeTheOldStoreOrTheNewOneNeverAMix) {
   }
   ASSERT_TRUE(before.WriteNrrd(dir / "before.nrrd").ok());
   ASSERT_TRUE(after.WriteNrrd(dir / "after.nrrd").ok());
-  HzSparseBuildOptions o;
+  SparseBuildOptions o;
   o.block_bits = 8;  // many blocks
   const std::string store = dir / "store.sdb";
-  ASSERT_TRUE(BuildHzSparseStore(*OpenVolume(dir / "before.nrrd"), store, o).ok());
+  ASSERT_TRUE(BuildSparseStore(*OpenVolume(dir / "before.nrrd"), store, o).ok());
   // The outcome, from an update of a copy.
   const std::string copy = dir / "copy.sdb";
   std::filesystem::copy_file(store, copy);
-  const auto alone = UpdateHzSparseStore(copy, *OpenVolume(dir / "after.nrrd"), box);
+  const auto alone = UpdateSparseStore(copy, *OpenVolume(dir / "after.nrrd"), box);
   ASSERT_TRUE(alone.ok()) << alone.status().ToString();
   ASSERT_GT(alone->blocks_written + alone->blocks_deleted, 0u);
   const Snapshot old_store = ReadPath(store), new_store = ReadPath(copy);
@@ -86,7 +86,7 @@ TEST(HzSparseUpdate, ReadersSeeTheOldStoreOrTheNewOneNeverAMix) {
   const pid_t child = fork();
   ASSERT_GE(child, 0);
   if (child == 0) {
-    const auto r = UpdateHzSparseStore(store, *OpenVolume(dir / "after.nrrd"), box);
+    const auto r = UpdateSparseStore(store, *OpenVolume(dir / "after.nrrd"), box);
     _exit(r.ok() ? 0 : 1);
   }
   int snapshots = 0, old_seen = 0, new_seen = 0, status = 0;

@@ -1,4 +1,4 @@
-#include "storage/sparse/hz_sparse_format.h"
+#include "storage/sparse/sparse_format.h"
 
 #include <bit>
 #include <cmath>
@@ -109,7 +109,7 @@ double HzFromStepResidual(uint64_t residual, double p, double step) {
   return p + step * static_cast<double>(k);
 }
 
-double HzSparseValueStep(VoxelType type, double tolerance, double field_min, double field_max) {
+double SparseValueStep(VoxelType type, double tolerance, double field_min, double field_max) {
   const double step = 2 * tolerance;
   if (!(step > 0) || !std::isfinite(step)) return 0;
   if (!IsFloatType(type) && step < 1) return 0;
@@ -121,12 +121,12 @@ double HzSparseValueStep(VoxelType type, double tolerance, double field_min, dou
   return largest / step < 0x1p29 ? step : 0;
 }
 
-size_t HzSparseErrorWidth(Quantization q) { return QuantizedSize(q); }
-size_t HzSparseResidualWidth(const HzSparseHeader& h) {
+size_t SparseErrorWidth(Quantization q) { return QuantizedSize(q); }
+size_t SparseResidualWidth(const SparseHeader& h) {
   return h.value_step > 0 ? sizeof(uint32_t) : VoxelSize(h.voxel_type);
 }
 
-std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h) {
+std::vector<uint8_t> EncodeSparseHeader(const SparseHeader& h) {
   nlohmann::json j;
   j["format"] = kFormatName;
   j["version"] = h.version;
@@ -154,7 +154,7 @@ std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h) {
   return out;
 }
 
-Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, const std::string& file) {
+Result<SparseHeader> DecodeSparseHeader(std::span<const uint8_t> value, const std::string& file) {
   const auto bad = [&](const std::string& why) {
     return Status::Corruption(file + ": sparse store header: " + why);
   };
@@ -166,13 +166,13 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
   if (j.value("format", "") != kFormatName) {
     return Status::InvalidArgument(file + ": an LMDB file, but not a SimplexDB sparse store");
   }
-  HzSparseHeader h;
+  SparseHeader h;
   try {
     h.version = j.at("version").get<uint32_t>();
-    if (h.version != kHzSparseFormatVersion) {
+    if (h.version != kSparseFormatVersion) {
       return Status::NotSupported(file + ": sparse store format version " + std::to_string(h.version) +
                                   "; this build reads version " +
-                                  std::to_string(kHzSparseFormatVersion) + " (import the volume again)");
+                                  std::to_string(kSparseFormatVersion) + " (import the volume again)");
     }
     const std::string hierarchy = j.at("hierarchy").get<std::string>();
     if (hierarchy != "ht" && hierarchy != "hp") return bad("hierarchy '" + hierarchy + "'");
@@ -231,7 +231,7 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
         std::isfinite(h.quantum) && h.quantum >= 0)) {
     return bad("error range, tolerance or quantum");
   }
-  if (h.value_step != HzSparseValueStep(h.voxel_type, h.tolerance, h.field_min, h.field_max)) {
+  if (h.value_step != SparseValueStep(h.voxel_type, h.tolerance, h.field_min, h.field_max)) {
     return bad("value_step " + std::to_string(h.value_step) + " for tolerance " + std::to_string(h.tolerance));
   }
   // Blocks hold at most 2^24 positions (a decoded block's arrays), at
@@ -240,7 +240,7 @@ Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, cons
   return h;
 }
 
-HzSparseErrorCoder::HzSparseErrorCoder(const HzSparseHeader& h)
+SparseErrorCoder::SparseErrorCoder(const SparseHeader& h)
     : quantizer_(h.quantization, h.quantum, h.field_max - h.field_min) {
   if (!(h.tolerance > 0) || h.quantization == Quantization::kF32 || !(h.quantum > 0)) return;
   // Up to the linear codes' largest value, so that every one has a step
@@ -253,7 +253,7 @@ HzSparseErrorCoder::HzSparseErrorCoder(const HzSparseHeader& h)
   }
 }
 
-uint32_t HzSparseErrorCoder::Encode(double e) const {
+uint32_t SparseErrorCoder::Encode(double e) const {
   const uint32_t linear = quantizer_.Encode(e);
   if (linear <= kLinearCodes || steps_.empty()) return linear;
   // The least step not below the linear code's value (itself not below e).
@@ -263,9 +263,9 @@ uint32_t HzSparseErrorCoder::Encode(double e) const {
   return kLinearCodes + static_cast<uint32_t>(j);
 }
 
-Result<std::vector<uint8_t>> EncodeHzSparseBlock(uint64_t block, const HzSparseBlock& b,
-                                                 size_t error_width, size_t voxel_width,
-                                                 ZstdCompressor& zstd) {
+Result<std::vector<uint8_t>> EncodeSparseBlock(uint64_t block, const SparseBlock& b,
+                                               size_t error_width, size_t voxel_width,
+                                               ZstdCompressor& zstd) {
   std::vector<uint8_t> errors, residuals;
   std::vector<uint64_t> wide(b.errors.begin(), b.errors.end());
   PutPlanes(errors, wide, error_width);
@@ -277,7 +277,7 @@ Result<std::vector<uint8_t>> EncodeHzSparseBlock(uint64_t block, const HzSparseB
   }
   SDB_ASSIGN_OR_RETURN(const std::vector<uint8_t> residuals_frame, zstd.Compress(residuals));
   std::vector<uint8_t> value;
-  value.reserve(kHzSparseBlockPrefix + bitmap_frame.size() + errors_frame.size() + residuals_frame.size() + 8);
+  value.reserve(kSparseBlockPrefix + bitmap_frame.size() + errors_frame.size() + residuals_frame.size() + 8);
   Append<uint32_t>(value, b.vertices);
   Append<uint32_t>(value, b.candidates);
   Append<uint32_t>(value, static_cast<uint32_t>(b.residuals.size()));
@@ -291,16 +291,16 @@ Result<std::vector<uint8_t>> EncodeHzSparseBlock(uint64_t block, const HzSparseB
   return value;
 }
 
-Result<HzSparseBlock> DecodeHzSparseBlock(uint64_t block, std::span<const uint8_t> value,
-                                          uint32_t vertices, size_t error_width,
-                                          size_t voxel_width, ZstdDecompressor& zstd,
-                                          const std::string& file) {
+Result<SparseBlock> DecodeSparseBlock(uint64_t block, std::span<const uint8_t> value,
+                                      uint32_t vertices, size_t error_width,
+                                      size_t voxel_width, ZstdDecompressor& zstd,
+                                      const std::string& file) {
   const std::string what = file + ": block " + std::to_string(block);
   const auto bad = [&](const std::string& why) { return Status::Corruption(what + ": " + why); };
-  if (value.size() < kHzSparseBlockPrefix + 8) return bad("value of " + std::to_string(value.size()) + " bytes");
+  if (value.size() < kSparseBlockPrefix + 8) return bad("value of " + std::to_string(value.size()) + " bytes");
   const std::span<const uint8_t> summed = value.first(value.size() - 8);
   if (Checksum(summed, block) != LoadLittle<uint64_t>(value.data() + summed.size())) return bad("checksum mismatch");
-  HzSparseBlock b;
+  SparseBlock b;
   b.vertices = LoadLittle<uint32_t>(value.data());
   b.candidates = LoadLittle<uint32_t>(value.data() + 4);
   const uint32_t kept = LoadLittle<uint32_t>(value.data() + 8), errors = LoadLittle<uint32_t>(value.data() + 12);
@@ -309,12 +309,12 @@ Result<HzSparseBlock> DecodeHzSparseBlock(uint64_t block, std::span<const uint8_
   if (b.vertices != vertices) {
     return bad("holds " + std::to_string(b.vertices) + " vertices; the block has " + std::to_string(vertices));
   }
-  const uint64_t frames = summed.size() - kHzSparseBlockPrefix;
+  const uint64_t frames = summed.size() - kSparseBlockPrefix;
   if (b.candidates > vertices || kept == 0 || kept > b.candidates || errors > kept ||
       (errors == 0) != (errors_frame == 0) || bitmap_frame + errors_frame >= frames) {
     return bad("counts or sizes out of range");
   }
-  const std::span<const uint8_t> all = summed.subspan(kHzSparseBlockPrefix);
+  const std::span<const uint8_t> all = summed.subspan(kSparseBlockPrefix);
   b.kept.resize((size_t{b.candidates} + 7) / 8);
   SDB_RETURN_IF_ERROR(zstd.Decompress(all.first(bitmap_frame), b.kept, what));
   uint64_t ones = 0;

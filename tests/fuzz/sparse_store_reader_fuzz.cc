@@ -1,7 +1,7 @@
 // libFuzzer target for the sparse store reader of format 2: the check of the
 // LMDB file before LMDB maps it (storage/io/lmdb_check.cc), the header, block
 // decoding and rebuilding, lookups and Verify (storage/sparse/
-// hz_sparse_store.cc, hz_sparse_format.cc).
+// sparse_store.cc, sparse_format.cc).
 //
 // Each input is an LMDB file. The reader must answer or fail cleanly: no
 // crash, no read out of bounds, no unbounded allocation. The input lives in
@@ -10,9 +10,9 @@
 //
 //   Fuzz (clang):  cmake -B build/fuzz -G Ninja -DCMAKE_CXX_COMPILER=clang++
 //                    -DSIMPLEXDB_FUZZ=ON -DSIMPLEXDB_BUILD_BENCH=OFF (one line)
-//                  cmake --build build/fuzz --target hz_sparse_store_reader_fuzz
-//                  build/fuzz/tests/hz_sparse_store_reader_fuzz tests/fuzz/corpus/hz_sparse_store_reader
-//   Replay (ctest): hz_sparse_store_reader_fuzz_replay runs every saved input.
+//                  cmake --build build/fuzz --target sparse_store_reader_fuzz
+//                  build/fuzz/tests/sparse_store_reader_fuzz tests/fuzz/corpus/sparse_store_reader
+//   Replay (ctest): sparse_store_reader_fuzz_replay runs every saved input.
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -20,15 +20,15 @@
 #include <string>
 
 #include "hierarchy/simplex_code.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/sparse/sparse_store.h"
 #include "tests/fuzz/memory_file.h"
 
 namespace simplexdb {
 namespace {
 
 template <int D>
-void Exercise(const HzSparseStore& store) {
-  typename HzSparseStore::Reader<D> reader(store);
+void Exercise(const SparseStore& store) {
+  typename SparseStore::Reader<D> reader(store);
   const int leaf = D * store.header().domain_bits;
   int budget = 2048;  // bounded work per input
   for (int top = 0; top < SimplexCode<D>::kRoots && budget > 0; ++top) {
@@ -53,9 +53,9 @@ void Exercise(const HzSparseStore& store) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const simplexdb::fuzz::MemoryFile file(data, size);
   if (!file.ok()) return 0;
-  simplexdb::HzSparseStore::Options options;
+  simplexdb::SparseStore::Options options;
   options.cache_bytes = size_t{8} << 20;
-  auto store = simplexdb::HzSparseStore::Open(file.path(), options);
+  auto store = simplexdb::SparseStore::Open(file.path(), options);
   if (!store.ok()) return 0;
   const auto& h = (*store)->header();
   // Bounded work: the loops above, and Verify's walk over a block's positions.

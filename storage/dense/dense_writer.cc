@@ -1,4 +1,4 @@
-#include "storage/dense/hz_writer.h"
+#include "storage/dense/dense_writer.h"
 
 #include <algorithm>
 #include <atomic>
@@ -26,7 +26,7 @@ namespace simplexdb {
 namespace {
 
 // The stored block or brick: appended, checksummed, its entry filled.
-Status Append(AtomicFileWriter& writer, std::span<const uint8_t> stored, HzIndexEntry& e) {
+Status Append(AtomicFileWriter& writer, std::span<const uint8_t> stored, DenseIndexEntry& e) {
   SDB_ASSIGN_OR_RETURN(e.offset, writer.Append(stored));
   e.stored_size = static_cast<uint32_t>(stored.size());
   e.checksum = Checksum(stored);
@@ -37,7 +37,7 @@ Status Append(AtomicFileWriter& writer, std::span<const uint8_t> stored, HzIndex
 // the stored type's own C++ type (as the builder holds it) fits by
 // construction: no pass over it.
 template <int D, class V>
-Status CheckField(const std::string& path, const HzHeader& h, const V* field) {
+Status CheckField(const std::string& path, const DenseHeader& h, const V* field) {
   const bool own_type =
       WithVoxelCppType(h.voxel_type, [](auto voxel) { return std::is_same_v<decltype(voxel), V>; });
   if (own_type) return Status::OK();
@@ -59,12 +59,12 @@ Status CheckField(const std::string& path, const HzHeader& h, const V* field) {
 }
 
 // Whether the parameters describe a store this writer can make.
-Status CheckParams(const std::string& path, const HzHeader& params, const HzWriteOptions& options) {
+Status CheckParams(const std::string& path, const DenseHeader& params, const DenseWriteOptions& options) {
   const int max_bits = params.dimension == 3 ? 18 : 13;
   if ((params.dimension != 3 && params.dimension != 4) || params.domain_bits < 1 ||
       params.domain_bits > max_bits || params.block_bits < 6 || params.block_bits > 20 ||
       params.brick_bits < 1 || params.brick_bits > (params.dimension == 3 ? 6 : 4) ||
-      (params.flags & ~kHzFinestStored) != 0 || options.threads < 1 ||
+      (params.flags & ~kDenseFinestStored) != 0 || options.threads < 1 ||
       !(params.field_min <= params.field_max)) {
     return Status::InvalidArgument(path + ": store parameters out of range");
   }
@@ -73,26 +73,26 @@ Status CheckParams(const std::string& path, const HzHeader& params, const HzWrit
 
 }  // namespace
 
-struct HzStoreWriter::Worker {
+struct DenseStoreWriter::Worker {
   std::vector<double> errors;
   std::vector<uint8_t> raw;
   std::unique_ptr<ZstdCompressor> zstd;
 };
 
-HzStoreWriter::HzStoreWriter() = default;
-HzStoreWriter::~HzStoreWriter() = default;
+DenseStoreWriter::DenseStoreWriter() = default;
+DenseStoreWriter::~DenseStoreWriter() = default;
 
-Result<std::unique_ptr<HzStoreWriter>> HzStoreWriter::Create(const std::string& path,
-                                                             const HzHeader& params,
-                                                             const HzWriteOptions& options) {
+Result<std::unique_ptr<DenseStoreWriter>> DenseStoreWriter::Create(const std::string& path,
+                                                                   const DenseHeader& params,
+                                                                   const DenseWriteOptions& options) {
   SDB_RETURN_IF_ERROR(CheckParams(path, params, options));
-  std::unique_ptr<HzStoreWriter> w(new HzStoreWriter());
+  std::unique_ptr<DenseStoreWriter> w(new DenseStoreWriter());
   w->path_ = path;
   w->options_ = options;
   w->start_ = std::chrono::steady_clock::now();
-  HzHeader& h = w->h_;
+  DenseHeader& h = w->h_;
   h = params;
-  h.version = kHzFormatVersion;
+  h.version = kDenseFormatVersion;
   const uint64_t stored_positions = h.error_positions();
   const int stored_bits = std::countr_zero(stored_positions);
   h.virtual_blocks = stored_bits <= h.block_bits ? 1 : uint64_t{1} << (stored_bits - h.block_bits);
@@ -115,12 +115,12 @@ Result<std::unique_ptr<HzStoreWriter>> HzStoreWriter::Create(const std::string& 
     return NotEnoughMemory(path + ": the block list", h.virtual_blocks * 8 + h.bricks * 48);
   }
   SDB_ASSIGN_OR_RETURN(w->writer_, AtomicFileWriter::Create(path));
-  w->writer_->Reserve(kHzHeaderSize);
+  w->writer_->Reserve(kDenseHeaderSize);
   w->workers_.resize(static_cast<size_t>(options.threads));
   return w;
 }
 
-HzStoreWriter::Worker& HzStoreWriter::Prepare(int w) {
+DenseStoreWriter::Worker& DenseStoreWriter::Prepare(int w) {
   Worker& wk = workers_[static_cast<size_t>(w)];
   if (wk.errors.empty()) {
     wk.errors.resize(h_.block_records());
@@ -132,7 +132,7 @@ HzStoreWriter::Worker& HzStoreWriter::Prepare(int w) {
   return wk;
 }
 
-HzStoreWriter::BlockSpan HzStoreWriter::SpanOf(uint64_t vblock) const {
+DenseStoreWriter::BlockSpan DenseStoreWriter::SpanOf(uint64_t vblock) const {
   BlockSpan span;
   const int d = h_.dimension;
   const int64_t side = int64_t{1} << h_.domain_bits;
@@ -169,7 +169,7 @@ HzStoreWriter::BlockSpan HzStoreWriter::SpanOf(uint64_t vblock) const {
 // its first vertex is inside the domain (the rest are holes) and a diamond
 // of its level, which reaches 2^(s+1) from its vertex, reaches the real
 // grid from there.
-bool HzStoreWriter::MayHoldData(uint64_t vblock) const {
+bool DenseStoreWriter::MayHoldData(uint64_t vblock) const {
   const BlockSpan span = SpanOf(vblock);
   if (span.scale < 0) return true;
   const int64_t side = int64_t{1} << h_.domain_bits;
@@ -180,7 +180,7 @@ bool HzStoreWriter::MayHoldData(uint64_t vblock) const {
   return true;
 }
 
-Status HzStoreWriter::WriteBlocks(std::span<const uint64_t> which, const HzFill& fill) {
+Status DenseStoreWriter::WriteBlocks(std::span<const uint64_t> which, const DenseFill& fill) {
   for (const uint64_t i : which) {
     if (i >= candidates_.size() || block_written_[i]) {
       return Status::InvalidArgument(path_ + ": candidate block " + std::to_string(i) +
@@ -222,7 +222,7 @@ Status HzStoreWriter::WriteBlocks(std::span<const uint64_t> which, const HzFill&
     }
     RaiseErrorMax(emax);
     if (!any_error && candidates_[item] != 0) return Status::OK();  // not stored
-    HzIndexEntry& e = entries_[item];
+    DenseIndexEntry& e = entries_[item];
     std::vector<uint8_t> compressed;
     std::span<const uint8_t> bytes(wk.raw);
     e.encoding = static_cast<uint8_t>(BlockEncoding::kRaw);
@@ -242,8 +242,8 @@ Status HzStoreWriter::WriteBlocks(std::span<const uint64_t> which, const HzFill&
 }
 
 template <class V>
-Status HzStoreWriter::WriteBricks(std::span<const uint64_t> which, const HeldField<V>& field,
-                                  const double* finest_max) {
+Status DenseStoreWriter::WriteBricks(std::span<const uint64_t> which, const HeldField<V>& field,
+                                     const double* finest_max) {
   if ((finest_max == nullptr) != h_.finest_stored()) {
     return Status::InvalidArgument(path_ + ": the finest errors' maxima go with a store that "
                                            "does not keep them");
@@ -261,7 +261,7 @@ Status HzStoreWriter::WriteBricks(std::span<const uint64_t> which, const HeldFie
     Worker& wk = Prepare(w);
     SDB_ASSIGN_OR_RETURN(EncodedBrick coded,
                          EncodeBrick(*grid_, b, field, h_.voxel_type, wk.zstd.get()));
-    HzIndexEntry& e = brick_entries_[b];
+    DenseIndexEntry& e = brick_entries_[b];
     e.encoding = static_cast<uint8_t>(coded.coding);
     SDB_RETURN_IF_ERROR(Append(*writer_, coded.bytes, e));
     e.field_min = RoundDownToFloat(coded.min);
@@ -276,33 +276,33 @@ Status HzStoreWriter::WriteBricks(std::span<const uint64_t> which, const HeldFie
   return RunParallel(which.size(), options_.threads, "bricks", start_, options_.progress, brick);
 }
 
-void HzStoreWriter::RaiseErrorMax(double e) {
+void DenseStoreWriter::RaiseErrorMax(double e) {
   std::lock_guard<std::mutex> lock(max_mu_);
   error_max_ = std::max(error_max_, e);
 }
 
-Result<HzHeader> HzStoreWriter::Finish() {
+Result<DenseHeader> DenseStoreWriter::Finish() {
   for (uint64_t b = 0; b < h_.bricks; ++b) {
     if (!brick_written_[b]) {
       return Status::InvalidArgument(path_ + ": brick " + std::to_string(b) + " was not written");
     }
   }
-  HzHeader& h = h_;
+  DenseHeader& h = h_;
   // Bitmap and indexes, in block and brick order.
   std::vector<uint8_t> bitmap(8 * h.bitmap_words(), 0), index, brick_index;
   uint64_t stored = 0;
   for (size_t i = 0; i < candidates_.size(); ++i) stored += kept_[i];
-  index.resize(stored * kHzIndexEntrySize);
+  index.resize(stored * kDenseIndexEntrySize);
   uint64_t j = 0;
   for (size_t i = 0; i < candidates_.size(); ++i) {
     if (!kept_[i]) continue;
     const uint64_t b = candidates_[i];
     bitmap[b / 8] |= static_cast<uint8_t>(1u << (b % 8));  // little-endian words: bit b of the map
-    SerializeHzIndexEntry(entries_[i], index.data() + j++ * kHzIndexEntrySize);
+    SerializeDenseIndexEntry(entries_[i], index.data() + j++ * kDenseIndexEntrySize);
   }
-  brick_index.resize(h.bricks * kHzIndexEntrySize);
+  brick_index.resize(h.bricks * kDenseIndexEntrySize);
   for (uint64_t b = 0; b < h.bricks; ++b) {
-    SerializeHzIndexEntry(brick_entries_[b], brick_index.data() + b * kHzIndexEntrySize);
+    SerializeDenseIndexEntry(brick_entries_[b], brick_index.data() + b * kDenseIndexEntrySize);
   }
   h.stored_blocks = stored;
   h.error_max = error_max_;
@@ -313,31 +313,31 @@ Result<HzHeader> HzStoreWriter::Finish() {
   h.bitmap_checksum = Checksum(bitmap);
   h.index_checksum = Checksum(index);
   h.brick_index_checksum = Checksum(brick_index);
-  const auto header = SerializeHzHeader(h);
+  const auto header = SerializeDenseHeader(h);
   SDB_RETURN_IF_ERROR(writer_->WriteAt(0, header));
   SDB_RETURN_IF_ERROR(writer_->Commit());
   return h;
 }
 
 #define SDB_WRITE_BRICKS_(V) \
-  template Status HzStoreWriter::WriteBricks(std::span<const uint64_t>, const HeldField<V>&, \
-                                             const double*);
+  template Status DenseStoreWriter::WriteBricks(std::span<const uint64_t>, const HeldField<V>&, \
+                                                const double*);
 SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_WRITE_BRICKS_)
 #undef SDB_WRITE_BRICKS_
 
 
 template <class V>
-Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
-                              const HzWriteOptions& options, const HzFill& fill, const V* field,
-                              const double* finest_max) {
+Result<DenseHeader> WriteDenseStore(const std::string& path, const DenseHeader& params,
+                                    const DenseWriteOptions& options, const DenseFill& fill, const V* field,
+                                    const double* finest_max) {
   SDB_RETURN_IF_ERROR(CheckParams(path, params, options));
-  if ((finest_max == nullptr) != ((params.flags & kHzFinestStored) != 0)) {
+  if ((finest_max == nullptr) != ((params.flags & kDenseFinestStored) != 0)) {
     return Status::InvalidArgument(path + ": the finest errors' maxima go with a store that "
                                           "does not keep them");
   }
   SDB_RETURN_IF_ERROR(params.dimension == 3 ? CheckField<3>(path, params, field)
                                             : CheckField<4>(path, params, field));
-  SDB_ASSIGN_OR_RETURN(auto writer, HzStoreWriter::Create(path, params, options));
+  SDB_ASSIGN_OR_RETURN(auto writer, DenseStoreWriter::Create(path, params, options));
   std::vector<uint64_t> all(writer->candidate_blocks().size());
   for (uint64_t i = 0; i < all.size(); ++i) all[i] = i;
   SDB_RETURN_IF_ERROR(writer->WriteBlocks(all, fill));
@@ -350,9 +350,9 @@ Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
 }
 
 #define SDB_WRITE_HZ_STORE_(V)                                                           \
-  template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&,            \
-                                         const HzWriteOptions&, const HzFill&, const V*, \
-                                         const double*);
+  template Result<DenseHeader> WriteDenseStore(const std::string&, const DenseHeader&,            \
+                                               const DenseWriteOptions&, const DenseFill&, const V*, \
+                                               const double*);
 SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_WRITE_HZ_STORE_)
 #undef SDB_WRITE_HZ_STORE_
 

@@ -1,4 +1,4 @@
-// Builds a sparse store of format 2 (storage/sparse/hz_sparse_format.h) from
+// Builds a sparse store of format 2 (storage/sparse/sparse_format.h) from
 // a volume held in memory.
 //
 // The diamond errors come from the dense builder's engine (storage/error/
@@ -27,13 +27,13 @@
 
 #include "storage/error/progress.h"
 #include "storage/error/quantization.h"
-#include "storage/sparse/hz_sparse_format.h"
+#include "storage/sparse/sparse_format.h"
 #include "storage/volume/volume.h"
 #include "util/status.h"
 
 namespace simplexdb {
 
-struct HzSparseBuildOptions {
+struct SparseBuildOptions {
   double tolerance = 0;  // t, in the field's units; 0: lossless
   bool tolerance_percent = false;  // tolerance is a percentage of the field's range
   Quantization quantization = Quantization::kU16;
@@ -44,15 +44,15 @@ struct HzSparseBuildOptions {
   std::function<void(const BuildProgress&)> progress;  // "field", "errors", "keep", "blocks"
 };
 
-struct HzSparseBuildReport {
-  HzSparseHeader header;
+struct SparseBuildReport {
+  SparseHeader header;
   double seconds = 0;
   int rounds = 0;              // keep-and-rebuild passes (1 when no check failed)
   uint64_t kept_by_check = 0;  // vertices the rebuild check kept
   uint64_t file_bytes = 0;
 };
 
-Result<HzSparseBuildReport> BuildHzSparseStore(const VolumeInfo& input, const std::string& out_path,
-                                               const HzSparseBuildOptions& options);
+Result<SparseBuildReport> BuildSparseStore(const VolumeInfo& input, const std::string& out_path,
+                                           const SparseBuildOptions& options);
 
 }  // namespace simplexdb

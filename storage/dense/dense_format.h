@@ -7,7 +7,7 @@
 // from the field in memory keep them for every octave but the finest (HZ
 // positions below 2^(D k)): a reader computes the finest octave's from the
 // field (storage/error/finest_box_errors.h), as the builder did. Stores
-// built from a field with missing values (NaN, a mask) set kHzFinestStored
+// built from a field with missing values (NaN, a mask) set kDenseFinestStored
 // and keep every octave's.
 //
 // Field: every octave's lattice as bricks (storage/dense/field_bricks.h),
@@ -15,7 +15,7 @@
 //
 // Layout of a store file (all integers little-endian):
 //
-//   [0, 4096)                header (kHzHeaderSize bytes; unused bytes zero)
+//   [0, 4096)                header (kDenseHeaderSize bytes; unused bytes zero)
 //   [4096, bitmap_offset)    error blocks and bricks, back to back, in any order
 //   [bitmap_offset, +8 W)    presence bitmap: W = ceil(virtual blocks / 64)
 //                            words; bit b set when virtual block b is stored
@@ -42,7 +42,7 @@
 // 2's version 2: errors and field in one record) with what to do.
 //
 // Thread safety: plain values and pure functions.
-// Errors: ParseHzHeader returns InvalidArgument (bad magic: not a dense
+// Errors: ParseDenseHeader returns InvalidArgument (bad magic: not a dense
 // store), NotSupported (format 1, or format 2's version 2, with what to do;
 // another version) or Corruption (checksum, a field out of range), naming
 // the file; ParseCompression InvalidArgument naming the unknown word.
@@ -76,27 +76,27 @@ enum class Compression : uint8_t { kNone = 0, kZstd = 1 };
 Result<Compression> ParseCompression(std::string_view name);  // "none", "zstd"
 
 // Version 3: errors and field apart (version 2 kept both per record).
-inline constexpr uint32_t kHzFormatVersion = 3;
-inline constexpr size_t kHzHeaderSize = 4096;
-inline constexpr size_t kHzIndexEntrySize = 40;
-inline constexpr size_t kHzMaxSource = 1024;
+inline constexpr uint32_t kDenseFormatVersion = 3;
+inline constexpr size_t kDenseHeaderSize = 4096;
+inline constexpr size_t kDenseIndexEntrySize = 40;
+inline constexpr size_t kDenseMaxSource = 1024;
 // 4096 records: 12 KiB decoded for u16 errors and 8-bit voxels, a 16^3 box
 // of cubes (8^4 in the HP) at the fine levels.
-inline constexpr int kHzDefaultBlockBits = 12;
+inline constexpr int kDenseDefaultBlockBits = 12;
 // Bricks of 16^3 points in the HT, 8^4 in the HP: 4096 either way.
-inline constexpr int HzDefaultBrickBits(int dimension) { return dimension == 3 ? 4 : 3; }
+inline constexpr int DenseDefaultBrickBits(int dimension) { return dimension == 3 ? 4 : 3; }
 // Header flags.
-inline constexpr uint8_t kHzFinestStored = 1;  // the finest octave's errors are in blocks
+inline constexpr uint8_t kDenseFinestStored = 1;  // the finest octave's errors are in blocks
 
-struct HzHeader {
-  uint32_t version = kHzFormatVersion;
+struct DenseHeader {
+  uint32_t version = kDenseFormatVersion;
   uint8_t dimension = 3;  // 3: HT, 4: HP
   Quantization quantization = Quantization::kU16;
   VoxelType voxel_type = VoxelType::kU8;  // the stored field's type
   uint8_t domain_bits = 0;                // k: the domain has side 2^k
-  uint8_t block_bits = kHzDefaultBlockBits;
+  uint8_t block_bits = kDenseDefaultBlockBits;
   uint8_t brick_bits = 4;                 // bricks of 2^brick_bits points per axis
-  uint8_t flags = 0;                      // kHzFinestStored
+  uint8_t flags = 0;                      // kDenseFinestStored
   std::array<uint32_t, 4> dims = {1, 1, 1, 1};  // the real grid (unused axes 1)
   std::array<double, 4> spacing = {1, 1, 1, 1};
   std::array<double, 4> origin = {0, 0, 0, 0};
@@ -114,10 +114,10 @@ struct HzHeader {
   uint64_t bricks = 0;                // field bricks (BrickGrid::bricks())
   uint64_t brick_index_offset = 0;    // index_offset + 40 * stored_blocks
   uint64_t brick_index_checksum = 0;  // XXH3-64 of the brick index bytes
-  std::string source;            // what the store was built from (<= kHzMaxSource bytes)
+  std::string source;            // what the store was built from (<= kDenseMaxSource bytes)
 
   int leaf_level() const { return dimension * domain_bits; }
-  bool finest_stored() const { return (flags & kHzFinestStored) != 0; }
+  bool finest_stored() const { return (flags & kDenseFinestStored) != 0; }
   // The HZ positions whose errors the blocks hold: all of them
   // (2^(D (k + 1))) or all but the finest octave's (2^(D k)).
   uint64_t error_positions() const {
@@ -127,16 +127,16 @@ struct HzHeader {
   uint64_t bitmap_words() const { return (virtual_blocks + 63) / 64; }
 };
 
-// Serializes into exactly kHzHeaderSize bytes, checksum included (the
-// source is cut between characters to kHzMaxSource bytes).
-std::array<uint8_t, kHzHeaderSize> SerializeHzHeader(const HzHeader& h);
+// Serializes into exactly kDenseHeaderSize bytes, checksum included (the
+// source is cut between characters to kDenseMaxSource bytes).
+std::array<uint8_t, kDenseHeaderSize> SerializeDenseHeader(const DenseHeader& h);
 
 // Parses and checks a header: magic, version, checksum, ranges, and that the
 // counts and offsets describe a file of file_size bytes.
-Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view file);
+Result<DenseHeader> ParseDenseHeader(std::span<const uint8_t> bytes, std::string_view file);
 
 // One stored block or brick.
-struct HzIndexEntry {
+struct DenseIndexEntry {
   uint64_t offset = 0;       // in the file
   uint32_t stored_size = 0;  // bytes in the file
   // Blocks: BlockEncoding kRaw or kZstd; bricks: BrickCoding.
@@ -148,10 +148,10 @@ struct HzIndexEntry {
                              //   brick's finest vertices (code or f32 bits)
 };
 
-void SerializeHzIndexEntry(const HzIndexEntry& e, uint8_t* out);  // kHzIndexEntrySize bytes
+void SerializeDenseIndexEntry(const DenseIndexEntry& e, uint8_t* out);  // kDenseIndexEntrySize bytes
 
-inline HzIndexEntry ParseHzIndexEntry(const uint8_t* in) {
-  HzIndexEntry e;
+inline DenseIndexEntry ParseDenseIndexEntry(const uint8_t* in) {
+  DenseIndexEntry e;
   e.offset = LoadLittle<uint64_t>(in + 0);
   e.stored_size = LoadLittle<uint32_t>(in + 8);
   e.encoding = in[12];  // checked by the reader

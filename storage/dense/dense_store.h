@@ -1,5 +1,5 @@
-// HzStore: a read-only, memory-mapped store of format 2 (storage/dense/
-// hz_format.h, docs/format/dense-store.md): per grid vertex its diamond's
+// DenseStore: a read-only, memory-mapped store of format 2 (storage/dense/
+// dense_format.h, docs/format/dense-store.md): per grid vertex its diamond's
 // error, in hierarchical Z-order, in blocks; the field as bricks of every
 // octave's lattice. Blocks and bricks are raw (blocks are read in place) or
 // zstd frames, decoded into a bounded cache. A node's error is the error of
@@ -14,7 +14,7 @@
 // damaged store gives Corruption naming the file and the block or brick;
 // nothing reads past the mapping.
 //
-// Thread safety: an HzStore may be shared by any number of threads. Lookups
+// Thread safety: an DenseStore may be shared by any number of threads. Lookups
 // go through a Reader, one per thread, which keeps the last block it read
 // in each segment (a walk moves between levels at every step, and each
 // level's records of each odd-axis pattern are their own blocks; no lock
@@ -55,7 +55,7 @@
 #include "hierarchy/simplex_code.h"
 #include "storage/common/block_cache.h"
 #include "storage/dense/field_bricks.h"
-#include "storage/dense/hz_format.h"
+#include "storage/dense/dense_format.h"
 #include "storage/error/finest_box_errors.h"
 #include "storage/error/quantize.h"
 #include "storage/io/file.h"
@@ -63,7 +63,7 @@
 
 namespace simplexdb {
 
-class HzStore {
+class DenseStore {
  public:
   struct Options {
     size_t cache_bytes = size_t{256} << 20;  // decoded blocks, bricks and boxes kept
@@ -75,13 +75,13 @@ class HzStore {
     std::shared_ptr<BlockCache> cache;       // share one cache between stores
   };
 
-  static Result<std::unique_ptr<HzStore>> Open(const std::string& path, const Options& options);
-  static Result<std::unique_ptr<HzStore>> Open(const std::string& path) {
+  static Result<std::unique_ptr<DenseStore>> Open(const std::string& path, const Options& options);
+  static Result<std::unique_ptr<DenseStore>> Open(const std::string& path) {
     return Open(path, Options{});
   }
-  ~HzStore();
+  ~DenseStore();
 
-  const HzHeader& header() const { return header_; }
+  const DenseHeader& header() const { return header_; }
   int dimension() const { return header_.dimension; }
   const std::string& path() const { return path_; }
   const ErrorQuantizer& quantizer() const { return quantizer_; }
@@ -100,11 +100,11 @@ class HzStore {
   std::optional<uint64_t> StoredIndex(uint64_t vblock) const;
   // The virtual block of stored block `i` (O(log) over the bitmap's words).
   uint64_t VirtualBlock(uint64_t stored) const;
-  HzIndexEntry entry(uint64_t stored) const {
-    return ParseHzIndexEntry(index_ + stored * kHzIndexEntrySize);
+  DenseIndexEntry entry(uint64_t stored) const {
+    return ParseDenseIndexEntry(index_ + stored * kDenseIndexEntrySize);
   }
-  HzIndexEntry brick_entry(uint64_t brick) const {
-    return ParseHzIndexEntry(brick_index_ + brick * kHzIndexEntrySize);
+  DenseIndexEntry brick_entry(uint64_t brick) const {
+    return ParseDenseIndexEntry(brick_index_ + brick * kDenseIndexEntrySize);
   }
 
   struct BlockHandle {
@@ -193,7 +193,7 @@ class HzStore {
   class Reader {
    public:
     // REQUIRES: store.dimension() == D; the store outlives the reader.
-    explicit Reader(const HzStore& store);
+    explicit Reader(const DenseStore& store);
 
     // The stored error bound of a node: its diamond's error, rounded up by
     // the quantization; 0 at or below the leaf level. REQUIRES: code.is_valid().
@@ -225,7 +225,7 @@ class HzStore {
     // take the value of the nearest real point.
     Result<double> Field(const std::array<int64_t, D>& p);
 
-    const HzStore& store() const { return store_; }
+    const DenseStore& store() const { return store_; }
     uint64_t block_fetches() const { return block_fetches_; }
     uint64_t blocks_skipped() const { return blocks_skipped_; }
 
@@ -265,7 +265,7 @@ class HzStore {
     Result<uint32_t> FinestCodeAt(const std::array<int64_t, D>& g, const double* threshold,
                                   bool* skipped);
 
-    const HzStore& store_;
+    const DenseStore& store_;
     HzOrder<D> order_;
     SplitVertexCursor<D> cursor_;
     // The first level of the finest octave when the store does not keep its
@@ -290,7 +290,7 @@ class HzStore {
   };
 
  private:
-  HzStore() = default;
+  DenseStore() = default;
   Status ValidateBitmapAndIndexes();
   Status LoadAll(int threads);
   Result<std::shared_ptr<const BlockCache::Block>> DecodeBlock(uint64_t stored) const;
@@ -303,7 +303,7 @@ class HzStore {
   void Touch(uint64_t i) const;
 
   std::string path_;
-  HzHeader header_;
+  DenseHeader header_;
   ErrorQuantizer quantizer_{Quantization::kU16, 1, 0};
   std::unique_ptr<BrickGrid> grid_;
   std::unique_ptr<MappedFile> file_;
@@ -332,7 +332,7 @@ class HzStore {
   mutable std::atomic<uint64_t> boxes_{0};
 };
 
-// Coarse reads (storage/dense/hz_lattice.cc): the field at the points lo +
+// Coarse reads (storage/dense/dense_lattice.cc): the field at the points lo +
 // i * 2^s (per axis, up to hi inclusive) into out, x fastest: ((hi[a] -
 // lo[a]) >> s) + 1 points per axis, read from lattice s's bricks alone
 // (storage/dense/field_bricks.h), so a read at a quarter of the resolution
@@ -340,11 +340,11 @@ class HzStore {
 // for each point in turn.
 // REQUIRES: `out` holds that many doubles; lo[a] a multiple of 2^s,
 // 0 <= lo[a] <= hi[a] < dims[a] on the used axes (checked: InvalidArgument).
-// Thread safety: as HzStore's; nothing is kept after the call.
-// Errors: those of HzStore::Brick (Corruption naming the brick,
+// Thread safety: as DenseStore's; nothing is kept after the call.
+// Errors: those of DenseStore::Brick (Corruption naming the brick,
 // ResourceExhausted); InvalidArgument for a box or lattice out of range.
 // O(points + the voxels of the bricks the box meets).
-Status ReadLattice(const HzStore& store, int s, const std::array<int64_t, 4>& lo,
+Status ReadLattice(const DenseStore& store, int s, const std::array<int64_t, 4>& lo,
                    const std::array<int64_t, 4>& hi, double* out);
 
 }  // namespace simplexdb

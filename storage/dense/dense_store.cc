@@ -1,4 +1,4 @@
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_store.h"
 
 #include <zstd.h>
 
@@ -38,24 +38,24 @@ double ReadVoxel(VoxelType type, const uint8_t* p) {
   return 0;
 }
 
-HzStore::BlockHandle HandleOf(std::shared_ptr<const BlockCache::Block> block) {
+DenseStore::BlockHandle HandleOf(std::shared_ptr<const BlockCache::Block> block) {
   const uint8_t* data = block->data();
-  return HzStore::BlockHandle{data, std::move(block)};
+  return DenseStore::BlockHandle{data, std::move(block)};
 }
 
 }  // namespace
 
-HzStore::~HzStore() {
+DenseStore::~DenseStore() {
   if (cache_ && cache_.use_count() > 1) cache_->EraseStore(cache_store_id_);
 }
 
-Result<std::unique_ptr<HzStore>> HzStore::Open(const std::string& path, const Options& options) {
-  std::unique_ptr<HzStore> s(new HzStore());
+Result<std::unique_ptr<DenseStore>> DenseStore::Open(const std::string& path, const Options& options) {
+  std::unique_ptr<DenseStore> s(new DenseStore());
   s->path_ = path;
   SDB_ASSIGN_OR_RETURN(s->file_, MappedFile::Open(path));
   const std::span<const uint8_t> bytes = s->file_->bytes();
-  SDB_ASSIGN_OR_RETURN(s->header_, ParseHzHeader(bytes, path));
-  const HzHeader& h = s->header_;
+  SDB_ASSIGN_OR_RETURN(s->header_, ParseDenseHeader(bytes, path));
+  const DenseHeader& h = s->header_;
   if (bytes.size() != h.file_size) {
     return Status::Corruption(path + ": the file is " + std::to_string(bytes.size()) +
                               " bytes; its header says " + std::to_string(h.file_size) +
@@ -97,8 +97,8 @@ Result<std::unique_ptr<HzStore>> HzStore::Open(const std::string& path, const Op
   return s;
 }
 
-Status HzStore::ValidateBitmapAndIndexes() {
-  const HzHeader& h = header_;
+Status DenseStore::ValidateBitmapAndIndexes() {
+  const DenseHeader& h = header_;
   const auto corrupt = [&](const std::string& why) {
     return Status::Corruption(path_ + ": " + why);
   };
@@ -127,11 +127,11 @@ Status HzStore::ValidateBitmapAndIndexes() {
   }
   if ((LoadLittle<uint64_t>(bitmap_) & 1) == 0) return corrupt("block bitmap: block 0 is not stored");
   const std::span<const uint8_t> index =
-      bytes.subspan(h.index_offset, h.stored_blocks * kHzIndexEntrySize);
+      bytes.subspan(h.index_offset, h.stored_blocks * kDenseIndexEntrySize);
   if (Checksum(index) != h.index_checksum) return corrupt("block index: checksum mismatch");
   index_ = index.data();
   const std::span<const uint8_t> brick_index =
-      bytes.subspan(h.brick_index_offset, h.bricks * kHzIndexEntrySize);
+      bytes.subspan(h.brick_index_offset, h.bricks * kDenseIndexEntrySize);
   if (Checksum(brick_index) != h.brick_index_checksum) {
     return corrupt("brick index: checksum mismatch");
   }
@@ -144,13 +144,13 @@ Status HzStore::ValidateBitmapAndIndexes() {
     bool reserved = false;
     for (int j : {13, 14, 15, 36, 37, 38, 39}) reserved = reserved || e[j] != 0;
     if (reserved) return bad("reserved bytes are set");
-    const HzIndexEntry entry = ParseHzIndexEntry(e);
+    const DenseIndexEntry entry = ParseDenseIndexEntry(e);
     if (raw ? entry.stored_size != decoded
             : (entry.stored_size == 0 || entry.stored_size > ZSTD_compressBound(decoded))) {
       return bad("stored size " + std::to_string(entry.stored_size) + " for " +
                  std::to_string(decoded) + " bytes decoded");
     }
-    if (entry.offset < kHzHeaderSize || entry.offset > h.bitmap_offset ||
+    if (entry.offset < kDenseHeaderSize || entry.offset > h.bitmap_offset ||
         entry.stored_size > h.bitmap_offset - entry.offset) {
       return bad("data outside the block area");
     }
@@ -170,7 +170,7 @@ Status HzStore::ValidateBitmapAndIndexes() {
     return Status::OK();
   };
   for (uint64_t i = 0; i < h.stored_blocks; ++i) {
-    const uint8_t* e = index_ + i * kHzIndexEntrySize;
+    const uint8_t* e = index_ + i * kDenseIndexEntrySize;
     const auto bad = [&](const std::string& why) {
       return corrupt("block index: " + Describe(i) + ": " + why);
     };
@@ -183,7 +183,7 @@ Status HzStore::ValidateBitmapAndIndexes() {
                               encoding == static_cast<uint8_t>(BlockEncoding::kRaw), true));
   }
   for (uint64_t b = 0; b < h.bricks; ++b) {
-    const uint8_t* e = brick_index_ + b * kHzIndexEntrySize;
+    const uint8_t* e = brick_index_ + b * kDenseIndexEntrySize;
     const auto bad = [&](const std::string& why) {
       return corrupt("brick index: " + DescribeBrick(b) + ": " + why);
     };
@@ -200,7 +200,7 @@ Status HzStore::ValidateBitmapAndIndexes() {
   return Status::OK();
 }
 
-std::optional<uint64_t> HzStore::StoredIndex(uint64_t vblock) const {
+std::optional<uint64_t> DenseStore::StoredIndex(uint64_t vblock) const {
   if (vblock >= header_.virtual_blocks) return std::nullopt;
   const uint64_t word = LoadLittle<uint64_t>(bitmap_ + 8 * (vblock >> 6));
   const uint64_t bit = uint64_t{1} << (vblock & 63);
@@ -208,7 +208,7 @@ std::optional<uint64_t> HzStore::StoredIndex(uint64_t vblock) const {
   return rank_[vblock >> 6] + static_cast<uint64_t>(std::popcount(word & (bit - 1)));
 }
 
-uint64_t HzStore::VirtualBlock(uint64_t stored) const {
+uint64_t DenseStore::VirtualBlock(uint64_t stored) const {
   // The last word whose rank is at most `stored`, then the bit within it.
   const uint64_t w = static_cast<uint64_t>(
       std::upper_bound(rank_.begin(), rank_.end(), stored) - rank_.begin() - 1);
@@ -217,7 +217,7 @@ uint64_t HzStore::VirtualBlock(uint64_t stored) const {
   return 64 * w + static_cast<uint64_t>(std::countr_zero(word));
 }
 
-std::string HzStore::DescribeBlock(uint64_t vblock) const {
+std::string DenseStore::DescribeBlock(uint64_t vblock) const {
   const uint64_t first = vblock << header_.block_bits;
   const uint64_t last = first + header_.block_records() - 1;
   const std::string positions =
@@ -242,7 +242,7 @@ std::string HzStore::DescribeBlock(uint64_t vblock) const {
          ", odd axes " + odd + ", " + positions + ")";
 }
 
-std::string HzStore::DescribeBrick(uint64_t b) const {
+std::string DenseStore::DescribeBrick(uint64_t b) const {
   const BrickPlace place = grid_->Place(b);
   std::string from;
   for (int a = 0; a < header_.dimension; ++a) {
@@ -255,15 +255,15 @@ std::string HzStore::DescribeBrick(uint64_t b) const {
   return "brick " + std::to_string(b) + " (" + which + ", from " + from + "))";
 }
 
-void HzStore::Touch(uint64_t i) const {
+void DenseStore::Touch(uint64_t i) const {
   if (touched_[i].load(std::memory_order_relaxed) == 0 &&
       touched_[i].exchange(1, std::memory_order_relaxed) == 0) {
     distinct_.fetch_add(1, std::memory_order_relaxed);
   }
 }
 
-Result<std::shared_ptr<const BlockCache::Block>> HzStore::DecodeBlock(uint64_t i) const {
-  const HzIndexEntry e = entry(i);
+Result<std::shared_ptr<const BlockCache::Block>> DenseStore::DecodeBlock(uint64_t i) const {
+  const DenseIndexEntry e = entry(i);
   const std::span<const uint8_t> stored = file_->bytes().subspan(e.offset, e.stored_size);
   if (Checksum(stored) != e.checksum) {
     return Status::Corruption(path_ + ": " + Describe(i) + ": checksum mismatch");
@@ -284,13 +284,13 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::DecodeBlock(uint64_t i
   return std::shared_ptr<const BlockCache::Block>(std::move(block));
 }
 
-Result<HzStore::BlockHandle> HzStore::Block(uint64_t i) const {
+Result<DenseStore::BlockHandle> DenseStore::Block(uint64_t i) const {
   if (i >= header_.stored_blocks) {
     return Status::InvalidArgument(path_ + ": stored block " + std::to_string(i) + " out of range");
   }
   Touch(i);
   if (!resident_.empty()) return BlockHandle{resident_[i]->data(), nullptr};
-  const HzIndexEntry e = entry(i);
+  const DenseIndexEntry e = entry(i);
   if (e.encoding == static_cast<uint8_t>(BlockEncoding::kRaw)) {
     const uint8_t* data = file_->bytes().data() + e.offset;
     uint8_t state = raw_state_[i].load(std::memory_order_acquire);
@@ -308,7 +308,7 @@ Result<HzStore::BlockHandle> HzStore::Block(uint64_t i) const {
   return HandleOf(cache_->Insert(key, std::move(fresh)));
 }
 
-Status HzStore::LoadAll(int threads) {
+Status DenseStore::LoadAll(int threads) {
   const uint64_t finest = header_.finest_stored() ? 0 : grid_->Count(0);
   const uint64_t total = header_.stored_blocks * block_bytes() + header_.bricks * brick_bytes() +
                          error_size_ * finest * grid_->brick_voxels();
@@ -358,8 +358,8 @@ Status HzStore::LoadAll(int threads) {
   });
 }
 
-Result<std::shared_ptr<const BlockCache::Block>> HzStore::DecodeBrickAt(uint64_t b) const {
-  const HzIndexEntry e = brick_entry(b);
+Result<std::shared_ptr<const BlockCache::Block>> DenseStore::DecodeBrickAt(uint64_t b) const {
+  const DenseIndexEntry e = brick_entry(b);
   const std::span<const uint8_t> stored = file_->bytes().subspan(e.offset, e.stored_size);
   if (Checksum(stored) != e.checksum) {
     return Status::Corruption(path_ + ": " + DescribeBrick(b) + ": checksum mismatch");
@@ -380,7 +380,7 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::DecodeBrickAt(uint64_t
   return std::shared_ptr<const BlockCache::Block>(std::move(brick));
 }
 
-Result<HzStore::BlockHandle> HzStore::Brick(uint64_t b) const {
+Result<DenseStore::BlockHandle> DenseStore::Brick(uint64_t b) const {
   if (b >= header_.bricks) {
     return Status::InvalidArgument(path_ + ": brick " + std::to_string(b) + " out of range");
   }
@@ -392,7 +392,7 @@ Result<HzStore::BlockHandle> HzStore::Brick(uint64_t b) const {
   return HandleOf(cache_->Insert(key, std::move(fresh)));
 }
 
-Result<HzStore::BlockHandle> HzStore::FinestCodes(uint64_t b) const {
+Result<DenseStore::BlockHandle> DenseStore::FinestCodes(uint64_t b) const {
   if (!resident_finest_.empty()) {
     const auto& codes = resident_finest_[b - grid_->FirstBrick(0)];
     if (codes != nullptr) return BlockHandle{codes->data(), nullptr};
@@ -403,12 +403,12 @@ Result<HzStore::BlockHandle> HzStore::FinestCodes(uint64_t b) const {
   return HandleOf(cache_->Insert(key, std::move(fresh)));
 }
 
-Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinest(uint64_t b) const {
+Result<std::shared_ptr<const BlockCache::Block>> DenseStore::ComputeFinest(uint64_t b) const {
   return header_.dimension == 3 ? ComputeFinestOf<3>(b) : ComputeFinestOf<4>(b);
 }
 
 template <int D>
-Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64_t b) const {
+Result<std::shared_ptr<const BlockCache::Block>> DenseStore::ComputeFinestOf(uint64_t b) const {
   const FinestBoxErrors<D>& finest = [&]() -> const FinestBoxErrors<D>& {
     if constexpr (D == 3) {
       return *finest3_;
@@ -476,7 +476,7 @@ Result<std::shared_ptr<const BlockCache::Block>> HzStore::ComputeFinestOf(uint64
   return std::shared_ptr<const BlockCache::Block>(std::move(codes));
 }
 
-double HzStore::VoxelAt(const uint8_t* brick, size_t slot) const {
+double DenseStore::VoxelAt(const uint8_t* brick, size_t slot) const {
   return ReadVoxel(header_.voxel_type, brick + slot * voxel_size_);
 }
 

@@ -1,4 +1,4 @@
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/sparse/sparse_store.h"
 
 #include <sys/stat.h>
 
@@ -29,12 +29,12 @@ std::array<int64_t, D> WindowStrides() {
 
 }  // namespace
 
-Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& path, const Options& options) {
+Result<std::unique_ptr<SparseStore>> SparseStore::Open(const std::string& path, const Options& options) {
   struct stat st;
   if (stat(path.c_str(), &st) != 0) return StatusFromErrno(errno, path, "open");
   if (!S_ISREG(st.st_mode)) return Status::InvalidArgument(path + ": not a regular file");
   if (!lmdb::LooksLikeLmdb(path)) return Status::InvalidArgument(path + ": not a sparse store (not an LMDB file)");
-  std::unique_ptr<HzSparseStore> store(new HzSparseStore());
+  std::unique_ptr<SparseStore> store(new SparseStore());
   store->path_ = path;
   lmdb::Env::Options env_options;
   env_options.read_only = true;
@@ -42,7 +42,7 @@ Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& pa
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(*store->env_, /*read_only=*/true));
   SDB_ASSIGN_OR_RETURN(store->db_, txn.OpenDb(nullptr, false));
   bool found = false;
-  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn.Get(store->db_, kHzSparseHeaderKey, &found));
+  SDB_ASSIGN_OR_RETURN(std::span<const uint8_t> value, txn.Get(store->db_, kSparseHeaderKey, &found));
   if (!found) {
     // Earlier layouts kept named databases.
     if (txn.OpenDb("errors", false).ok()) {
@@ -51,16 +51,16 @@ Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& pa
     }
     if (txn.OpenDb("meta", false).ok()) {
       return Status::NotSupported(path + ": a sparse store of format 2 with header version 2 or 3; this build "
-                                         "reads version " + std::to_string(kHzSparseFormatVersion) +
+                                         "reads version " + std::to_string(kSparseFormatVersion) +
                                   " (import the volume again)");
     }
     return Status::InvalidArgument(path + ": an LMDB file, but not a SimplexDB sparse store (no header)");
   }
-  SDB_ASSIGN_OR_RETURN(store->header_, DecodeHzSparseHeader(value, path));
+  SDB_ASSIGN_OR_RETURN(store->header_, DecodeSparseHeader(value, path));
   // Committing a read-only transaction keeps its database handles open.
   SDB_RETURN_IF_ERROR(txn.Commit());
-  const HzSparseHeader& h = store->header_;
-  store->errors_ = std::make_unique<HzSparseErrorCoder>(h);
+  const SparseHeader& h = store->header_;
+  store->errors_ = std::make_unique<SparseErrorCoder>(h);
   // Few shards: a decoded block is 16 bytes per kept vertex and a bit per
   // position (up to 4.03 MiB at the HT's default 2^18 positions), and a
   // shard must hold several.
@@ -69,34 +69,34 @@ Result<std::unique_ptr<HzSparseStore>> HzSparseStore::Open(const std::string& pa
   return store;
 }
 
-HzSparseStore::~HzSparseStore() {
+SparseStore::~SparseStore() {
   if (cache_) cache_->EraseStore(cache_id_);
 }
 
-uint64_t HzSparseStore::file_bytes() const {
+uint64_t SparseStore::file_bytes() const {
   struct stat st;
   return stat(path_.c_str(), &st) == 0 ? static_cast<uint64_t>(st.st_size) : 0;
 }
 
-HzSparseStore::Stats HzSparseStore::stats() const {
+SparseStore::Stats SparseStore::stats() const {
   return Stats{decoded_.load(std::memory_order_relaxed), rebuilt_.load(std::memory_order_relaxed)};
 }
 
-Result<bool> ReadHzSparseBlockValue(lmdb::Txn& txn, MDB_dbi dbi, uint64_t b, const std::string& path,
-                                    std::vector<uint8_t>* out) {
+Result<bool> ReadSparseBlockValue(lmdb::Txn& txn, MDB_dbi dbi, uint64_t b, const std::string& path,
+                                  std::vector<uint8_t>* out) {
   out->clear();
   SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, dbi));
-  auto first = HzSparseKey(b, 0);
+  auto first = SparseKey(b, 0);
   MDB_val k = lmdb::Val(first.data(), first.size()), v;
   uint32_t next = 0;
   for (int rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_SET_RANGE);; rc = mdb_cursor_get(cursor.get(), &k, &v, MDB_NEXT)) {
     if (rc == MDB_NOTFOUND) break;
     if (rc != MDB_SUCCESS) return lmdb::FromCode(rc, path, "read block " + std::to_string(b));
     const std::span<const uint8_t> key(static_cast<const uint8_t*>(k.mv_data), k.mv_size);
-    if (IsHzSparseHeaderKey(key)) break;
+    if (IsSparseHeaderKey(key)) break;
     uint64_t block = 0;
     uint32_t part = 0;
-    if (!ParseHzSparseKey(key, &block, &part)) {
+    if (!ParseSparseKey(key, &block, &part)) {
       return Status::Corruption(path + ": a block key of " + std::to_string(k.mv_size) + " bytes");
     }
     if (block != b) break;
@@ -112,7 +112,7 @@ Result<bool> ReadHzSparseBlockValue(lmdb::Txn& txn, MDB_dbi dbi, uint64_t b, con
 }
 
 template <int D>
-HzSparseStore::Reader<D>::Reader(const HzSparseStore& store)
+SparseStore::Reader<D>::Reader(const SparseStore& store)
     : store_(store),
       order_(store.header().domain_bits),
       stencils_(FinestDiamonds<D>::Get(), WindowStrides<D>()),
@@ -121,16 +121,16 @@ HzSparseStore::Reader<D>::Reader(const HzSparseStore& store)
 }
 
 template <int D>
-HzSparseStore::Reader<D>::~Reader() = default;
+SparseStore::Reader<D>::~Reader() = default;
 
 template <int D>
-Result<uint64_t> HzSparseStore::Reader<D>::Rebuild(uint64_t b) {
+Result<uint64_t> SparseStore::Reader<D>::Rebuild(uint64_t b) {
   SDB_ASSIGN_OR_RETURN(const View v, Materialize(b));
   return static_cast<uint64_t>(v.kept);
 }
 
 template <int D>
-Result<const typename HzSparseStore::Reader<D>::View*> HzSparseStore::Reader<D>::Get(uint64_t p) {
+Result<const typename SparseStore::Reader<D>::View*> SparseStore::Reader<D>::Get(uint64_t p) {
   const int bb = store_.header().block_bits;
   const uint64_t b = p >> bb;
   size_t slot = 0;
@@ -160,7 +160,7 @@ size_t CompactBytes(size_t kept, int block_bits) {
 }  // namespace
 
 template <int D>
-Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Fetch(uint64_t b) {
+Result<typename SparseStore::Reader<D>::View> SparseStore::Reader<D>::Fetch(uint64_t b) {
   const BlockCache::Key key{store_.cache_id_, b};
   std::shared_ptr<const BlockCache::Block> block = store_.cache_->Lookup(key);
   if (block == nullptr) {
@@ -188,8 +188,8 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Fetch(
 
 template <int D>
 template <class ValueOf>
-Result<double> HzSparseStore::Reader<D>::RebuiltValue(const std::array<int64_t, D>& g, uint64_t p,
-                                                      ValueOf&& value) {
+Result<double> SparseStore::Reader<D>::RebuiltValue(const std::array<int64_t, D>& g, uint64_t p,
+                                                    ValueOf&& value) {
   if (const auto it = rebuilt_values_.find(p); it != rebuilt_values_.end()) return it->second;
   // The ends are coarser, so the recursion ends within the levels.
   Status failed = Status::OK();
@@ -208,8 +208,8 @@ Result<double> HzSparseStore::Reader<D>::RebuiltValue(const std::array<int64_t, 
 }
 
 template <int D>
-Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materialize(uint64_t b) {
-  const HzSparseHeader& h = store_.header();
+Result<typename SparseStore::Reader<D>::View> SparseStore::Reader<D>::Materialize(uint64_t b) {
+  const SparseHeader& h = store_.header();
   const int bb = h.block_bits;
   const uint64_t n = uint64_t{1} << bb, first = b << bb;
   if (txn_ == nullptr) {
@@ -217,7 +217,7 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
     txn_ = std::make_unique<lmdb::Txn>(std::move(txn));
   }
   std::vector<uint8_t> value;
-  SDB_ASSIGN_OR_RETURN(const bool found, ReadHzSparseBlockValue(*txn_, store_.db_, b, store_.path(), &value));
+  SDB_ASSIGN_OR_RETURN(const bool found, ReadSparseBlockValue(*txn_, store_.db_, b, store_.path(), &value));
   View out;
   out.b = b;
   if (!found) {
@@ -238,13 +238,13 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
   if (HzBlockMayHoldVertices<D>(bb, b)) {
     ForEachHzVertex<D>(order_, first, n, [&](uint64_t, const std::array<int64_t, D>&) { ++vertices; });
   }
-  SDB_ASSIGN_OR_RETURN(HzSparseBlock decoded,
-                       DecodeHzSparseBlock(b, value, vertices, HzSparseErrorWidth(h.quantization),
-                                           HzSparseResidualWidth(h), zstd_, store_.path()));
+  SDB_ASSIGN_OR_RETURN(SparseBlock decoded,
+                       DecodeSparseBlock(b, value, vertices, SparseErrorWidth(h.quantization),
+                                         SparseResidualWidth(h), zstd_, store_.path()));
   store_.decoded_.fetch_add(1, std::memory_order_relaxed);
   kept.reserve(decoded.residuals.size());
   if (vertices != 0) {
-    // The bitmap has a bit per candidate (HzSparseMayBeKept): a vertex
+    // The bitmap has a bit per candidate (SparseMayBeKept): a vertex
     // whose ancestors are kept, in this block (earlier positions: coarser)
     // or in others (read through the cache).
     std::vector<uint64_t> here((n + 63) / 64, 0);
@@ -260,7 +260,7 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
     const bool every = decoded.candidates == vertices;
     uint32_t c = 0;
     ForEachHzVertex<D>(order_, first, n, [&](uint64_t p, const std::array<int64_t, D>& g) {
-      if (!every && (!failed.ok() || !HzSparseMayBeKept<D>(g, h.domain_bits, kept_at))) return;
+      if (!every && (!failed.ok() || !SparseMayBeKept<D>(g, h.domain_bits, kept_at))) return;
       if (c < decoded.candidates && decoded.IsKept(c)) {
         kept.push_back(Vertex{static_cast<uint32_t>(p - first), g});
         here[(p - first) >> 6] |= uint64_t{1} << ((p - first) & 63);
@@ -353,7 +353,7 @@ Result<typename HzSparseStore::Reader<D>::View> HzSparseStore::Reader<D>::Materi
 }
 
 template <int D>
-Result<double> HzSparseStore::Reader<D>::Value(const std::array<int64_t, D>& g) {
+Result<double> SparseStore::Reader<D>::Value(const std::array<int64_t, D>& g) {
   const uint64_t p = order_.Position(g);
   SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
   const size_t i = v->Find(static_cast<uint32_t>(p & ((uint64_t{1} << store_.header().block_bits) - 1)));
@@ -362,7 +362,7 @@ Result<double> HzSparseStore::Reader<D>::Value(const std::array<int64_t, D>& g) 
 }
 
 template <int D>
-Result<double> HzSparseStore::Reader<D>::Field(const std::array<int64_t, D>& p) {
+Result<double> SparseStore::Reader<D>::Field(const std::array<int64_t, D>& p) {
   // Past the real grid, the nearest real point's value: a kept vertex there
   // holds it exactly (the builder stored it), a dropped one takes it from
   // that point, rebuilt.
@@ -380,14 +380,14 @@ Result<double> HzSparseStore::Reader<D>::Field(const std::array<int64_t, D>& p) 
 }
 
 template <int D>
-Result<bool> HzSparseStore::Reader<D>::Kept(const std::array<int64_t, D>& g) {
+Result<bool> SparseStore::Reader<D>::Kept(const std::array<int64_t, D>& g) {
   const uint64_t p = order_.Position(g);
   SDB_ASSIGN_OR_RETURN(const View* v, Get(p));
   return v->Has(static_cast<uint32_t>(p & ((uint64_t{1} << store_.header().block_bits) - 1)));
 }
 
 template <int D>
-Result<uint32_t> HzSparseStore::Reader<D>::FinestCode(const std::array<int64_t, D>& g) {
+Result<uint32_t> SparseStore::Reader<D>::FinestCode(const std::array<int64_t, D>& g) {
   // The rebuilt values of the real points of [g - 2, g + 2], in a window of
   // side 5 that the stencils are laid out for.
   int64_t center = 0, stride = 1;
@@ -432,12 +432,12 @@ Result<uint32_t> HzSparseStore::Reader<D>::FinestCode(const std::array<int64_t, 
   // The input differs from the rebuilt field by at most the value bound at
   // any point, and its interpolant between the diamond's (kept) vertices by
   // at most s / 2.
-  const HzSparseHeader& h = store_.header();
-  return store_.errors().Encode(e + HzSparseValueBound(h) + h.value_step / 2);
+  const SparseHeader& h = store_.header();
+  return store_.errors().Encode(e + SparseValueBound(h) + h.value_step / 2);
 }
 
 template <int D>
-Result<double> HzSparseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
+Result<double> SparseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
   const int k = store_.header().domain_bits;
   if (code.level() >= D * k) return 0.0;
   const std::array<int64_t, D> g = LatticeToGrid<D>(cursor_.Of(code), k);
@@ -459,14 +459,14 @@ Result<double> HzSparseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
 namespace {
 
 template <int D>
-Status VerifyTyped(const HzSparseStore& store, lmdb::Env& env, unsigned int dbi,
+Status VerifyTyped(const SparseStore& store, lmdb::Env& env, unsigned int dbi,
                    const std::function<void(uint64_t, uint64_t)>& progress) {
-  const HzSparseHeader& h = store.header();
+  const SparseHeader& h = store.header();
   const std::string& path = store.path();
   const HzOrder<D> order(h.domain_bits);
   const int bb = h.block_bits;
   const uint64_t nblocks = (order.size() + (uint64_t{1} << bb) - 1) >> bb;
-  typename HzSparseStore::template Reader<D> reader(store);
+  typename SparseStore::template Reader<D> reader(store);
   SDB_ASSIGN_OR_RETURN(lmdb::Txn txn, lmdb::Txn::Begin(env, /*read_only=*/true));
   SDB_ASSIGN_OR_RETURN(lmdb::Cursor cursor, lmdb::Cursor::Open(txn, dbi));
   MDB_val k, v;
@@ -476,8 +476,8 @@ Status VerifyTyped(const HzSparseStore& store, lmdb::Env& env, unsigned int dbi,
     const std::span<const uint8_t> key(static_cast<const uint8_t*>(k.mv_data), k.mv_size);
     uint64_t b = 0;
     uint32_t part = 0;
-    if (IsHzSparseHeaderKey(key)) continue;  // read at the open
-    if (!ParseHzSparseKey(key, &b, &part)) {
+    if (IsSparseHeaderKey(key)) continue;  // read at the open
+    if (!ParseSparseKey(key, &b, &part)) {
       return Status::Corruption(path + ": a key of " + std::to_string(k.mv_size) + " bytes");
     }
     if (b >= nblocks || !HzBlockMayHoldVertices<D>(bb, b)) {
@@ -503,12 +503,12 @@ Status VerifyTyped(const HzSparseStore& store, lmdb::Env& env, unsigned int dbi,
 
 }  // namespace
 
-Status HzSparseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) const {
+Status SparseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) const {
   return header_.dimension == 3 ? VerifyTyped<3>(*this, *env_, db_, progress)
                                 : VerifyTyped<4>(*this, *env_, db_, progress);
 }
 
-template class HzSparseStore::Reader<3>;
-template class HzSparseStore::Reader<4>;
+template class SparseStore::Reader<3>;
+template class SparseStore::Reader<4>;
 
 }  // namespace simplexdb

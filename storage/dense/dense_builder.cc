@@ -1,4 +1,4 @@
-#include "storage/dense/hz_builder.h"
+#include "storage/dense/dense_builder.h"
 
 #include <algorithm>
 #include <chrono>
@@ -14,8 +14,8 @@
 #include "hierarchy/geometry.h"
 #include "hierarchy/hz_order.h"
 #include "storage/dense/field_bricks.h"
-#include "storage/dense/hz_build_internal.h"
-#include "storage/dense/hz_writer.h"
+#include "storage/dense/dense_build_internal.h"
+#include "storage/dense/dense_writer.h"
 #include "storage/error/quantize.h"
 #include "storage/common/field_loader.h"
 #include "storage/common/parallel_run.h"
@@ -34,7 +34,7 @@ std::string MiB(uint64_t bytes) {
 }
 
 Status CheckBlockBitmap(int dimension, const std::array<uint32_t, 4>& dims, int k,
-                        const HzBuildOptions& options, bool finest_stored,
+                        const DenseBuildOptions& options, bool finest_stored,
                         const std::string& out, const std::string& what) {
   const int position_bits = dimension * (k + (finest_stored ? 1 : 0));
   const int block_bits = std::min(options.block_bits, position_bits);
@@ -56,15 +56,15 @@ Status CheckBlockBitmap(int dimension, const std::array<uint32_t, 4>& dims, int 
 }
 
 
-HzHeader ParamsFor(int dimension, const VolumeInfo& input, const HzBuildOptions& options,
-                   VoxelType stored, int k, double fmin, double fmax) {
-  HzHeader params;
+DenseHeader ParamsFor(int dimension, const VolumeInfo& input, const DenseBuildOptions& options,
+                      VoxelType stored, int k, double fmin, double fmax) {
+  DenseHeader params;
   params.dimension = static_cast<uint8_t>(dimension);
   params.quantization = options.quantization;
   params.voxel_type = stored;
   params.domain_bits = static_cast<uint8_t>(k);
   params.block_bits = static_cast<uint8_t>(options.block_bits);
-  params.brick_bits = static_cast<uint8_t>(HzDefaultBrickBits(dimension));
+  params.brick_bits = static_cast<uint8_t>(DenseDefaultBrickBits(dimension));
   params.dims = input.dims;
   params.spacing = input.spacing;
   params.origin = input.origin;
@@ -76,8 +76,8 @@ HzHeader ParamsFor(int dimension, const VolumeInfo& input, const HzBuildOptions&
   return params;
 }
 
-HzWriteOptions WriteOptionsFor(const HzBuildOptions& options, int threads) {
-  HzWriteOptions write;
+DenseWriteOptions WriteOptionsFor(const DenseBuildOptions& options, int threads) {
+  DenseWriteOptions write;
   write.compression = options.compression;
   write.zstd_level = options.zstd_level;
   write.threads = threads;
@@ -92,8 +92,8 @@ namespace {
 // table exceed the memory bound, the streamed build, or ResourceExhausted
 // when even that does not fit.
 template <int D, class V>
-Result<HzBuildReport> BuildDirect(const VolumeInfo& input, const std::string& out,
-                                  const HzBuildOptions& options, Clock::time_point start) {
+Result<DenseBuildReport> BuildDirect(const VolumeInfo& input, const std::string& out,
+                                     const DenseBuildOptions& options, Clock::time_point start) {
   std::array<int64_t, D> dims{};
   uint64_t n = 1;
   for (int a = 0; a < D; ++a) {
@@ -152,7 +152,7 @@ Result<HzBuildReport> BuildDirect(const VolumeInfo& input, const std::string& ou
   // Work items: the coarser octaves' slabs (the table), then each grid
   // brick's largest finest error (the store keeps that, not the errors:
   // its reader computes them as these do).
-  const BrickGrid grid(D, input.dims, k, HzDefaultBrickBits(D));
+  const BrickGrid grid(D, input.dims, k, DenseDefaultBrickBits(D));
   std::vector<double> finest_max(missing ? 0 : grid.Count(0), 0.0);
   const uint64_t slabs = diamonds.item_count();
   SDB_RETURN_IF_ERROR(RunParallel(slabs + finest_max.size(), threads, "errors", start,
@@ -173,11 +173,11 @@ Result<HzBuildReport> BuildDirect(const VolumeInfo& input, const std::string& ou
                                   }));
   diamonds.Finish();
 
-  HzHeader params = ParamsFor(D, input, options, stored, k, fmin, fmax);
+  DenseHeader params = ParamsFor(D, input, options, stored, k, fmin, fmax);
   const HzOrder<D> order(k);
-  HzWriteOptions write = WriteOptionsFor(options, threads);
+  DenseWriteOptions write = WriteOptionsFor(options, threads);
   write.progress = options.progress;
-  if (missing) params.flags = kHzFinestStored;  // the reader's stencils cannot compute them
+  if (missing) params.flags = kDenseFinestStored;  // the reader's stencils cannot compute them
   // HZ order is not the table's: the positions' vertices are found a batch
   // at a time and their entries asked for before any is read.
   const auto fill = [&](int, uint64_t first, size_t count, double* errors) -> Status {
@@ -196,10 +196,10 @@ Result<HzBuildReport> BuildDirect(const VolumeInfo& input, const std::string& ou
     }
     return Status::OK();
   };
-  HzBuildReport report;
+  DenseBuildReport report;
   SDB_ASSIGN_OR_RETURN(report.header,
-                       WriteHzStore(out, params, write, fill, field.data(),
-                                    missing ? nullptr : finest_max.data()));
+                       WriteDenseStore(out, params, write, fill, field.data(),
+                                       missing ? nullptr : finest_max.data()));
   report.grid_points = n;
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return report;
@@ -210,8 +210,8 @@ Result<HzBuildReport> BuildDirect(const VolumeInfo& input, const std::string& ou
 
 using dense_build::CheckBlockBitmap;
 
-Result<HzBuildReport> BuildHzStore(const VolumeInfo& input, const std::string& out_path,
-                                   const HzBuildOptions& options) {
+Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,
+                                         const DenseBuildOptions& options) {
   const auto start = dense_build::Clock::now();
   // Check the output before the long part.
   SDB_RETURN_IF_ERROR(PrepareOutput(out_path));

@@ -12,8 +12,8 @@
 #include "storage/common/field_loader.h"
 #include "storage/common/parallel_run.h"
 #include "storage/dense/field_bricks.h"
-#include "storage/dense/hz_build_internal.h"
-#include "storage/dense/hz_writer.h"
+#include "storage/dense/dense_build_internal.h"
+#include "storage/dense/dense_writer.h"
 #include "storage/error/diamond_errors.h"
 #include "storage/error/field_values.h"
 #include "storage/error/mask.h"  // StoredVoxelType
@@ -49,10 +49,10 @@ class StreamedBuild {
     return k > S + 1 && k + 1 - (block_bits + D - 1) / D >= S;
   }
 
-  StreamedBuild(const VolumeInfo& input, const std::string& out, const HzBuildOptions& options,
+  StreamedBuild(const VolumeInfo& input, const std::string& out, const DenseBuildOptions& options,
                 Clock::time_point start, int k, int threads)
       : input_(input), out_(out), options_(options), start_(start), k_(k), threads_(threads),
-        side_(int64_t{1} << k), grid_(D, input.dims, k, HzDefaultBrickBits(D)), order_(k) {
+        side_(int64_t{1} << k), grid_(D, input.dims, k, DenseDefaultBrickBits(D)), order_(k) {
     n_ = 1;
     for (int a = 0; a < D; ++a) {
       dims_[a] = input.dims[a];
@@ -61,7 +61,7 @@ class StreamedBuild {
     }
     plane_ = n_ / static_cast<uint64_t>(dims_[L]);
     const int64_t zcells = int64_t{1} << (options.block_bits / D);
-    slab_ = std::max<int64_t>(zcells << 2, int64_t{4} << HzDefaultBrickBits(D));
+    slab_ = std::max<int64_t>(zcells << 2, int64_t{4} << DenseDefaultBrickBits(D));
     halo_ = int64_t{1} << S;
     last_vertex_plane_ = std::min(side_, dims_[L] - 1 + halo_);
     for (int s = 1; s < S; ++s) {
@@ -122,7 +122,7 @@ class StreamedBuild {
     return bytes;
   }
 
-  Result<HzBuildReport> Run() {
+  Result<DenseBuildReport> Run() {
     SDB_RETURN_IF_ERROR(ReadRangeAndCorners());
     if (missing_ && !options_.mask) {
       SDB_RETURN_IF_ERROR(CheckBlockBitmap(D, input_.dims, k_, options_, true, out_, input_.description));
@@ -145,9 +145,9 @@ class StreamedBuild {
 
     // With missing values every diamond is scanned and the finest octave's
     // errors are stored (DiamondErrors).
-    HzHeader params = ParamsFor(D, input_, options_, stored_, k_, fmin_, fmax_);
-    if (missing_) params.flags = kHzFinestStored;
-    SDB_ASSIGN_OR_RETURN(writer_, HzStoreWriter::Create(out_, params, WriteOptionsFor(options_, threads_)));
+    DenseHeader params = ParamsFor(D, input_, options_, stored_, k_, fmin_, fmax_);
+    if (missing_) params.flags = kDenseFinestStored;
+    SDB_ASSIGN_OR_RETURN(writer_, DenseStoreWriter::Create(out_, params, WriteOptionsFor(options_, threads_)));
     AssignBlocks();
 
     diamonds_ = std::make_unique<DiamondErrors<D, V>>(window_.data(), dims_, k_, !IsFloatType(stored_),
@@ -186,7 +186,7 @@ class StreamedBuild {
     HeldField<V> held{coarse_.data(), {}, 0, kCoarseShift};
     for (int a = 0; a < 4; ++a) held.stride[a] = a < D ? coarse_stride_[a] : 0;
     SDB_RETURN_IF_ERROR(writer_->WriteBricks(coarse_bricks, held, FinestMax()));
-    HzBuildReport report;
+    DenseBuildReport report;
     SDB_ASSIGN_OR_RETURN(report.header, writer_->Finish());
     report.grid_points = n_;
     report.seconds = std::chrono::duration<double>(Clock::now() - start_).count();
@@ -344,7 +344,7 @@ class StreamedBuild {
   void AssignBlocks() {
     const auto& candidates = writer_->candidate_blocks();
     for (uint64_t i = 0; i < candidates.size(); ++i) {
-      const HzStoreWriter::BlockSpan span = writer_->SpanOf(candidates[i]);
+      const DenseStoreWriter::BlockSpan span = writer_->SpanOf(candidates[i]);
       if (span.scale >= 1 && span.scale < S) {
         Local& t = local_[static_cast<size_t>(span.scale)];
         const uint64_t chunk = static_cast<uint64_t>(span.lo[L] / t.chunk);
@@ -532,7 +532,7 @@ class StreamedBuild {
 
   const VolumeInfo& input_;
   std::string out_;
-  HzBuildOptions options_;
+  DenseBuildOptions options_;
   Clock::time_point start_;
   int k_, threads_;
   int64_t side_;
@@ -555,7 +555,7 @@ class StreamedBuild {
   VoxelType stored_ = VoxelType::kU8;
   double fmin_ = std::numeric_limits<double>::infinity(), fmax_ = -fmin_;
   int64_t window_first_ = -1, window_end_ = -1;
-  std::unique_ptr<HzStoreWriter> writer_;
+  std::unique_ptr<DenseStoreWriter> writer_;
   std::unique_ptr<DiamondErrors<D, V>> diamonds_;
   std::vector<MaskedReader> readers_;  // pass 2's, per worker
   std::vector<std::vector<double>> buffers_;
@@ -564,30 +564,30 @@ class StreamedBuild {
 }  // namespace
 
 template <int D, class V>
-std::optional<uint64_t> StreamedBytes(const VolumeInfo& input, const HzBuildOptions& options, int k,
+std::optional<uint64_t> StreamedBytes(const VolumeInfo& input, const DenseBuildOptions& options, int k,
                                       int threads) {
   if (!StreamedBuild<D, V>::Applies(k, options.block_bits)) return std::nullopt;
   return StreamedBuild<D, V>(input, "", options, Clock::now(), k, threads).Bytes();
 }
 
 template <int D, class V>
-Result<HzBuildReport> BuildStreamed(const VolumeInfo& input, const std::string& out,
-                                    const HzBuildOptions& options, Clock::time_point start, int k,
-                                    int threads) {
+Result<DenseBuildReport> BuildStreamed(const VolumeInfo& input, const std::string& out,
+                                       const DenseBuildOptions& options, Clock::time_point start, int k,
+                                       int threads) {
   return StreamedBuild<D, V>(input, out, options, start, k, threads).Run();
 }
 
 #define SDB_STREAMED_(V)                                                                          \
-  template std::optional<uint64_t> StreamedBytes<3, V>(const VolumeInfo&, const HzBuildOptions&,  \
+  template std::optional<uint64_t> StreamedBytes<3, V>(const VolumeInfo&, const DenseBuildOptions&,  \
                                                        int, int);                                 \
-  template std::optional<uint64_t> StreamedBytes<4, V>(const VolumeInfo&, const HzBuildOptions&,  \
+  template std::optional<uint64_t> StreamedBytes<4, V>(const VolumeInfo&, const DenseBuildOptions&,  \
                                                        int, int);                                 \
-  template Result<HzBuildReport> BuildStreamed<3, V>(const VolumeInfo&, const std::string&,       \
-                                                     const HzBuildOptions&, Clock::time_point,    \
-                                                     int, int);                                   \
-  template Result<HzBuildReport> BuildStreamed<4, V>(const VolumeInfo&, const std::string&,       \
-                                                     const HzBuildOptions&, Clock::time_point,    \
-                                                     int, int);
+  template Result<DenseBuildReport> BuildStreamed<3, V>(const VolumeInfo&, const std::string&,       \
+                                                        const DenseBuildOptions&, Clock::time_point,    \
+                                                        int, int);                                   \
+  template Result<DenseBuildReport> BuildStreamed<4, V>(const VolumeInfo&, const std::string&,       \
+                                                        const DenseBuildOptions&, Clock::time_point,    \
+                                                        int, int);
 SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_STREAMED_)
 #undef SDB_STREAMED_
 

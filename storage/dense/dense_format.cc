@@ -1,4 +1,4 @@
-#include "storage/dense/hz_format.h"
+#include "storage/dense/dense_format.h"
 
 #include <cmath>
 #include <cstring>
@@ -49,17 +49,17 @@ constexpr size_t kOffBrickIndexOffset = 216;
 constexpr size_t kOffBrickIndexChecksum = 224;
 constexpr size_t kOffSourceLength = 232;  // u16
 constexpr size_t kOffSource = 234;
-constexpr size_t kOffChecksum = kHzHeaderSize - 8;
-static_assert(kOffSource + kHzMaxSource <= kOffChecksum);
+constexpr size_t kOffChecksum = kDenseHeaderSize - 8;
+static_assert(kOffSource + kDenseMaxSource <= kOffChecksum);
 
 }  // namespace
 
-std::array<uint8_t, kHzHeaderSize> SerializeHzHeader(const HzHeader& h) {
-  std::array<uint8_t, kHzHeaderSize> b{};
+std::array<uint8_t, kDenseHeaderSize> SerializeDenseHeader(const DenseHeader& h) {
+  std::array<uint8_t, kDenseHeaderSize> b{};
   uint8_t* p = b.data();
   std::memcpy(p + kOffMagic, kDenseMagic.data(), kDenseMagic.size());
   StoreLittle<uint32_t>(p + kOffVersion, h.version);
-  StoreLittle<uint32_t>(p + kOffHeaderSize, static_cast<uint32_t>(kHzHeaderSize));
+  StoreLittle<uint32_t>(p + kOffHeaderSize, static_cast<uint32_t>(kDenseHeaderSize));
   p[kOffDimension] = h.dimension;
   p[kOffQuantization] = static_cast<uint8_t>(h.quantization);
   p[kOffVoxelType] = static_cast<uint8_t>(h.voxel_type);
@@ -88,14 +88,14 @@ std::array<uint8_t, kHzHeaderSize> SerializeHzHeader(const HzHeader& h) {
   StoreLittle<uint64_t>(p + kOffBricks, h.bricks);
   StoreLittle<uint64_t>(p + kOffBrickIndexOffset, h.brick_index_offset);
   StoreLittle<uint64_t>(p + kOffBrickIndexChecksum, h.brick_index_checksum);
-  const size_t n = Utf8PrefixLength(h.source, kHzMaxSource);
+  const size_t n = Utf8PrefixLength(h.source, kDenseMaxSource);
   StoreLittle<uint16_t>(p + kOffSourceLength, static_cast<uint16_t>(n));
   std::memcpy(p + kOffSource, h.source.data(), n);
   StoreLittle<uint64_t>(p + kOffChecksum, Checksum(std::span<const uint8_t>(p, kOffChecksum)));
   return b;
 }
 
-Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view file) {
+Result<DenseHeader> ParseDenseHeader(std::span<const uint8_t> bytes, std::string_view file) {
   const std::string where(file);
   const auto corrupt = [&](const std::string& why) {
     return Status::Corruption(where + ": header: " + why);
@@ -107,9 +107,9 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
   }
   const auto too_short = [&] {
     return corrupt("the file is " + std::to_string(bytes.size()) +
-                   " bytes, shorter than a header (" + std::to_string(kHzHeaderSize) + ")");
+                   " bytes, shorter than a header (" + std::to_string(kDenseHeaderSize) + ")");
   };
-  HzHeader h;
+  DenseHeader h;
   // The version first, so an older store is named as such however short.
   if (bytes.size() < kOffVersion + 4) return too_short();
   h.version = LoadLittle<uint32_t>(b + kOffVersion);
@@ -124,16 +124,16 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
                                 "record), which this version no longer reads: import the volume "
                                 "again");
   }
-  if (h.version != kHzFormatVersion) {
+  if (h.version != kDenseFormatVersion) {
     return Status::NotSupported(where + ": format version " + std::to_string(h.version) +
-                                "; this build reads version " + std::to_string(kHzFormatVersion));
+                                "; this build reads version " + std::to_string(kDenseFormatVersion));
   }
-  if (bytes.size() < kHzHeaderSize) return too_short();
+  if (bytes.size() < kDenseHeaderSize) return too_short();
   if (LoadLittle<uint64_t>(b + kOffChecksum) !=
       Checksum(std::span<const uint8_t>(b, kOffChecksum))) {
     return corrupt("checksum mismatch");
   }
-  if (LoadLittle<uint32_t>(b + kOffHeaderSize) != kHzHeaderSize) {
+  if (LoadLittle<uint32_t>(b + kOffHeaderSize) != kDenseHeaderSize) {
     return corrupt("unexpected header size");
   }
   h.dimension = b[kOffDimension];
@@ -161,7 +161,7 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
     return corrupt("brick bits " + std::to_string(h.brick_bits) + " out of range");
   }
   h.flags = b[kOffFlags];
-  if ((h.flags & ~kHzFinestStored) != 0) return corrupt("unknown flags " + std::to_string(h.flags));
+  if ((h.flags & ~kDenseFinestStored) != 0) return corrupt("unknown flags " + std::to_string(h.flags));
   if (b[kOffReserved] != 0) return corrupt("reserved bytes are set");
   const uint64_t side = (uint64_t{1} << h.domain_bits) + 1;
   for (int i = 0; i < 4; ++i) {
@@ -216,15 +216,15 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
                    std::to_string(expected_virtual));
   }
   if (h.stored_blocks == 0 || h.stored_blocks > h.virtual_blocks ||
-      h.bitmap_offset < kHzHeaderSize || h.bitmap_offset > h.file_size ||
+      h.bitmap_offset < kDenseHeaderSize || h.bitmap_offset > h.file_size ||
       h.index_offset != h.bitmap_offset + 8 * h.bitmap_words() ||
-      h.brick_index_offset != h.index_offset + h.stored_blocks * kHzIndexEntrySize ||
-      h.bricks == 0 || h.bricks > h.file_size / kHzIndexEntrySize ||
-      h.file_size != h.brick_index_offset + h.bricks * kHzIndexEntrySize) {
+      h.brick_index_offset != h.index_offset + h.stored_blocks * kDenseIndexEntrySize ||
+      h.bricks == 0 || h.bricks > h.file_size / kDenseIndexEntrySize ||
+      h.file_size != h.brick_index_offset + h.bricks * kDenseIndexEntrySize) {
     return corrupt("block counts, offsets and file size disagree");
   }
   const uint16_t n = LoadLittle<uint16_t>(b + kOffSourceLength);
-  if (n > kHzMaxSource) return corrupt("source length " + std::to_string(n) + " too long");
+  if (n > kDenseMaxSource) return corrupt("source length " + std::to_string(n) + " too long");
   h.source.assign(reinterpret_cast<const char*>(b + kOffSource), n);
   for (size_t i = kOffSource + n; i < kOffChecksum; ++i) {
     if (b[i] != 0) return corrupt("reserved bytes are not zero");
@@ -232,8 +232,8 @@ Result<HzHeader> ParseHzHeader(std::span<const uint8_t> bytes, std::string_view 
   return h;
 }
 
-void SerializeHzIndexEntry(const HzIndexEntry& e, uint8_t* out) {
-  std::memset(out, 0, kHzIndexEntrySize);
+void SerializeDenseIndexEntry(const DenseIndexEntry& e, uint8_t* out) {
+  std::memset(out, 0, kDenseIndexEntrySize);
   StoreLittle<uint64_t>(out + 0, e.offset);
   StoreLittle<uint32_t>(out + 8, e.stored_size);
   out[12] = static_cast<uint8_t>(e.encoding);

@@ -20,12 +20,12 @@
 
 #include "hierarchy/geometry.h"
 #include "hierarchy/hz_order.h"
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_store.h"
 #include "storage/io/checksum.h"
 #include "storage/io/lmdb.h"
-#include "storage/sparse/hz_sparse_builder.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 #include "util/little_endian.h"
@@ -80,28 +80,28 @@ void ForEachPoint(const TestVolume& v, F&& f) {
 }
 
 struct Stores {
-  std::unique_ptr<HzStore> dense;
-  std::unique_ptr<HzSparseStore> sparse;
-  HzSparseBuildReport report;
+  std::unique_ptr<DenseStore> dense;
+  std::unique_ptr<SparseStore> sparse;
+  SparseBuildReport report;
 };
 
 Stores Build(const TestVolume& volume, const TempDir& dir, double tolerance, int block_bits = 0) {
   const std::string nrrd = dir / "in.nrrd";
   EXPECT_TRUE(volume.WriteNrrd(nrrd).ok());
   Stores s;
-  HzBuildOptions dense;
+  DenseBuildOptions dense;
   dense.threads = 1;
-  const auto built = BuildHzStore(*OpenVolume(nrrd), dir / "dense.sdb", dense);
+  const auto built = BuildDenseStore(*OpenVolume(nrrd), dir / "dense.sdb", dense);
   EXPECT_TRUE(built.ok()) << built.status().ToString();
-  s.dense = *HzStore::Open(dir / "dense.sdb");
-  HzSparseBuildOptions o;
+  s.dense = *DenseStore::Open(dir / "dense.sdb");
+  SparseBuildOptions o;
   o.tolerance = tolerance;
   o.block_bits = block_bits;
   o.threads = 2;
-  const auto report = BuildHzSparseStore(*OpenVolume(nrrd), dir / "sparse.sdb", o);
+  const auto report = BuildSparseStore(*OpenVolume(nrrd), dir / "sparse.sdb", o);
   EXPECT_TRUE(report.ok()) << report.status().ToString();
   if (report.ok()) s.report = *report;
-  auto opened = HzSparseStore::Open(dir / "sparse.sdb", {});
+  auto opened = SparseStore::Open(dir / "sparse.sdb", {});
   EXPECT_TRUE(opened.ok()) << opened.status().ToString();
   if (opened.ok()) s.sparse = *std::move(opened);
   return s;
@@ -115,8 +115,8 @@ void ExpectLosslessIsDense(const TestVolume& volume, int block_bits) {
   EXPECT_TRUE(s.sparse->Verify().ok());
   const int k = s.dense->header().domain_bits;
   ASSERT_EQ(s.sparse->header().domain_bits, k);
-  HzStore::Reader<D> dense(*s.dense);
-  HzSparseStore::Reader<D> sparse(*s.sparse);
+  DenseStore::Reader<D> dense(*s.dense);
+  SparseStore::Reader<D> sparse(*s.sparse);
   uint64_t nodes = 0, dropped = 0;
   ForEachNode<D>(k, [&](SimplexCode<D> c) {
     const double want = *dense.ErrorBound(c);
@@ -137,12 +137,12 @@ void ExpectLosslessIsDense(const TestVolume& volume, int block_bits) {
   EXPECT_LT(s.sparse->header().kept, nodes);
 }
 
-TEST(HzSparseStore, LosslessIsTheDenseStoreHt) {
+TEST(SparseStore, LosslessIsTheDenseStoreHt) {
   ExpectLosslessIsDense<3>(BoxInRamp(3, {13, 9, 17, 1}, VoxelType::kU8, 1), 0);
   ExpectLosslessIsDense<3>(BoxInRamp(3, {9, 9, 9, 1}, VoxelType::kI16, 2), 6);
   ExpectLosslessIsDense<3>(BoxInRamp(3, {11, 6, 14, 1}, VoxelType::kF32, 3), 9);
 }
-TEST(HzSparseStore, LosslessIsTheDenseStoreHp) {
+TEST(SparseStore, LosslessIsTheDenseStoreHp) {
   ExpectLosslessIsDense<4>(BoxInRamp(4, {5, 6, 4, 5}, VoxelType::kU16, 4), 0);
   ExpectLosslessIsDense<4>(BoxInRamp(4, {5, 5, 5, 3}, VoxelType::kF64, 5), 8);
 }
@@ -157,10 +157,10 @@ void ExpectWithinTolerance(const TestVolume& volume, double tolerance, int block
   const int k = s.sparse->header().domain_bits;
   // Kept values are stepped (the lossy path is the one under test): read
   // back within s / 2 = t of the input, as the dropped ones are rebuilt.
-  const HzSparseHeader& h = s.sparse->header();
+  const SparseHeader& h = s.sparse->header();
   EXPECT_EQ(h.value_step, 2 * tolerance);
   EXPECT_GE(h.quantum, tolerance);
-  HzSparseStore::Reader<D> sparse(*s.sparse);
+  SparseStore::Reader<D> sparse(*s.sparse);
   ForEachPoint<D>(volume, [&](const std::array<int64_t, D>& p) {
     std::array<int64_t, 4> q{};
     for (int a = 0; a < D; ++a) q[a] = p[a];
@@ -189,19 +189,19 @@ void ExpectWithinTolerance(const TestVolume& volume, double tolerance, int block
   EXPECT_GT(dropped, 0u);
 }
 
-TEST(HzSparseStore, WithinToleranceHt) {
+TEST(SparseStore, WithinToleranceHt) {
   const TestVolume v = TestVolume::Random(3, {13, 9, 17, 1}, VoxelType::kU8, 6);
   ExpectWithinTolerance<3>(v, 40, 0);
   ExpectWithinTolerance<3>(v, 90, 7);
   ExpectWithinTolerance<3>(BoxInRamp(3, {10, 12, 9, 1}, VoxelType::kF32, 7), 3.5, 0);
 }
-TEST(HzSparseStore, WithinToleranceHp) {
+TEST(SparseStore, WithinToleranceHp) {
   ExpectWithinTolerance<4>(TestVolume::Random(4, {5, 6, 4, 5}, VoxelType::kU8, 8), 60, 0);
 }
 
 // A kept value at step s: read back within s / 2, the residual zigzagged
-// into 4 bytes, both signs, up to the magnitudes HzSparseValueStep allows.
-TEST(HzSparseStore, StepResidualsReadBackWithinHalfAStep) {
+// into 4 bytes, both signs, up to the magnitudes SparseValueStep allows.
+TEST(SparseStore, StepResidualsReadBackWithinHalfAStep) {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(-1, 1);
   for (const double step : {0.1, 1.0, 5.1, 1e-6, 3e5}) {
@@ -222,26 +222,26 @@ TEST(HzSparseStore, StepResidualsReadBackWithinHalfAStep) {
   }
   // Steps: 2t, but exact at t = 0, below an integer type's step of 1, and
   // where the field's magnitude over the step passes 2^29.
-  EXPECT_EQ(HzSparseValueStep(VoxelType::kU8, 2.5, 0, 255), 5.0);
-  EXPECT_EQ(HzSparseValueStep(VoxelType::kU8, 0, 0, 255), 0.0);
-  EXPECT_EQ(HzSparseValueStep(VoxelType::kU16, 0.4, 0, 65535), 0.0);
-  EXPECT_EQ(HzSparseValueStep(VoxelType::kF32, 0.4, 0, 1), 0.8);
-  EXPECT_EQ(HzSparseValueStep(VoxelType::kF32, 1e-9, 0, 1), 0.0);
-  EXPECT_EQ(HzSparseValueStep(VoxelType::kF64, 1.0, 1e12, 1e12 + 10), 0.0);
+  EXPECT_EQ(SparseValueStep(VoxelType::kU8, 2.5, 0, 255), 5.0);
+  EXPECT_EQ(SparseValueStep(VoxelType::kU8, 0, 0, 255), 0.0);
+  EXPECT_EQ(SparseValueStep(VoxelType::kU16, 0.4, 0, 65535), 0.0);
+  EXPECT_EQ(SparseValueStep(VoxelType::kF32, 0.4, 0, 1), 0.8);
+  EXPECT_EQ(SparseValueStep(VoxelType::kF32, 1e-9, 0, 1), 0.0);
+  EXPECT_EQ(SparseValueStep(VoxelType::kF64, 1.0, 1e12, 1e12 + 10), 0.0);
 }
 
-// The header's value step is the tolerance's (HzSparseValueStep): one that
+// The header's value step is the tolerance's (SparseValueStep): one that
 // is missing or another is damage.
-TEST(HzSparseStore, HeaderValueStep) {
-  HzSparseHeader h;
+TEST(SparseStore, HeaderValueStep) {
+  SparseHeader h;
   h.dims = {5, 5, 5, 1};
   h.domain_bits = 2;
   h.field_max = 255;
   h.quantum = 2;
   h.tolerance = 2;
   h.value_step = 4;
-  std::vector<uint8_t> value = EncodeHzSparseHeader(h);
-  Result<HzSparseHeader> back = DecodeHzSparseHeader(value, "h");
+  std::vector<uint8_t> value = EncodeSparseHeader(h);
+  Result<SparseHeader> back = DecodeSparseHeader(value, "h");
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_EQ(back->value_step, 4.0);
   const auto rewritten = [&](const std::string& from, const std::string& to) {
@@ -254,19 +254,19 @@ TEST(HzSparseStore, HeaderValueStep) {
     for (int i = 0; i < 8; ++i) out.push_back(static_cast<uint8_t>(sum >> (8 * i)));
     return out;
   };
-  EXPECT_TRUE(DecodeHzSparseHeader(rewritten("\"value_step\": 4.0,", ""), "h").status().IsCorruption());
-  EXPECT_TRUE(DecodeHzSparseHeader(rewritten("\"value_step\": 4.0", "\"value_step\": 3.0"), "h")
+  EXPECT_TRUE(DecodeSparseHeader(rewritten("\"value_step\": 4.0,", ""), "h").status().IsCorruption());
+  EXPECT_TRUE(DecodeSparseHeader(rewritten("\"value_step\": 4.0", "\"value_step\": 3.0"), "h")
                   .status()
                   .IsCorruption());
-  EXPECT_TRUE(DecodeHzSparseHeader(rewritten("\"value_step\": 4.0", "\"value_step\": 0.0"), "h")
+  EXPECT_TRUE(DecodeSparseHeader(rewritten("\"value_step\": 4.0", "\"value_step\": 0.0"), "h")
                   .status()
                   .IsCorruption());
 }
 
 // The origin round-trips; a header without it (stores written before it
 // was added, same version) reads as zeros; a wrong count is damage.
-TEST(HzSparseStore, HeaderOriginIsOptional) {
-  HzSparseHeader h;
+TEST(SparseStore, HeaderOriginIsOptional) {
+  SparseHeader h;
   h.dimension = 4;
   h.dims = {5, 5, 5, 3};
   h.domain_bits = 2;
@@ -274,8 +274,8 @@ TEST(HzSparseStore, HeaderOriginIsOptional) {
   h.quantum = 2;
   h.spacing = {2, 2, 2.2, 2};
   h.origin = {117.855, -35.7229, -7.25, 0.5};
-  const std::vector<uint8_t> value = EncodeHzSparseHeader(h);
-  Result<HzSparseHeader> back = DecodeHzSparseHeader(value, "h");
+  const std::vector<uint8_t> value = EncodeSparseHeader(h);
+  Result<SparseHeader> back = DecodeSparseHeader(value, "h");
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_EQ(back->spacing, h.spacing);
   EXPECT_EQ(back->origin, h.origin);
@@ -293,36 +293,36 @@ TEST(HzSparseStore, HeaderOriginIsOptional) {
   std::string without = text;
   without.erase(from, to + 2 - from);
   ASSERT_EQ(without.find("origin"), std::string::npos) << without;
-  back = DecodeHzSparseHeader(resealed(without), "old");
+  back = DecodeSparseHeader(resealed(without), "old");
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_EQ(back->origin, (std::array<double, 4>{0, 0, 0, 0}));
   EXPECT_EQ(back->spacing, h.spacing);
   std::string three = text;
   three.replace(from, to + 1 - from, "\"origin\": [1, 2, 3]");
-  back = DecodeHzSparseHeader(resealed(three), "bad");
+  back = DecodeSparseHeader(resealed(three), "bad");
   ASSERT_FALSE(back.ok());
   EXPECT_TRUE(back.status().IsCorruption()) << back.status().ToString();
   EXPECT_NE(back.status().message().find("origin"), std::string::npos);
 }
 
-TEST(HzSparseStore, RefusesBadInput) {
+TEST(SparseStore, RefusesBadInput) {
   TempDir dir;
   const TestVolume v = TestVolume::Random(3, {5, 5, 5, 1}, VoxelType::kU8, 9);
   ASSERT_TRUE(v.WriteNrrd(dir / "in.nrrd").ok());
-  HzSparseBuildOptions o;
+  SparseBuildOptions o;
   o.tolerance = -1;
-  EXPECT_TRUE(BuildHzSparseStore(*OpenVolume(dir / "in.nrrd"), dir / "a.sdb", o).status().IsInvalidArgument());
+  EXPECT_TRUE(BuildSparseStore(*OpenVolume(dir / "in.nrrd"), dir / "a.sdb", o).status().IsInvalidArgument());
   o.tolerance = 0;
   o.block_bits = 30;
-  EXPECT_TRUE(BuildHzSparseStore(*OpenVolume(dir / "in.nrrd"), dir / "a.sdb", o).status().IsInvalidArgument());
+  EXPECT_TRUE(BuildSparseStore(*OpenVolume(dir / "in.nrrd"), dir / "a.sdb", o).status().IsInvalidArgument());
   o.block_bits = 0;
   o.memory_bytes = 1000;
-  const Status small = BuildHzSparseStore(*OpenVolume(dir / "in.nrrd"), dir / "a.sdb", o).status();
+  const Status small = BuildSparseStore(*OpenVolume(dir / "in.nrrd"), dir / "a.sdb", o).status();
   EXPECT_TRUE(small.IsResourceExhausted()) << small.ToString();
   EXPECT_FALSE(std::filesystem::exists(dir / "a.sdb"));
   // Not a store at all.
   std::ofstream(dir / "junk.sdb") << "not a store";
-  EXPECT_FALSE(HzSparseStore::Open(dir / "junk.sdb", {}).ok());
+  EXPECT_FALSE(SparseStore::Open(dir / "junk.sdb", {}).ok());
 }
 
 // LMDB's page kinds, from each page's header (flags at byte 10; pages 0
@@ -359,9 +359,9 @@ std::array<std::vector<size_t>, kPageKinds> PagesByKind(const std::vector<uint8_
 // every answer is the undamaged store's. (The LMDB layer's own damage
 // tests, storage/io/lmdb_check_test.cc, run the cases in child processes;
 // these run in process: a crash fails the whole test.) The count is
-// SIMPLEXDB_DAMAGE_CASES (default 150; the `long` test HzSparseDamageLong
-// runs 1000: `ctest --test-dir build/asan -R HzSparseDamageLong`).
-TEST(HzSparseStore, DamageIsReportedOrHarmless) {
+// SIMPLEXDB_DAMAGE_CASES (default 150; the `long` test SparseDamageLong
+// runs 1000: `ctest --test-dir build/asan -R SparseDamageLong`).
+TEST(SparseStore, DamageIsReportedOrHarmless) {
   const char* env_cases = std::getenv("SIMPLEXDB_DAMAGE_CASES");
   const int cases = env_cases != nullptr ? std::atoi(env_cases) : 150;
   struct Target {
@@ -381,7 +381,7 @@ TEST(HzSparseStore, DamageIsReportedOrHarmless) {
     const int k = s.sparse->header().domain_bits;
     std::vector<double> want;
     {
-      HzSparseStore::Reader<3> r(*s.sparse);
+      SparseStore::Reader<3> r(*s.sparse);
       ForEachNode<3>(k, [&](SimplexCode<3> c) { want.push_back(*r.ErrorBound(c)); });
       ForEachPoint<3>(v, [&](const std::array<int64_t, 3>& p) { want.push_back(*r.Field(p)); });
     }
@@ -409,7 +409,7 @@ TEST(HzSparseStore, DamageIsReportedOrHarmless) {
       const std::string path = dir / ("bad" + std::to_string(trial) + ".sdb");
       std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bad.data()),
                                                    static_cast<std::streamsize>(bad.size()));
-      auto store = HzSparseStore::Open(path, {});
+      auto store = SparseStore::Open(path, {});
       if (!store.ok() || !(*store)->Verify().ok()) {
         ++reported;
         if (store.ok()) store->reset();
@@ -419,7 +419,7 @@ TEST(HzSparseStore, DamageIsReportedOrHarmless) {
       }
       bool same = true;
       {
-        HzSparseStore::Reader<3> r(**store);
+        SparseStore::Reader<3> r(**store);
         size_t i = 0;
         ForEachNode<3>(k, [&](SimplexCode<3> c) {
           const Result<double> e = r.ErrorBound(c);
@@ -451,7 +451,7 @@ TEST(HzSparseStore, DamageIsReportedOrHarmless) {
 
 // Readers of one store share its cache and fill the finest codes into the
 // cached blocks: two threads reading at once get one thread's answers.
-TEST(HzSparseStore, TwoThreadsReadAsOne) {
+TEST(SparseStore, TwoThreadsReadAsOne) {
   TempDir dir;
   const TestVolume v = BoxInRamp(3, {13, 9, 17, 1}, VoxelType::kU8, 12);
   const Stores s = Build(v, dir, 0, 6);
@@ -459,13 +459,13 @@ TEST(HzSparseStore, TwoThreadsReadAsOne) {
   const int k = s.sparse->header().domain_bits;
   std::vector<double> want;
   {
-    auto alone = *HzSparseStore::Open(dir / "sparse.sdb", {});
-    HzSparseStore::Reader<3> r(*alone);
+    auto alone = *SparseStore::Open(dir / "sparse.sdb", {});
+    SparseStore::Reader<3> r(*alone);
     ForEachNode<3>(k, [&](SimplexCode<3> c) { want.push_back(*r.ErrorBound(c)); });
   }
   std::vector<double> got[2];
   const auto run = [&](int t) {
-    HzSparseStore::Reader<3> r(*s.sparse);
+    SparseStore::Reader<3> r(*s.sparse);
     ForEachNode<3>(k, [&](SimplexCode<3> c) {
       const Result<double> e = r.ErrorBound(c);
       got[t].push_back(e.ok() ? *e : -1);
@@ -478,7 +478,7 @@ TEST(HzSparseStore, TwoThreadsReadAsOne) {
   EXPECT_EQ(got[1], want);
 }
 
-TEST(HzSparseStore, AFormatOneStoreIsRefused) {
+TEST(SparseStore, AFormatOneStoreIsRefused) {
   // An LMDB file with format 1's databases.
   TempDir dir;
   {
@@ -492,18 +492,18 @@ TEST(HzSparseStore, AFormatOneStoreIsRefused) {
     ASSERT_TRUE(txn.OpenDb("field", true).ok());
     ASSERT_TRUE(txn.Commit().ok());
   }
-  const Status s = HzSparseStore::Open(dir / "old.sdb", {}).status();
+  const Status s = SparseStore::Open(dir / "old.sdb", {}).status();
   EXPECT_TRUE(s.IsNotSupported()) << s.ToString();
   EXPECT_NE(s.message().find("import"), std::string_view::npos) << s.ToString();
 }
 
 // Header versions 2 and 3 kept the header in a database "meta" and the
 // blocks in "blocks": refused, with the same advice.
-TEST(HzSparseStore, AnEarlierLayoutIsRefused) {
+TEST(SparseStore, AnEarlierLayoutIsRefused) {
   TempDir dir;
   Stores s = Build(BoxInRamp(3, {6, 5, 7, 1}, VoxelType::kU8, 14), dir, 0, 6);
   ASSERT_NE(s.sparse, nullptr);
-  HzSparseHeader h = s.sparse->header();
+  SparseHeader h = s.sparse->header();
   h.version = 3;
   s.sparse.reset();
   {
@@ -514,21 +514,21 @@ TEST(HzSparseStore, AnEarlierLayoutIsRefused) {
     auto txn = *lmdb::Txn::Begin(*env, false);
     ASSERT_TRUE(txn.OpenDb("blocks", true).ok());
     const MDB_dbi meta = *txn.OpenDb("meta", true);
-    ASSERT_TRUE(txn.Put(meta, kHzSparseHeaderKey, EncodeHzSparseHeader(h)).ok());
+    ASSERT_TRUE(txn.Put(meta, kSparseHeaderKey, EncodeSparseHeader(h)).ok());
     ASSERT_TRUE(txn.Commit().ok());
   }
-  const Status opened = HzSparseStore::Open(dir / "old.sdb", {}).status();
+  const Status opened = SparseStore::Open(dir / "old.sdb", {}).status();
   EXPECT_TRUE(opened.IsNotSupported()) << opened.ToString();
   EXPECT_NE(opened.message().find("version 2 or 3"), std::string_view::npos) << opened.ToString();
   EXPECT_NE(opened.message().find("import the volume again"), std::string_view::npos) << opened.ToString();
 }
 
 // A header of another version where this layout keeps it: refused too.
-TEST(HzSparseStore, AnotherHeaderVersionIsRefused) {
+TEST(SparseStore, AnotherHeaderVersionIsRefused) {
   TempDir dir;
   Stores s = Build(BoxInRamp(3, {6, 5, 7, 1}, VoxelType::kU8, 14), dir, 0, 6);
   ASSERT_NE(s.sparse, nullptr);
-  HzSparseHeader h = s.sparse->header();
+  SparseHeader h = s.sparse->header();
   h.version = 5;
   s.sparse.reset();  // one environment per file and process (LMDB)
   {
@@ -537,10 +537,10 @@ TEST(HzSparseStore, AnotherHeaderVersionIsRefused) {
     auto env = *lmdb::Env::Open(dir / "sparse.sdb", o);
     auto txn = *lmdb::Txn::Begin(*env, false);
     const MDB_dbi dbi = *txn.OpenDb(nullptr, false);
-    ASSERT_TRUE(txn.Put(dbi, kHzSparseHeaderKey, EncodeHzSparseHeader(h)).ok());
+    ASSERT_TRUE(txn.Put(dbi, kSparseHeaderKey, EncodeSparseHeader(h)).ok());
     ASSERT_TRUE(txn.Commit().ok());
   }
-  const Status opened = HzSparseStore::Open(dir / "sparse.sdb", {}).status();
+  const Status opened = SparseStore::Open(dir / "sparse.sdb", {}).status();
   EXPECT_TRUE(opened.IsNotSupported()) << opened.ToString();
   EXPECT_NE(opened.message().find("version 5"), std::string_view::npos) << opened.ToString();
   EXPECT_NE(opened.message().find("import the volume again"), std::string_view::npos) << opened.ToString();

@@ -1,6 +1,6 @@
 // The dense builder's internals, shared by its two ways of holding the
-// field (storage/dense/hz_builder.h): the whole field in memory
-// (hz_builder.cc) or a window of planes at a time (hz_streamed_build.cc).
+// field (storage/dense/dense_builder.h): the whole field in memory
+// (dense_builder.cc) or a window of planes at a time (dense_streamed_build.cc).
 // Not part of the installed headers.
 #pragma once
 
@@ -10,9 +10,9 @@
 #include <optional>
 #include <string>
 
-#include "storage/dense/hz_builder.h"
-#include "storage/dense/hz_format.h"
-#include "storage/dense/hz_writer.h"
+#include "storage/dense/dense_builder.h"
+#include "storage/dense/dense_format.h"
+#include "storage/dense/dense_writer.h"
 #include "storage/volume/volume.h"
 #include "util/status.h"
 
@@ -31,27 +31,27 @@ std::string MiB(uint64_t bytes);
 // terabytes: ResourceExhausted, with the figures, before anything is
 // computed. `what` names the input.
 Status CheckBlockBitmap(int dimension, const std::array<uint32_t, 4>& dims, int k,
-                        const HzBuildOptions& options, bool finest_stored,
+                        const DenseBuildOptions& options, bool finest_stored,
                         const std::string& out, const std::string& what);
 
 // The store's parameters for a build from `input` (the writer sets the rest).
-HzHeader ParamsFor(int dimension, const VolumeInfo& input, const HzBuildOptions& options,
-                   VoxelType stored, int k, double fmin, double fmax);
+DenseHeader ParamsFor(int dimension, const VolumeInfo& input, const DenseBuildOptions& options,
+                      VoxelType stored, int k, double fmin, double fmax);
 
 // The writer's options (no progress: the caller reports its own phases).
-HzWriteOptions WriteOptionsFor(const HzBuildOptions& options, int threads);
+DenseWriteOptions WriteOptionsFor(const DenseBuildOptions& options, int threads);
 
-// The streamed build (hz_streamed_build.cc), V the stored voxel type's C++
+// The streamed build (dense_streamed_build.cc), V the stored voxel type's C++
 // type, k the domain bits. StreamedBytes: the memory it takes, or nullopt
 // when the grid is too small to stream (every grid that does not fit in
 // memory is large enough). BuildStreamed: the store, reading the input
 // twice a window of planes at a time. REQUIRES: input.dimension == D.
 template <int D, class V>
-std::optional<uint64_t> StreamedBytes(const VolumeInfo& input, const HzBuildOptions& options, int k,
+std::optional<uint64_t> StreamedBytes(const VolumeInfo& input, const DenseBuildOptions& options, int k,
                                       int threads);
 template <int D, class V>
-Result<HzBuildReport> BuildStreamed(const VolumeInfo& input, const std::string& out,
-                                    const HzBuildOptions& options, Clock::time_point start, int k,
-                                    int threads);
+Result<DenseBuildReport> BuildStreamed(const VolumeInfo& input, const std::string& out,
+                                       const DenseBuildOptions& options, Clock::time_point start, int k,
+                                       int threads);
 
 }  // namespace simplexdb::dense_build

@@ -1,4 +1,4 @@
-// Writes a format-2 store (storage/dense/hz_format.h): the diamond errors
+// Writes a format-2 store (storage/dense/dense_format.h): the diamond errors
 // the caller gives a block at a time, and the field, in memory, as bricks.
 //
 // The writer decides which virtual blocks can hold a non-zero error from
@@ -7,7 +7,7 @@
 // the ones that turn out to hold only zeros, quantizes errors (always
 // rounded up: storage/error/quantize.h), compresses blocks and bricks on
 // `threads` workers and appends them as they finish. Unless the header's
-// flags say kHzFinestStored, the finest octave's errors are not asked for:
+// flags say kDenseFinestStored, the finest octave's errors are not asked for:
 // each grid brick records the largest of its vertices', which the caller
 // gives (the reader computes them from the field, storage/error/
 // finest_box_errors.h, and must find the same). The store is written under
@@ -34,7 +34,7 @@
 #include <vector>
 
 #include "storage/dense/field_bricks.h"
-#include "storage/dense/hz_format.h"
+#include "storage/dense/dense_format.h"
 #include "storage/error/progress.h"
 #include "storage/error/quantize.h"
 #include "storage/io/file.h"
@@ -43,7 +43,7 @@
 
 namespace simplexdb {
 
-struct HzWriteOptions {
+struct DenseWriteOptions {
   Compression compression = Compression::kZstd;
   int zstd_level = 3;
   int threads = 1;  // REQUIRES: >= 1
@@ -57,7 +57,7 @@ struct HzWriteOptions {
 // Fills the errors at HZ positions [first, first + count): errors[i] the
 // diamond error of the vertex at first + i (0 when it has none: a corner, a
 // hole past the domain's faces, a diamond with no real point).
-using HzFill = std::function<Status(int worker, uint64_t first, size_t count, double* errors)>;
+using DenseFill = std::function<Status(int worker, uint64_t first, size_t count, double* errors)>;
 
 // Writes a store in parts: the candidate blocks (those that may hold data,
 // by geometry) in runs, the bricks in runs, each run on every worker, then
@@ -67,16 +67,16 @@ using HzFill = std::function<Status(int worker, uint64_t first, size_t count, do
 // written is not stored, and every brick must be written once. Dropped
 // without Finish(), it leaves nothing under `path`. Not thread-safe itself:
 // one run at a time (each runs on options.threads workers).
-class HzStoreWriter {
+class DenseStoreWriter {
  public:
-  // Checks `params` (as WriteHzStore) and opens the temporary file.
-  static Result<std::unique_ptr<HzStoreWriter>> Create(const std::string& path,
-                                                       const HzHeader& params,
-                                                       const HzWriteOptions& options);
-  ~HzStoreWriter();
+  // Checks `params` (as WriteDenseStore) and opens the temporary file.
+  static Result<std::unique_ptr<DenseStoreWriter>> Create(const std::string& path,
+                                                          const DenseHeader& params,
+                                                          const DenseWriteOptions& options);
+  ~DenseStoreWriter();
 
   // The header as planned: version, virtual_blocks, quantum and bricks set.
-  const HzHeader& header() const { return h_; }
+  const DenseHeader& header() const { return h_; }
   // The virtual blocks that may hold data, ascending.
   const std::vector<uint64_t>& candidate_blocks() const { return candidates_; }
   const BrickGrid& grid() const { return *grid_; }
@@ -95,33 +95,33 @@ class HzStoreWriter {
   // Fills, codes and appends the candidate blocks whose indices (into
   // candidate_blocks()) `which` lists; those whose errors all code to 0
   // are dropped. Each candidate is written at most once over all runs.
-  Status WriteBlocks(std::span<const uint64_t> which, const HzFill& fill);
+  Status WriteBlocks(std::span<const uint64_t> which, const DenseFill& fill);
   // Encodes and appends the bricks `which` lists from `field` (holding
-  // their points: field_bricks.h); `finest_max` as WriteHzStore's, indexed
+  // their points: field_bricks.h); `finest_max` as WriteDenseStore's, indexed
   // by lattice-0 brick from the grid's first (read for the lattice-0
   // bricks listed only). Each brick is written exactly once over all runs.
   template <class V>
   Status WriteBricks(std::span<const uint64_t> which, const HeldField<V>& field,
                      const double* finest_max);
   // Completes the file. Returns the header written.
-  Result<HzHeader> Finish();
+  Result<DenseHeader> Finish();
 
  private:
   struct Worker;
-  HzStoreWriter();
+  DenseStoreWriter();
   Worker& Prepare(int worker);
   bool MayHoldData(uint64_t vblock) const;
   void RaiseErrorMax(double e);
 
   std::string path_;
-  HzWriteOptions options_;
+  DenseWriteOptions options_;
   std::chrono::steady_clock::time_point start_;
-  HzHeader h_;
+  DenseHeader h_;
   ErrorQuantizer quantizer_{Quantization::kU16, 1, 0};
   std::unique_ptr<BrickGrid> grid_;
   uint64_t positions_ = 0;  // the HZ order's size
   std::vector<uint64_t> candidates_;
-  std::vector<HzIndexEntry> entries_, brick_entries_;
+  std::vector<DenseIndexEntry> entries_, brick_entries_;
   std::vector<uint8_t> kept_, block_written_, brick_written_;
   std::unique_ptr<AtomicFileWriter> writer_;
   std::vector<Worker> workers_;
@@ -129,28 +129,28 @@ class HzStoreWriter {
   double error_max_ = 0;
 };
 #define SDB_WRITE_BRICKS_(V) \
-  extern template Status HzStoreWriter::WriteBricks(std::span<const uint64_t>, \
-                                                    const HeldField<V>&, const double*);
+  extern template Status DenseStoreWriter::WriteBricks(std::span<const uint64_t>, \
+                                                       const HeldField<V>&, const double*);
 SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_WRITE_BRICKS_)
 #undef SDB_WRITE_BRICKS_
 
-// Writes `path` at once (HzStoreWriter: every block, every brick). From `params` the writer takes dimension, domain_bits,
+// Writes `path` at once (DenseStoreWriter: every block, every brick). From `params` the writer takes dimension, domain_bits,
 // dims, voxel_type (the stored field's type), quantization, block_bits,
 // brick_bits, flags, field_min/max (the range over the real grid: it sets
 // the quantum), spacing, origin, scaling and source; it sets the rest.
 // `field` holds the real grid's values, x fastest (NaN: missing), each
 // representable in voxel_type. `finest_max`: unless flags has
-// kHzFinestStored (then null), per grid brick (lattice 0, in brick order)
+// kDenseFinestStored (then null), per grid brick (lattice 0, in brick order)
 // the largest finest-octave error of the vertices it owns
 // (BrickGrid::FinestBox). Returns the header written.
 template <class V>  // a voxel C++ type (uint8_t ... double) holding every value
-Result<HzHeader> WriteHzStore(const std::string& path, const HzHeader& params,
-                              const HzWriteOptions& options, const HzFill& fill, const V* field,
-                              const double* finest_max);
+Result<DenseHeader> WriteDenseStore(const std::string& path, const DenseHeader& params,
+                                    const DenseWriteOptions& options, const DenseFill& fill, const V* field,
+                                    const double* finest_max);
 #define SDB_WRITE_HZ_STORE_(V)                                                         \
-  extern template Result<HzHeader> WriteHzStore(const std::string&, const HzHeader&,  \
-                                                const HzWriteOptions&, const HzFill&, \
-                                                const V*, const double*);
+  extern template Result<DenseHeader> WriteDenseStore(const std::string&, const DenseHeader&,  \
+                                                      const DenseWriteOptions&, const DenseFill&, \
+                                                      const V*, const double*);
 SDB_FOR_EACH_VOXEL_CPP_TYPE(SDB_WRITE_HZ_STORE_)
 #undef SDB_WRITE_HZ_STORE_
 

@@ -1,24 +1,24 @@
-// HzStore's Reader (one thread's lookups) and Verify (storage/dense/
-// hz_store.h); the store's opening, blocks, bricks and finest boxes are in
-// hz_store.cc.
+// DenseStore's Reader (one thread's lookups) and Verify (storage/dense/
+// dense_store.h); the store's opening, blocks, bricks and finest boxes are in
+// dense_store.cc.
 #include <algorithm>
 #include <bit>
 #include <cmath>
 #include <limits>
 
 #include "storage/dense/brick_codec.h"
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_store.h"
 #include "storage/error/quantize.h"
 #include "storage/io/checksum.h"
 
 namespace simplexdb {
 
-Status HzStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) const {
+Status DenseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) const {
   const uint64_t blocks = header_.stored_blocks, total = blocks + header_.bricks;
   const uint32_t n = static_cast<uint32_t>(header_.block_records());
   for (uint64_t i = 0; i < blocks; ++i) {
     if (progress && i % 256 == 0) progress(i, total);
-    const HzIndexEntry e = entry(i);
+    const DenseIndexEntry e = entry(i);
     // The stored bytes, even when the block is cached or resident.
     if (Checksum(file_->bytes().subspan(e.offset, e.stored_size)) != e.checksum) {
       return Status::Corruption(path_ + ": " + Describe(i) + ": checksum mismatch");
@@ -43,7 +43,7 @@ Status HzStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) 
   }
   for (uint64_t b = 0; b < header_.bricks; ++b) {
     if (progress && (blocks + b) % 256 == 0) progress(blocks + b, total);
-    const HzIndexEntry e = brick_entry(b);
+    const DenseIndexEntry e = brick_entry(b);
     if (Checksum(file_->bytes().subspan(e.offset, e.stored_size)) != e.checksum) {
       return Status::Corruption(path_ + ": " + DescribeBrick(b) + ": checksum mismatch");
     }
@@ -80,14 +80,14 @@ Status HzStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) 
 }
 
 template <int D>
-HzStore::Reader<D>::Reader(const HzStore& store)
+DenseStore::Reader<D>::Reader(const DenseStore& store)
     : store_(store),
       order_(store.header().domain_bits),
       finest_level_(store.header().finest_stored() ? order_.levels() : order_.levels() - D),
       held_bricks_(static_cast<size_t>(store.header().domain_bits) + 1) {}
 
 template <int D>
-Status HzStore::Reader<D>::Hold(Held& held, uint64_t vblock) {
+Status DenseStore::Reader<D>::Hold(Held& held, uint64_t vblock) {
   const std::optional<uint64_t> stored = store_.StoredIndex(vblock);
   held.vblock = vblock;
   held.stored = stored.has_value();
@@ -105,15 +105,15 @@ Status HzStore::Reader<D>::Hold(Held& held, uint64_t vblock) {
 }
 
 template <int D>
-Result<uint32_t> HzStore::Reader<D>::FinestCode(uint64_t p, const double* threshold, bool* skipped) {
+Result<uint32_t> DenseStore::Reader<D>::FinestCode(uint64_t p, const double* threshold, bool* skipped) {
   std::array<int64_t, D> g = last_vertex_;
   if (p != last_position_ && !order_.Decode(p, g)) return 0u;  // no vertex there
   return FinestCodeAt(g, threshold, skipped);
 }
 
 template <int D>
-Result<uint32_t> HzStore::Reader<D>::FinestCodeAt(const std::array<int64_t, D>& g,
-                                                  const double* threshold, bool* skipped) {
+Result<uint32_t> DenseStore::Reader<D>::FinestCodeAt(const std::array<int64_t, D>& g,
+                                                     const double* threshold, bool* skipped) {
   // A walk asks for the vertices of one box many times in a row.
   if (last_box_ >= 0) {
     const HeldBrick& last = held_boxes_[static_cast<size_t>(last_box_)];
@@ -147,7 +147,7 @@ Result<uint32_t> HzStore::Reader<D>::FinestCodeAt(const std::array<int64_t, D>& 
 }
 
 template <int D>
-Result<uint32_t> HzStore::Reader<D>::StoredError(SimplexCode<D> code) {
+Result<uint32_t> DenseStore::Reader<D>::StoredError(SimplexCode<D> code) {
   if (code.level() >= order_.levels()) return 0u;
   const uint64_t p = PositionOf(code);
   if (p >= store_.header().error_positions()) {
@@ -163,14 +163,14 @@ Result<uint32_t> HzStore::Reader<D>::StoredError(SimplexCode<D> code) {
 }
 
 template <int D>
-Result<double> HzStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
+Result<double> DenseStore::Reader<D>::ErrorBound(SimplexCode<D> code) {
   SDB_ASSIGN_OR_RETURN(const uint32_t stored, StoredError(code));
   return store_.quantizer().Decode(stored);
 }
 
 template <int D>
-Result<double> HzStore::Reader<D>::ErrorBoundForThresholdAt(SimplexCode<D> code, uint64_t p,
-                                                            double threshold) {
+Result<double> DenseStore::Reader<D>::ErrorBoundForThresholdAt(SimplexCode<D> code, uint64_t p,
+                                                               double threshold) {
   if (code.level() >= order_.levels()) return 0.0;
   if (p >= store_.header().error_positions()) {
     bool skipped = false;
@@ -206,7 +206,7 @@ Result<double> HzStore::Reader<D>::ErrorBoundForThresholdAt(SimplexCode<D> code,
 }
 
 template <int D>
-Result<double> HzStore::Reader<D>::Field(const std::array<int64_t, D>& p) {
+Result<double> DenseStore::Reader<D>::Field(const std::array<int64_t, D>& p) {
   // From the coarsest lattice holding the point: a coarse mesh reads
   // coarse bricks only.
   std::array<int64_t, 4> q{};
@@ -228,7 +228,7 @@ Result<double> HzStore::Reader<D>::Field(const std::array<int64_t, D>& p) {
   return store_.VoxelAt(held.handle.data, slot);
 }
 
-template class HzStore::Reader<3>;
-template class HzStore::Reader<4>;
+template class DenseStore::Reader<3>;
+template class DenseStore::Reader<4>;
 
 }  // namespace simplexdb

@@ -11,7 +11,7 @@
 //
 // To change the layout on purpose, regenerate and say so in
 // docs/format/sparse-store.md (a reader must tell the old files apart):
-//   SIMPLEXDB_REGENERATE_GOLDEN=1 build/release/tests/storage/sparse_tests --gtest_filter='HzSparseGolden*'
+//   SIMPLEXDB_REGENERATE_GOLDEN=1 build/release/tests/storage/sparse_tests --gtest_filter='SparseGolden*'
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -21,8 +21,8 @@
 
 #include "storage/io/codec.h"
 #include "storage/io/lmdb.h"
-#include "storage/sparse/hz_sparse_builder.h"
-#include "storage/sparse/hz_sparse_store.h"
+#include "storage/sparse/sparse_builder.h"
+#include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
 #include "util/little_endian.h"
@@ -46,8 +46,8 @@ struct Golden {
 // Grids that do not fill their domains, both hierarchies, a lossless store
 // and one whose values are stepped.
 const Golden kGolden[] = {
-    {"hz_sparse_ht_7x6x5_u8_t40.sdb", 3, {7, 6, 5, 1}, VoxelType::kU8, Quantization::kU16, 40, 301},
-    {"hz_sparse_hp_3x3x3x3_i16_lossless.sdb", 4, {3, 3, 3, 3}, VoxelType::kI16, Quantization::kU8, 0, 302},
+    {"ht_7x6x5_u8_t40.sdb", 3, {7, 6, 5, 1}, VoxelType::kU8, Quantization::kU16, 40, 301},
+    {"hp_3x3x3x3_i16_lossless.sdb", 4, {3, 3, 3, 3}, VoxelType::kI16, Quantization::kU8, 0, 302},
 };
 
 std::string GoldenPath(const Golden& g) { return std::string(SIMPLEXDB_SPARSE_GOLDEN_DIR) + "/" + g.file; }
@@ -55,13 +55,13 @@ std::string GoldenPath(const Golden& g) { return std::string(SIMPLEXDB_SPARSE_GO
 Status Build(const Golden& g, const std::string& dir, const std::string& out) {
   const TestVolume volume = TestVolume::Random(g.dimension, g.dims, g.type, g.seed);
   SDB_RETURN_IF_ERROR(volume.WriteNrrd(dir + "/in.nrrd"));
-  HzSparseBuildOptions options;
+  SparseBuildOptions options;
   options.quantization = g.quantization;
   options.tolerance = g.tolerance;
   options.block_bits = g.dimension + 2;  // several blocks on a small grid
   options.threads = 1;
   SDB_ASSIGN_OR_RETURN(const VolumeInfo input, OpenVolume(dir + "/in.nrrd"));
-  return BuildHzSparseStore(input, out, options).status();
+  return BuildSparseStore(input, out, options).status();
 }
 
 // The header (source cleared) and every block's decoded content, by block:
@@ -73,15 +73,15 @@ struct Entries {
 
 Entries ReadEntries(const std::string& path) {
   Entries out;
-  HzSparseHeader header;
+  SparseHeader header;
   {  // Closed before the file is opened again (one LMDB environment per file and process).
-    auto store = HzSparseStore::Open(path, {});
+    auto store = SparseStore::Open(path, {});
     EXPECT_TRUE(store.ok()) << store.status().ToString();
     if (!store.ok()) return out;
     header = (*store)->header();
-    HzSparseHeader h = header;
+    SparseHeader h = header;
     h.source.clear();
-    out.header = EncodeHzSparseHeader(h);
+    out.header = EncodeSparseHeader(h);
   }
   auto env = lmdb::Env::Open(path, {});
   EXPECT_TRUE(env.ok()) << env.status().ToString();
@@ -93,27 +93,27 @@ Entries ReadEntries(const std::string& path) {
   for (int rc = mdb_cursor_get(cursor->get(), &k, &v, MDB_FIRST); rc == MDB_SUCCESS;
        rc = mdb_cursor_get(cursor->get(), &k, &v, MDB_NEXT)) {
     const std::span<const uint8_t> key(static_cast<const uint8_t*>(k.mv_data), k.mv_size);
-    if (IsHzSparseHeaderKey(key)) continue;
+    if (IsSparseHeaderKey(key)) continue;
     uint64_t block = 0;
     uint32_t part = 0;
-    EXPECT_TRUE(ParseHzSparseKey(key, &block, &part));
+    EXPECT_TRUE(ParseSparseKey(key, &block, &part));
     const auto* bytes = static_cast<const uint8_t*>(v.mv_data);
     values[block].insert(values[block].end(), bytes, bytes + v.mv_size);
   }
   // A block's content: its counts, then its three sections decoded.
   ZstdDecompressor zstd;
   for (const auto& [block, value] : values) {
-    if (value.size() < kHzSparseBlockPrefix + 8) {
+    if (value.size() < kSparseBlockPrefix + 8) {
       ADD_FAILURE() << path << ": block " << block << " of " << value.size() << " bytes";
       continue;
     }
     const uint32_t candidates = LoadLittle<uint32_t>(value.data() + 4), kept = LoadLittle<uint32_t>(value.data() + 8);
     const uint32_t errors = LoadLittle<uint32_t>(value.data() + 12);
     const size_t frame[2] = {LoadLittle<uint32_t>(value.data() + 16), LoadLittle<uint32_t>(value.data() + 20)};
-    const size_t section[3] = {(candidates + size_t{7}) / 8, errors * HzSparseErrorWidth(header.quantization),
-                               kept * HzSparseResidualWidth(header)};
+    const size_t section[3] = {(candidates + size_t{7}) / 8, errors * SparseErrorWidth(header.quantization),
+                               kept * SparseResidualWidth(header)};
     std::vector<uint8_t> content(value.begin(), value.begin() + 16);
-    size_t at = kHzSparseBlockPrefix;
+    size_t at = kSparseBlockPrefix;
     for (int i = 0; i < 3; ++i) {
       const size_t bytes = i < 2 ? frame[i] : value.size() - 8 - at;
       std::vector<uint8_t> decoded(section[i]);
@@ -132,8 +132,8 @@ Entries ReadEntries(const std::string& path) {
 // (dropped: its brute-force error within t) or at least its brute-force
 // error.
 template <int D>
-void CheckAnswers(const HzSparseStore& store, const TestVolume& volume, double t) {
-  HzSparseStore::Reader<D> reader(store);
+void CheckAnswers(const SparseStore& store, const TestVolume& volume, double t) {
+  SparseStore::Reader<D> reader(store);
   const int k = store.header().domain_bits;
   for (uint64_t i = 0; i < volume.values.size(); ++i) {
     std::array<int64_t, D> p{};
@@ -159,7 +159,7 @@ void CheckAnswers(const HzSparseStore& store, const TestVolume& volume, double t
   }
 }
 
-TEST(HzSparseGolden, ReferenceStoresStillReadAndRebuildIdentically) {
+TEST(SparseGolden, ReferenceStoresStillReadAndRebuildIdentically) {
   const bool regenerate = std::getenv("SIMPLEXDB_REGENERATE_GOLDEN") != nullptr;
   for (const Golden& g : kGolden) {
     SCOPED_TRACE(g.file);
@@ -174,7 +174,7 @@ TEST(HzSparseGolden, ReferenceStoresStillReadAndRebuildIdentically) {
     // Read a copy: LMDB writes its lock file beside the store.
     const std::string reference = dir / "reference.sdb";
     std::filesystem::copy_file(GoldenPath(g), reference);
-    auto store = HzSparseStore::Open(reference, {});
+    auto store = SparseStore::Open(reference, {});
     ASSERT_TRUE(store.ok()) << store.status().ToString();
     ASSERT_TRUE((*store)->Verify().ok());
     EXPECT_EQ((*store)->header().value_step, 2 * g.tolerance);

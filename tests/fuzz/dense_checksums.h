@@ -10,14 +10,14 @@
 #include <span>
 #include <vector>
 
-#include "storage/dense/hz_format.h"
+#include "storage/dense/dense_format.h"
 #include "storage/io/checksum.h"
 #include "util/little_endian.h"
 
 namespace simplexdb::fuzz {
 
-inline void RepairHzChecksums(std::vector<uint8_t>& f) {
-  if (f.size() < kHzHeaderSize) return;
+inline void RepairDenseChecksums(std::vector<uint8_t>& f) {
+  if (f.size() < kDenseHeaderSize) return;
   uint8_t* h = f.data();
   const auto inside = [&](uint64_t offset, uint64_t bytes) {
     return offset <= f.size() && bytes <= f.size() - offset;
@@ -32,19 +32,19 @@ inline void RepairHzChecksums(std::vector<uint8_t>& f) {
   }
   // Each entry's data, then the index itself.
   const auto repair_index = [&](uint64_t offset, uint64_t count, size_t checksum_at) {
-    if (count > f.size() / kHzIndexEntrySize || !inside(offset, count * kHzIndexEntrySize)) return;
+    if (count > f.size() / kDenseIndexEntrySize || !inside(offset, count * kDenseIndexEntrySize)) return;
     for (uint64_t i = 0; i < count; ++i) {
-      uint8_t* e = h + offset + i * kHzIndexEntrySize;
+      uint8_t* e = h + offset + i * kDenseIndexEntrySize;
       const uint64_t at = LoadLittle<uint64_t>(e);
       const uint64_t stored = LoadLittle<uint32_t>(e + 8);
       if (inside(at, stored)) StoreLittle(e + 16, Checksum(std::span<const uint8_t>(h + at, stored)));
     }
     StoreLittle(h + checksum_at,
-                Checksum(std::span<const uint8_t>(h + offset, count * kHzIndexEntrySize)));
+                Checksum(std::span<const uint8_t>(h + offset, count * kDenseIndexEntrySize)));
   };
   repair_index(index_offset, stored_blocks, 200);
   repair_index(LoadLittle<uint64_t>(h + 216), LoadLittle<uint64_t>(h + 208), 224);
-  StoreLittle(h + kHzHeaderSize - 8, Checksum(std::span<const uint8_t>(h, kHzHeaderSize - 8)));
+  StoreLittle(h + kDenseHeaderSize - 8, Checksum(std::span<const uint8_t>(h, kDenseHeaderSize - 8)));
 }
 
 }  // namespace simplexdb::fuzz

@@ -1,13 +1,13 @@
-#include "storage/dense/hz_store.h"
+#include "storage/dense/dense_store.h"
 
 #include <algorithm>
 #include <string>
 
 namespace simplexdb {
 
-Status ReadLattice(const HzStore& store, int s, const std::array<int64_t, 4>& lo,
+Status ReadLattice(const DenseStore& store, int s, const std::array<int64_t, 4>& lo,
                    const std::array<int64_t, 4>& hi, double* out) {
-  const HzHeader& h = store.header();
+  const DenseHeader& h = store.header();
   const int D = h.dimension;
   if (s < 0 || s > h.domain_bits) {
     return Status::InvalidArgument(store.path() + ": no lattice " + std::to_string(s));
@@ -33,7 +33,7 @@ Status ReadLattice(const HzStore& store, int s, const std::array<int64_t, 4>& lo
     for (int a = 0; a < D; ++a) p[a] = (c[a] << h.brick_bits) << s;
     size_t unused = 0;
     const uint64_t b = store.grid().BrickOf(s, p, &unused);
-    SDB_ASSIGN_OR_RETURN(const HzStore::BlockHandle brick, store.Brick(b));
+    SDB_ASSIGN_OR_RETURN(const DenseStore::BlockHandle brick, store.Brick(b));
     const BrickPlace place = store.grid().Place(b);
     // The brick's part of the box, in lattice coordinates, row by row.
     std::array<int64_t, 4> first{}, from{}, to{};

@@ -11,13 +11,13 @@
 //
 // Blocks are runs of 2^block_bits positions of the HZ order over the whole
 // domain, the finest octave included. A block with no kept vertex has no
-// entry. A block's value is stored in parts (HzSparsePartCutter) under
+// entry. A block's value is stored in parts (SparsePartCutter) under
 // 12-byte keys: the block number, 8 bytes big-endian, then the part's number
 // from 0, 4 bytes big-endian; the header under the key "header", in the same
 // (unnamed) LMDB database. The value, its parts joined:
 //
 //   u32  vertices           domain vertices among the block's positions
-//   u32  candidates         those that may be kept (HzSparseMayBeKept);
+//   u32  candidates         those that may be kept (SparseMayBeKept);
 //                           equal to `vertices`: a bit for every vertex
 //   u32  kept               kept ones (at least 1)
 //   u32  errors             kept ones below the finest octave
@@ -80,7 +80,7 @@ namespace simplexdb {
 // The header's version: 2 was one LMDB value per block; 3 kept the blocks
 // and the header in two named databases, in parts of a fixed size. Both
 // refused.
-inline constexpr uint32_t kHzSparseFormatVersion = 4;
+inline constexpr uint32_t kSparseFormatVersion = 4;
 
 // Cuts the blocks' values into parts that fill LMDB's leaf pages when they
 // are appended in key order. A leaf node takes 8 bytes, its key and its
@@ -92,9 +92,9 @@ inline constexpr uint32_t kHzSparseFormatVersion = 4;
 // part ended in: no page is left part empty (fixed parts of 998 bytes left
 // 1 to 8% of the real volumes' stores unused; bench/README.md). A reader
 // takes parts of any size.
-class HzSparsePartCutter {
+class SparsePartCutter {
  public:
-  explicit HzSparsePartCutter(size_t page_bytes)
+  explicit SparsePartCutter(size_t page_bytes)
       : room_(page_bytes - 16), free_(room_), largest_(room_ / 2 - kNodeBytes) {}
   // The size of the next part of a value with `left` (> 0) bytes to go.
   size_t Next(size_t left) {
@@ -110,18 +110,18 @@ class HzSparsePartCutter {
   size_t room_, free_, largest_;
 };
 
-inline constexpr size_t kHzSparseKeyBytes = 12;
+inline constexpr size_t kSparseKeyBytes = 12;
 // A block value's bytes before its frames: four counts, two frame sizes.
-inline constexpr size_t kHzSparseBlockPrefix = 24;
-inline std::array<uint8_t, kHzSparseKeyBytes> HzSparseKey(uint64_t block, uint32_t part) {
-  std::array<uint8_t, kHzSparseKeyBytes> k{};
+inline constexpr size_t kSparseBlockPrefix = 24;
+inline std::array<uint8_t, kSparseKeyBytes> SparseKey(uint64_t block, uint32_t part) {
+  std::array<uint8_t, kSparseKeyBytes> k{};
   for (int i = 0; i < 8; ++i) k[i] = static_cast<uint8_t>(block >> (56 - 8 * i));
   for (int i = 0; i < 4; ++i) k[8 + i] = static_cast<uint8_t>(part >> (24 - 8 * i));
   return k;
 }
 // False when `key` is not a block part's key (its size).
-inline bool ParseHzSparseKey(std::span<const uint8_t> key, uint64_t* block, uint32_t* part) {
-  if (key.size() != kHzSparseKeyBytes) return false;
+inline bool ParseSparseKey(std::span<const uint8_t> key, uint64_t* block, uint32_t* part) {
+  if (key.size() != kSparseKeyBytes) return false;
   *block = 0;
   *part = 0;
   for (int i = 0; i < 8; ++i) *block = *block << 8 | key[i];
@@ -129,8 +129,8 @@ inline bool ParseHzSparseKey(std::span<const uint8_t> key, uint64_t* block, uint
   return true;
 }
 
-struct HzSparseHeader {
-  uint32_t version = kHzSparseFormatVersion;
+struct SparseHeader {
+  uint32_t version = kSparseFormatVersion;
   int dimension = 3;  // 3: HT, 4: HP
   std::array<uint32_t, 4> dims = {1, 1, 1, 1};
   std::array<double, 4> spacing = {1, 1, 1, 1};  // the input's, per axis (metadata)
@@ -160,21 +160,21 @@ struct HzSparseHeader {
 
 // The header's key, after every block's in LMDB's order (a block key's
 // first byte is 0 below 2^56 blocks).
-inline constexpr uint8_t kHzSparseHeaderKey[] = {'h', 'e', 'a', 'd', 'e', 'r'};
-inline bool IsHzSparseHeaderKey(std::span<const uint8_t> key) {
-  return std::equal(key.begin(), key.end(), std::begin(kHzSparseHeaderKey), std::end(kHzSparseHeaderKey));
+inline constexpr uint8_t kSparseHeaderKey[] = {'h', 'e', 'a', 'd', 'e', 'r'};
+inline bool IsSparseHeaderKey(std::span<const uint8_t> key) {
+  return std::equal(key.begin(), key.end(), std::begin(kSparseHeaderKey), std::end(kSparseHeaderKey));
 }
 
 // The header's LMDB value: its JSON text and an XXH3-64 of the text.
-std::vector<uint8_t> EncodeHzSparseHeader(const HzSparseHeader& h);
+std::vector<uint8_t> EncodeSparseHeader(const SparseHeader& h);
 // Checks the checksum, the fields and their ranges. Errors: Corruption
 // naming `file`; NotSupported for another version.
-Result<HzSparseHeader> DecodeHzSparseHeader(std::span<const uint8_t> value, const std::string& file);
+Result<SparseHeader> DecodeSparseHeader(std::span<const uint8_t> value, const std::string& file);
 
 // A block's content (its frames, decoded).
-struct HzSparseBlock {
+struct SparseBlock {
   uint32_t vertices = 0;
-  uint32_t candidates = 0;          // vertices HzSparseMayBeKept
+  uint32_t candidates = 0;          // vertices SparseMayBeKept
   std::vector<uint8_t> kept;        // bitmap over the candidates, (candidates + 7) / 8 bytes
   std::vector<uint32_t> errors;     // codes, in position order
   std::vector<uint64_t> residuals;  // the width's low bits, in position order
@@ -192,7 +192,7 @@ struct HzSparseBlock {
 // asked in a fixed order and not after its first false: the split edge's
 // ends first (among those vertices, and the likeliest to be dropped).
 template <int D, class KeptAt>
-bool HzSparseMayBeKept(const std::array<int64_t, D>& g, int k, KeptAt&& kept_at) {
+bool SparseMayBeKept(const std::array<int64_t, D>& g, int k, KeptAt&& kept_at) {
   const int64_t side = int64_t{1} << k;
   bool corner = true;
   for (int a = 0; a < D; ++a) corner = corner && (g[a] == 0 || g[a] == side);
@@ -218,18 +218,18 @@ bool HzSparseMayBeKept(const std::array<int64_t, D>& g, int k, KeptAt&& kept_at)
 }
 
 // Byte widths: of an error code of `q` and of a kept value's residual.
-size_t HzSparseErrorWidth(Quantization q);
-size_t HzSparseResidualWidth(const HzSparseHeader& h);
+size_t SparseErrorWidth(Quantization q);
+size_t SparseResidualWidth(const SparseHeader& h);
 
 // The step at which a store of tolerance t keeps its values: 2t (a kept
 // value within t of the input, as a dropped one's), or 0 (exact) when t is
 // 0, when the step is below an integer type's own step of 1, or when the
 // field's magnitude over the step would not fit the 4-byte residual.
-double HzSparseValueStep(VoxelType type, double tolerance, double field_min, double field_max);
+double SparseValueStep(VoxelType type, double tolerance, double field_min, double field_max);
 
 // The largest difference between a value the store gives at a real grid
 // point and the input's: t (a dropped vertex) or s / 2 (a kept one).
-inline double HzSparseValueBound(const HzSparseHeader& h) { return std::max(h.tolerance, h.value_step / 2); }
+inline double SparseValueBound(const SparseHeader& h) { return std::max(h.tolerance, h.value_step / 2); }
 
 // The store's error codes. Lossless (t = 0) and with f32 errors: the
 // quantizer's (storage/error/quantize.h), as the dense store's. At t > 0
@@ -239,10 +239,10 @@ inline double HzSparseValueBound(const HzSparseHeader& h) { return std::max(h.to
 // errors, above it a little more; large codes, the ones that spread, are
 // fewer (lidc2 at 1%: errors 218 against 276 KB, bench/README.md). Every
 // code stands for at least the error it was made from.
-class HzSparseErrorCoder {
+class SparseErrorCoder {
  public:
   static constexpr uint32_t kLinearCodes = 8;
-  explicit HzSparseErrorCoder(const HzSparseHeader& h);
+  explicit SparseErrorCoder(const SparseHeader& h);
   uint32_t Encode(double e) const;
   double Decode(uint32_t code) const {
     if (code <= kLinearCodes || steps_.empty()) return quantizer_.Decode(code);
@@ -260,16 +260,16 @@ class HzSparseErrorCoder {
 };
 
 // The value of block `block`. REQUIRES: the counts agree with the bitmap.
-Result<std::vector<uint8_t>> EncodeHzSparseBlock(uint64_t block, const HzSparseBlock& b,
-                                                 size_t error_width, size_t voxel_width,
-                                                 ZstdCompressor& zstd);
+Result<std::vector<uint8_t>> EncodeSparseBlock(uint64_t block, const SparseBlock& b,
+                                               size_t error_width, size_t voxel_width,
+                                               ZstdCompressor& zstd);
 // Checks the checksum, sizes and counts; `vertices` is what the block must
 // hold (from the geometry). The caller checks the count of candidates
 // against the bitmap's walk and of errors against the kept vertices' levels.
-Result<HzSparseBlock> DecodeHzSparseBlock(uint64_t block, std::span<const uint8_t> value,
-                                          uint32_t vertices, size_t error_width,
-                                          size_t voxel_width, ZstdDecompressor& zstd,
-                                          const std::string& file);
+Result<SparseBlock> DecodeSparseBlock(uint64_t block, std::span<const uint8_t> value,
+                                      uint32_t vertices, size_t error_width,
+                                      size_t voxel_width, ZstdDecompressor& zstd,
+                                      const std::string& file);
 
 // The geometry and arithmetic the builder and the reader share: both must
 // compute bit for bit the same predictions.
@@ -312,7 +312,7 @@ uint64_t HzResidual(VoxelType type, double value, double p);
 double HzFromResidual(VoxelType type, uint64_t residual, double p);
 // At a value step s > 0: the residual of `value` against `p` and, in
 // `*read_back`, the value a reader gets from it (within s / 2 of `value`).
-// REQUIRES: |value - p| / s below 2^30 (HzSparseValueStep's bound).
+// REQUIRES: |value - p| / s below 2^30 (SparseValueStep's bound).
 uint64_t HzStepResidual(double value, double p, double step, double* read_back);
 double HzFromStepResidual(uint64_t residual, double p, double step);
 
