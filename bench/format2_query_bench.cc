@@ -96,22 +96,30 @@ QueryStats Query(Source& source) {
   return stats;
 }
 
+// The query rate and mesh size of `splits` splits ending in `last`.
+void Report(benchmark::State& state, uint64_t splits, const QueryStats& last) {
+  state.counters["splits/s"] = benchmark::Counter(static_cast<double>(splits), benchmark::Counter::kIsRate);
+  state.counters["simplices"] = static_cast<double>(last.simplices);
+}
+
+// The query over a new Source<D> on `store` each iteration.
+template <int D, template <int> class Source, class Store>
+void RunQueries(benchmark::State& state, const Store& store) {
+  uint64_t splits = 0;
+  QueryStats last;
+  for (auto _ : state) {
+    Source<D> source(store);
+    last = Query<D>(source);
+    splits += last.splits;
+  }
+  Report(state, splits, last);
+}
+
 template <int D>
 void Register(const std::string& name, uint32_t side) {
   static Stores stores = Make(D, side);
-  const auto report = [](benchmark::State& state, uint64_t splits, const QueryStats& last) {
-    state.counters["splits/s"] = benchmark::Counter(static_cast<double>(splits), benchmark::Counter::kIsRate);
-    state.counters["simplices"] = static_cast<double>(last.simplices);
-  };
-  benchmark::RegisterBenchmark(("Format2/" + name + "/in-memory").c_str(), [report](benchmark::State& state) {
-    uint64_t splits = 0;
-    QueryStats last;
-    for (auto _ : state) {
-      DenseSource<D> source(*stores.in_memory);
-      last = Query<D>(source);
-      splits += last.splits;
-    }
-    report(state, splits, last);
+  benchmark::RegisterBenchmark(("Format2/" + name + "/in-memory").c_str(), [](benchmark::State& state) {
+    RunQueries<D, DenseSource>(state, *stores.in_memory);
   })->Unit(benchmark::kMillisecond);
   // Distinct blocks: a store opened anew with a cache holding everything
   // decodes each block the query needs once.
@@ -123,33 +131,19 @@ void Register(const std::string& name, uint32_t side) {
     Query<D>(source);
     return fresh->stats().blocks_decoded;
   }();
-  benchmark::RegisterBenchmark(("Format2/" + name + "/warm").c_str(), [report](benchmark::State& state) {
-    uint64_t splits = 0;
-    QueryStats last;
-    for (auto _ : state) {
-      DenseSource<D> source(*stores.warm);
-      last = Query<D>(source);
-      splits += last.splits;
-    }
-    report(state, splits, last);
+  benchmark::RegisterBenchmark(("Format2/" + name + "/warm").c_str(), [](benchmark::State& state) {
+    RunQueries<D, DenseSource>(state, *stores.warm);
   })->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark(("Format2/" + name + "/sparse-warm").c_str(), [report](benchmark::State& state) {
+  benchmark::RegisterBenchmark(("Format2/" + name + "/sparse-warm").c_str(), [](benchmark::State& state) {
     static const bool warmed = [] {
       SparseSource<D> source(*stores.sparse);
       Query<D>(source);
       return true;
     }();
     (void)warmed;
-    uint64_t splits = 0;
-    QueryStats last;
-    for (auto _ : state) {
-      SparseSource<D> source(*stores.sparse);
-      last = Query<D>(source);
-      splits += last.splits;
-    }
-    report(state, splits, last);
+    RunQueries<D, SparseSource>(state, *stores.sparse);
   })->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark(("Format2/" + name + "/cache-2%").c_str(), [report](benchmark::State& state) {
+  benchmark::RegisterBenchmark(("Format2/" + name + "/cache-2%").c_str(), [](benchmark::State& state) {
     uint64_t splits = 0, decoded = 0, queries = 0;
     QueryStats last;
     for (auto _ : state) {
@@ -164,7 +158,7 @@ void Register(const std::string& name, uint32_t side) {
       decoded += cold->stats().blocks_decoded;
       ++queries;
     }
-    report(state, splits, last);
+    Report(state, splits, last);
     state.counters["decoded"] = static_cast<double>(decoded) / static_cast<double>(queries);
     state.counters["distinct"] = static_cast<double>(distinct);
     state.counters["cache_MiB"] = static_cast<double>(stores.decoded_bytes / 50) / (1 << 20);

@@ -82,7 +82,7 @@ Status ForEachLeaf(const Mesh<D>& mesh, Source& source, Leaf&& leaf) {
       SDB_RETURN_IF_ERROR(leaf(fr.code, fr.v, fr.f));
       continue;
     }
-    SDB_ASSIGN_OR_RETURN(const double mid, values.Midpoint(fr.code, fr.v, fr.f));
+    SDB_ASSIGN_OR_RETURN(const double mid, values.Midpoint(fr.code, fr.v));
     for (int i = 1; i >= 0; --i) {
       Frame child{fr.code.child(i), ChildVertices<D>(fr.code, fr.v, i), {}};
       internal::Split<D>(fr.f, SplitRules<D>::CaseOf(fr.code.level(), fr.code.path()), i, child.f,

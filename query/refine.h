@@ -58,13 +58,11 @@
 // QueryStats.
 //
 // Errors: Refiner::Run returns the source's errors (Corruption, IOError:
-// query/source.h) and Corruption when a source has no field value at a
-// vertex a query needs (criteria that need values only; the stores'
-// sources have one everywhere); kSaturated also
-// ResourceExhausted for a hierarchy with more internal nodes than
-// RefineOptions::max_saturated_nodes. ParseAlgorithm returns
-// InvalidArgument naming the text. On any error the mesh is left
-// conforming but unfinished.
+// query/source.h), Corruption when a source of a program's own has no value
+// at a vertex a query needs, and for kSaturated ResourceExhausted when the
+// hierarchy has more internal nodes than RefineOptions::max_saturated_nodes.
+// ParseAlgorithm returns InvalidArgument naming the text. On any error the
+// mesh is left conforming but unfinished.
 #pragma once
 
 #include <algorithm>
@@ -128,14 +126,9 @@ class VertexValues {
 
   explicit VertexValues(Source& source) : source_(source) {}
 
-  // The value at the midpoint of `code`'s split edge; `v` are `code`'s
-  // vertices. (The third argument, the vertices' values, is not needed
-  // since every source has the midpoint's own value; callers still pass it.)
-  Result<double> Midpoint(Code code, const SimplexVertices<D>& v, const Values&) {
-    SDB_ASSIGN_OR_RETURN(const std::optional<double> f,
-                         source_.Field(LatticeToGrid<D>(SplitMidpoint<D>(code, v), source_.info().domain_bits)));
-    if (!f) return Missing(code, "the midpoint of its split edge");
-    return *f;
+  // The value at the midpoint of `code`'s split edge (`v`: its vertices).
+  Result<double> Midpoint(Code code, const SimplexVertices<D>& v) {
+    return At(code, SplitMidpoint<D>(code, v), -1);
   }
 
   // The values at the vertices `v` of the root `top`.
@@ -146,19 +139,21 @@ class VertexValues {
   // The values at the vertices `v` of `code`.
   Status Get(Code code, const SimplexVertices<D>& v, Values& out) {
     for (int i = 0; i <= D; ++i) {
-      SDB_ASSIGN_OR_RETURN(const std::optional<double> f,
-                           source_.Field(LatticeToGrid<D>(v[i], source_.info().domain_bits)));
-      if (!f) return Missing(code, "vertex " + std::to_string(i + 1));
-      out[i] = *f;
+      SDB_ASSIGN_OR_RETURN(out[i], At(code, v[i], i));
     }
     return Status::OK();
   }
 
  private:
-  // A source of a program's own without a value where a query needs one.
-  Status Missing(Code code, const std::string& where) const {
-    return Status::Corruption(source_.info().path + ": no field value at " + where + " of simplex " +
-                              code.ToString());
+  // The value at `code`'s vertex `p` (number `vertex`; -1: the midpoint of
+  // its split edge). A source of a program's own may have none there.
+  Result<double> At(Code code, const Point<D>& p, int vertex) {
+    SDB_ASSIGN_OR_RETURN(const std::optional<double> f,
+                         source_.Field(LatticeToGrid<D>(p, source_.info().domain_bits)));
+    if (f) return *f;
+    return Status::Corruption(source_.info().path + ": no field value at " +
+                              (vertex < 0 ? "the midpoint of its split edge" : "vertex " + std::to_string(vertex + 1)) +
+                              " of simplex " + code.ToString());
   }
 
   Source& source_;
@@ -552,7 +547,7 @@ class Refiner {
       if (c.level() + 1 >= leaf_level) continue;
       double mid = 0;
       if (with_values) {
-        SDB_ASSIGN_OR_RETURN(mid, values_.Midpoint(c, f.v, f.values));
+        SDB_ASSIGN_OR_RETURN(mid, values_.Midpoint(c, f.v));
       }
       for (int i = 1; i >= 0; --i) {
         Frame child{c.child(i), {}, {}};

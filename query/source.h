@@ -176,17 +176,43 @@ concept OrderedReadSource =
       { s.ErrorForThresholdAt(code, order, t) } -> std::same_as<Result<double>>;
     };
 
+// What the stores' sources share: the store's reader, its SourceInfo, the
+// lookup counters, the error bound and the field (a value at every grid
+// point).
+template <int D, class Reader>
+class StoreSource {
+ public:
+  const SourceInfo& info() const { return info_; }
+  Result<double> Error(SimplexCode<D> code) {
+    ++stats_.error_lookups;
+    return reader_.ErrorBound(code);
+  }
+  Result<std::optional<double>> Field(const std::array<int64_t, D>& p) {
+    ++stats_.field_lookups;
+    SDB_ASSIGN_OR_RETURN(const double v, reader_.Field(p));
+    return std::optional<double>(v);
+  }
+
+ protected:
+  template <class Store>
+  explicit StoreSource(const Store& store) : reader_(store), info_(InfoFromHeader(store.header(), store.path())) {}
+
+  Reader reader_;
+  SourceInfo info_;
+  SourceStats stats_;
+};
+
 // A format-2 store's source (storage/dense/dense_store.h: one record per
 // diamond in hierarchical Z-order): a node's error is its diamond's. Models
 // ThresholdReadSource<DenseSource<D>, D>; making one reads nothing.
 template <int D>
-class DenseSource {
+class DenseSource : public StoreSource<D, DenseStore::Reader<D>> {
+  using Base = StoreSource<D, DenseStore::Reader<D>>;
+  using Base::info_, Base::reader_, Base::stats_;
+
  public:
   // REQUIRES: store.dimension() == D; the store outlives the source.
-  explicit DenseSource(const DenseStore& store)
-      : reader_(store),
-        block_bits_(store.header().block_bits),
-        info_(InfoFromHeader(store.header(), store.path())) {}
+  explicit DenseSource(const DenseStore& store) : Base(store), block_bits_(store.header().block_bits) {}
 
   // OrderedReadSource: the HZ position of the node's split vertex; for
   // leaf-level nodes (no split vertex, error 0) the largest order.
@@ -200,7 +226,6 @@ class DenseSource {
     return reader_.ErrorBoundForThresholdAt(code, order, threshold);
   }
 
-  const SourceInfo& info() const { return info_; }
   SourceStats stats() const {
     SourceStats s = stats_;
     s.blocks_read = reader_.block_fetches();
@@ -208,25 +233,13 @@ class DenseSource {
     return s;
   }
 
-  Result<double> Error(SimplexCode<D> code) {
-    ++stats_.error_lookups;
-    return reader_.ErrorBound(code);
-  }
   Result<double> ErrorForThreshold(SimplexCode<D> code, double threshold) {
     ++stats_.error_lookups;
     return reader_.ErrorBoundForThreshold(code, threshold);
   }
-  Result<std::optional<double>> Field(const std::array<int64_t, D>& p) {
-    ++stats_.field_lookups;
-    SDB_ASSIGN_OR_RETURN(const double v, reader_.Field(p));
-    return std::optional<double>(v);
-  }
 
  private:
-  DenseStore::Reader<D> reader_;
   int block_bits_;
-  SourceInfo info_;
-  SourceStats stats_;
 };
 
 // A sparse store of format 2's source (storage/sparse/sparse_store.h):
@@ -234,30 +247,16 @@ class DenseSource {
 // rebuilt), a dropped diamond's bound is 0. Models ReadSource<SparseSource<D>, D>;
 // making one reads nothing.
 template <int D>
-class SparseSource {
+class SparseSource : public StoreSource<D, SparseStore::Reader<D>> {
+  using Base = StoreSource<D, SparseStore::Reader<D>>;
+  using Base::reader_, Base::stats_;
+
  public:
   // REQUIRES: store.dimension() == D; the store outlives the source.
-  explicit SparseSource(const SparseStore& store)
-      : reader_(store), info_(InfoFromHeader(store.header(), store.path())) {}
+  explicit SparseSource(const SparseStore& store) : Base(store) {}
 
-  const SourceInfo& info() const { return info_; }
   SourceStats stats() const { return stats_; }
-
-  Result<double> Error(SimplexCode<D> code) {
-    ++stats_.error_lookups;
-    return reader_.ErrorBound(code);
-  }
-  Result<double> ErrorForThreshold(SimplexCode<D> code, double) { return Error(code); }
-  Result<std::optional<double>> Field(const std::array<int64_t, D>& p) {
-    ++stats_.field_lookups;
-    SDB_ASSIGN_OR_RETURN(const double v, reader_.Field(p));
-    return std::optional<double>(v);
-  }
-
- private:
-  SparseStore::Reader<D> reader_;
-  SourceInfo info_;
-  SourceStats stats_;
+  Result<double> ErrorForThreshold(SimplexCode<D> code, double) { return this->Error(code); }
 };
 
 static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);

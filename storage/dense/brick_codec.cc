@@ -133,6 +133,17 @@ void UnpredictTyped(bool is_float, int dimension, const std::array<uint32_t, 4>&
   }
 }
 
+// Returns f(W{}) for W the unsigned word of `width` bytes (1, 2, 4 or 8).
+template <class F>
+void WithWord(size_t width, F&& f) {
+  switch (width) {
+    case 1: return f(uint8_t{});
+    case 2: return f(uint16_t{});
+    case 4: return f(uint32_t{});
+    default: return f(uint64_t{});
+  }
+}
+
 }  // namespace
 
 size_t BrickVoxels(int dimension, const std::array<uint32_t, 4>& extent) {
@@ -145,26 +156,18 @@ void PredictBrick(VoxelType type, int dimension, const std::array<uint32_t, 4>& 
                   std::span<const uint8_t> voxels, std::span<uint8_t> coded) {
   const size_t n = BrickVoxels(dimension, extent), w = VoxelSize(type);
   assert(voxels.size() == n * w && coded.size() == voxels.size());
-  const bool is_float = IsFloatType(type);
-  switch (w) {
-    case 1: return PredictTyped<uint8_t>(is_float, dimension, extent, n, voxels.data(), coded.data());
-    case 2: return PredictTyped<uint16_t>(is_float, dimension, extent, n, voxels.data(), coded.data());
-    case 4: return PredictTyped<uint32_t>(is_float, dimension, extent, n, voxels.data(), coded.data());
-    default: return PredictTyped<uint64_t>(is_float, dimension, extent, n, voxels.data(), coded.data());
-  }
+  WithWord(w, [&](auto word) {
+    PredictTyped<decltype(word)>(IsFloatType(type), dimension, extent, n, voxels.data(), coded.data());
+  });
 }
 
 void UnpredictBrick(VoxelType type, int dimension, const std::array<uint32_t, 4>& extent,
                     std::span<const uint8_t> coded, std::span<uint8_t> voxels) {
   const size_t n = BrickVoxels(dimension, extent), w = VoxelSize(type);
   assert(voxels.size() == n * w && coded.size() == voxels.size());
-  const bool is_float = IsFloatType(type);
-  switch (w) {
-    case 1: return UnpredictTyped<uint8_t>(is_float, dimension, extent, n, coded.data(), voxels.data());
-    case 2: return UnpredictTyped<uint16_t>(is_float, dimension, extent, n, coded.data(), voxels.data());
-    case 4: return UnpredictTyped<uint32_t>(is_float, dimension, extent, n, coded.data(), voxels.data());
-    default: return UnpredictTyped<uint64_t>(is_float, dimension, extent, n, coded.data(), voxels.data());
-  }
+  WithWord(w, [&](auto word) {
+    UnpredictTyped<decltype(word)>(IsFloatType(type), dimension, extent, n, coded.data(), voxels.data());
+  });
 }
 
 }  // namespace simplexdb

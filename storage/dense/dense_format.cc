@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <utility>
 
 #include "storage/io/checksum.h"
 #include "util/utf8.h"
@@ -31,22 +32,16 @@ constexpr size_t kOffReserved = 23;  // 1 byte, zero
 constexpr size_t kOffDims = 24;
 constexpr size_t kOffSpacing = 40;
 constexpr size_t kOffOrigin = 72;
-constexpr size_t kOffFieldMin = 104;
-constexpr size_t kOffFieldMax = 112;
-constexpr size_t kOffErrorMax = 120;
-constexpr size_t kOffQuantum = 128;
-constexpr size_t kOffSlope = 136;
-constexpr size_t kOffIntercept = 144;
-constexpr size_t kOffVirtualBlocks = 152;
-constexpr size_t kOffStoredBlocks = 160;
-constexpr size_t kOffBitmapOffset = 168;
-constexpr size_t kOffIndexOffset = 176;
-constexpr size_t kOffFileSize = 184;
-constexpr size_t kOffBitmapChecksum = 192;
-constexpr size_t kOffIndexChecksum = 200;
-constexpr size_t kOffBricks = 208;
-constexpr size_t kOffBrickIndexOffset = 216;
-constexpr size_t kOffBrickIndexChecksum = 224;
+// The header's doubles and 64-bit words by offset, written and read alike.
+constexpr std::pair<size_t, double DenseHeader::*> kDoubleFields[] = {
+    {104, &DenseHeader::field_min}, {112, &DenseHeader::field_max},   {120, &DenseHeader::error_max},
+    {128, &DenseHeader::quantum},   {136, &DenseHeader::scale_slope}, {144, &DenseHeader::scale_intercept}};
+constexpr std::pair<size_t, uint64_t DenseHeader::*> kWordFields[] = {
+    {152, &DenseHeader::virtual_blocks},      {160, &DenseHeader::stored_blocks},
+    {168, &DenseHeader::bitmap_offset},       {176, &DenseHeader::index_offset},
+    {184, &DenseHeader::file_size},           {192, &DenseHeader::bitmap_checksum},
+    {200, &DenseHeader::index_checksum},      {208, &DenseHeader::bricks},
+    {216, &DenseHeader::brick_index_offset},  {224, &DenseHeader::brick_index_checksum}};
 constexpr size_t kOffSourceLength = 232;  // u16
 constexpr size_t kOffSource = 234;
 constexpr size_t kOffChecksum = kDenseHeaderSize - 8;
@@ -72,22 +67,8 @@ std::array<uint8_t, kDenseHeaderSize> SerializeDenseHeader(const DenseHeader& h)
     StoreLittle<double>(p + kOffSpacing + 8 * i, h.spacing[i]);
     StoreLittle<double>(p + kOffOrigin + 8 * i, h.origin[i]);
   }
-  StoreLittle<double>(p + kOffFieldMin, h.field_min);
-  StoreLittle<double>(p + kOffFieldMax, h.field_max);
-  StoreLittle<double>(p + kOffErrorMax, h.error_max);
-  StoreLittle<double>(p + kOffQuantum, h.quantum);
-  StoreLittle<double>(p + kOffSlope, h.scale_slope);
-  StoreLittle<double>(p + kOffIntercept, h.scale_intercept);
-  StoreLittle<uint64_t>(p + kOffVirtualBlocks, h.virtual_blocks);
-  StoreLittle<uint64_t>(p + kOffStoredBlocks, h.stored_blocks);
-  StoreLittle<uint64_t>(p + kOffBitmapOffset, h.bitmap_offset);
-  StoreLittle<uint64_t>(p + kOffIndexOffset, h.index_offset);
-  StoreLittle<uint64_t>(p + kOffFileSize, h.file_size);
-  StoreLittle<uint64_t>(p + kOffBitmapChecksum, h.bitmap_checksum);
-  StoreLittle<uint64_t>(p + kOffIndexChecksum, h.index_checksum);
-  StoreLittle<uint64_t>(p + kOffBricks, h.bricks);
-  StoreLittle<uint64_t>(p + kOffBrickIndexOffset, h.brick_index_offset);
-  StoreLittle<uint64_t>(p + kOffBrickIndexChecksum, h.brick_index_checksum);
+  for (const auto& [offset, field] : kDoubleFields) StoreLittle<double>(p + offset, h.*field);
+  for (const auto& [offset, field] : kWordFields) StoreLittle<uint64_t>(p + offset, h.*field);
   const size_t n = Utf8PrefixLength(h.source, kDenseMaxSource);
   StoreLittle<uint16_t>(p + kOffSourceLength, static_cast<uint16_t>(n));
   std::memcpy(p + kOffSource, h.source.data(), n);
@@ -180,12 +161,7 @@ Result<DenseHeader> ParseDenseHeader(std::span<const uint8_t> bytes, std::string
                      "spacing non-zero (positive for time)");
     }
   }
-  h.field_min = LoadLittle<double>(b + kOffFieldMin);
-  h.field_max = LoadLittle<double>(b + kOffFieldMax);
-  h.error_max = LoadLittle<double>(b + kOffErrorMax);
-  h.quantum = LoadLittle<double>(b + kOffQuantum);
-  h.scale_slope = LoadLittle<double>(b + kOffSlope);
-  h.scale_intercept = LoadLittle<double>(b + kOffIntercept);
+  for (const auto& [offset, field] : kDoubleFields) h.*field = LoadLittle<double>(b + offset);
   if (!std::isfinite(h.field_min) || !std::isfinite(h.field_max) || h.field_min > h.field_max) {
     return corrupt("field range is not a finite interval");
   }
@@ -196,16 +172,7 @@ Result<DenseHeader> ParseDenseHeader(std::span<const uint8_t> bytes, std::string
   if (!std::isfinite(h.scale_slope) || !std::isfinite(h.scale_intercept)) {
     return corrupt("scaling is not finite");
   }
-  h.virtual_blocks = LoadLittle<uint64_t>(b + kOffVirtualBlocks);
-  h.stored_blocks = LoadLittle<uint64_t>(b + kOffStoredBlocks);
-  h.bitmap_offset = LoadLittle<uint64_t>(b + kOffBitmapOffset);
-  h.index_offset = LoadLittle<uint64_t>(b + kOffIndexOffset);
-  h.file_size = LoadLittle<uint64_t>(b + kOffFileSize);
-  h.bitmap_checksum = LoadLittle<uint64_t>(b + kOffBitmapChecksum);
-  h.index_checksum = LoadLittle<uint64_t>(b + kOffIndexChecksum);
-  h.bricks = LoadLittle<uint64_t>(b + kOffBricks);
-  h.brick_index_offset = LoadLittle<uint64_t>(b + kOffBrickIndexOffset);
-  h.brick_index_checksum = LoadLittle<uint64_t>(b + kOffBrickIndexChecksum);
+  for (const auto& [offset, field] : kWordFields) h.*field = LoadLittle<uint64_t>(b + offset);
   // The positions with stored errors: every block but a lone first one is
   // full.
   const int position_bits = h.dimension * (h.domain_bits + (h.finest_stored() ? 1 : 0));

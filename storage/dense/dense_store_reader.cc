@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "storage/dense/brick_codec.h"
 #include "storage/dense/dense_store.h"
@@ -16,17 +17,21 @@ namespace simplexdb {
 Status DenseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) const {
   const uint64_t blocks = header_.stored_blocks, total = blocks + header_.bricks;
   const uint32_t n = static_cast<uint32_t>(header_.block_records());
+  // Entry `e`'s stored bytes against its checksum, even when the block or
+  // brick is cached or resident; `bad`: its Corruption naming it.
+  const auto check = [&](const DenseIndexEntry& e, const std::string& what) {
+    const auto bad = [this, what](const std::string& why) {
+      return Status::Corruption(path_ + ": " + what + ": " + why);
+    };
+    const bool ok = Checksum(file_->bytes().subspan(e.offset, e.stored_size)) == e.checksum;
+    return std::pair(ok ? Status::OK() : bad("checksum mismatch"), bad);
+  };
   for (uint64_t i = 0; i < blocks; ++i) {
     if (progress && i % 256 == 0) progress(i, total);
     const DenseIndexEntry e = entry(i);
-    // The stored bytes, even when the block is cached or resident.
-    if (Checksum(file_->bytes().subspan(e.offset, e.stored_size)) != e.checksum) {
-      return Status::Corruption(path_ + ": " + Describe(i) + ": checksum mismatch");
-    }
+    const auto [checked, bad] = check(e, Describe(i));
+    SDB_RETURN_IF_ERROR(checked);
     SDB_ASSIGN_OR_RETURN(const BlockHandle h, Block(i));
-    const auto bad = [&](const std::string& why) {
-      return Status::Corruption(path_ + ": " + Describe(i) + ": " + why);
-    };
     uint32_t largest = 0;
     for (uint32_t slot = 0; slot < n; ++slot) {
       const uint32_t code = StoredErrorAt(h.data, slot);
@@ -44,13 +49,9 @@ Status DenseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progres
   for (uint64_t b = 0; b < header_.bricks; ++b) {
     if (progress && (blocks + b) % 256 == 0) progress(blocks + b, total);
     const DenseIndexEntry e = brick_entry(b);
-    if (Checksum(file_->bytes().subspan(e.offset, e.stored_size)) != e.checksum) {
-      return Status::Corruption(path_ + ": " + DescribeBrick(b) + ": checksum mismatch");
-    }
+    const auto [checked, bad] = check(e, DescribeBrick(b));
+    SDB_RETURN_IF_ERROR(checked);
     SDB_ASSIGN_OR_RETURN(const BlockHandle h, Brick(b));
-    const auto bad = [&](const std::string& why) {
-      return Status::Corruption(path_ + ": " + DescribeBrick(b) + ": " + why);
-    };
     const BrickPlace place = grid_->Place(b);
     const size_t voxels = BrickVoxels(header_.dimension, place.extent);
     for (size_t slot = 0; slot < voxels; ++slot) {

@@ -182,15 +182,7 @@ Result<VoxelType> VoxelTypeFromCode(uint8_t code) {
 void DecodeVoxels(VoxelType type, ByteOrder order, const std::byte* bytes,
                   size_t count, double* out) noexcept {
   const bool swap = order != NativeByteOrder();
-  switch (type) {
-    case VoxelType::kU8: return DecodeAs<uint8_t>(swap, bytes, count, out);
-    case VoxelType::kI8: return DecodeAs<int8_t>(swap, bytes, count, out);
-    case VoxelType::kU16: return DecodeAs<uint16_t>(swap, bytes, count, out);
-    case VoxelType::kI16: return DecodeAs<int16_t>(swap, bytes, count, out);
-    case VoxelType::kF32: return DecodeAs<float>(swap, bytes, count, out);
-    case VoxelType::kF64: return DecodeAs<double>(swap, bytes, count, out);
-  }
-  assert(false && "invalid VoxelType");
+  WithVoxelCppType(type, [&](auto voxel) { DecodeAs<decltype(voxel)>(swap, bytes, count, out); });
 }
 
 bool IsRepresentable(VoxelType type, double value) noexcept {
@@ -213,15 +205,7 @@ void EncodeVoxels(VoxelType type, ByteOrder order, const double* values,
   for (size_t i = 0; i < count; ++i) assert(IsRepresentable(type, values[i]));
 #endif
   const bool swap = order != NativeByteOrder();
-  switch (type) {
-    case VoxelType::kU8: return EncodeAs<uint8_t>(swap, values, count, bytes);
-    case VoxelType::kI8: return EncodeAs<int8_t>(swap, values, count, bytes);
-    case VoxelType::kU16: return EncodeAs<uint16_t>(swap, values, count, bytes);
-    case VoxelType::kI16: return EncodeAs<int16_t>(swap, values, count, bytes);
-    case VoxelType::kF32: return EncodeAs<float>(swap, values, count, bytes);
-    case VoxelType::kF64: return EncodeAs<double>(swap, values, count, bytes);
-  }
-  assert(false && "invalid VoxelType");
+  WithVoxelCppType(type, [&](auto voxel) { EncodeAs<decltype(voxel)>(swap, values, count, bytes); });
 }
 
 }  // namespace simplexdb
