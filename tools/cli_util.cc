@@ -16,10 +16,7 @@ namespace simplexdb::tools {
 
 std::string CheckOutput(const std::string& path, const std::vector<std::string>& inputs,
                         bool force) {
-  OutputOptions options;
-  options.force = force;
-  options.inputs = inputs;
-  Result<std::string> resolved = ResolveOutput(path, options);
+  Result<std::string> resolved = ResolveOutput(path, {.force = force, .inputs = inputs});
   if (!resolved.ok()) Fail(resolved.status());
   return *std::move(resolved);
 }
