@@ -111,10 +111,7 @@ class ProgressPrinter {
 
 // The output path checked as the command checks it (ResolveOutput).
 std::string Output(const std::string& path, const std::vector<std::string>& inputs, bool force = false) {
-  OutputOptions options;
-  options.inputs = inputs;
-  options.force = force;
-  Result<std::string> resolved = ResolveOutput(path, options);
+  Result<std::string> resolved = ResolveOutput(path, {.force = force, .inputs = inputs});
   if (!resolved.ok()) Raise(resolved.status());
   return *std::move(resolved);
 }

@@ -16,10 +16,7 @@ namespace simplexdb::tools {
 
 std::string CheckOutput(const std::string& path, const std::vector<std::string>& inputs,
                         bool force) {
-  OutputOptions options;
-  options.force = force;
-  options.inputs = inputs;
-  Result<std::string> resolved = ResolveOutput(path, options);
+  Result<std::string> resolved = ResolveOutput(path, {.force = force, .inputs = inputs});
   if (!resolved.ok()) Fail(resolved.status());
   return *std::move(resolved);
 }
@@ -30,6 +27,28 @@ void AddForceOption(CLI::App* cmd, bool* force) {
                 "and keep the link; without --force a symlink output is refused. An output that "
                 "is an input, a device, a FIFO, a socket, a directory or a dangling symlink is "
                 "always refused");
+}
+
+void AddOutputOptions(CLI::App* cmd, std::string* output, bool* force, const std::string& help) {
+  cmd->add_option("-o,--output", *output, help)->required();
+  AddForceOption(cmd, force);
+}
+
+void AddQuietFlag(CLI::App* cmd, bool* quiet, const std::string& help) {
+  cmd->add_flag("-q,--quiet", *quiet, help);
+}
+
+void AddReportFlags(CLI::App* cmd, bool* json, bool* quiet, const std::string& json_help) {
+  cmd->add_flag("--json", *json, json_help);
+  AddQuietFlag(cmd, quiet);
+}
+
+void AddThreadsOption(CLI::App* cmd, int* threads, const std::string& help) {
+  cmd->add_option("--threads", *threads, help)->capture_default_str();
+}
+
+void AddMemoryOption(CLI::App* cmd, size_t* memory_mb, const std::string& help) {
+  cmd->add_option("--memory-mb", *memory_mb, help)->capture_default_str();
 }
 
 Status FinishStandardOutput(int earlier_errno) {

@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -114,6 +115,44 @@ std::string CheckOutput(const std::string& path, const std::vector<std::string>&
 
 // Adds --force, bound to `force`, with the one help text for it.
 void AddForceOption(CLI::App* cmd, bool* force);
+
+// Adds the required "-o,--output", bound to `output` and described by
+// `help` (what the command writes there), and --force (AddForceOption):
+// every command that writes a file takes both.
+void AddOutputOptions(CLI::App* cmd, std::string* output, bool* force, const std::string& help);
+
+// Adds "-q,--quiet", bound to `quiet`; `help` says what it silences.
+void AddQuietFlag(CLI::App* cmd, bool* quiet, const std::string& help = "no progress or summary");
+
+// Adds --json and -q/--quiet (AddQuietFlag's help), bound to `json` and
+// `quiet`: a command that prints a report prints it as JSON, as text, or
+// not at all. `json_help` says what the JSON holds.
+void AddReportFlags(CLI::App* cmd, bool* json, bool* quiet,
+                    const std::string& json_help = "print the report as JSON");
+
+// Adds --threads (its default shown), bound to `threads`; 0 means one per
+// core in every command. `help` says whose threads they are and what their
+// count changes.
+void AddThreadsOption(CLI::App* cmd, int* threads,
+                      const std::string& help = "worker threads (0: one per core)");
+
+// Adds --memory-mb (its default shown), bound to `memory_mb`, which the
+// command turns into bytes with MebibytesOption. `help` says what the bound
+// covers for the command.
+void AddMemoryOption(CLI::App* cmd, size_t* memory_mb, const std::string& help);
+
+// Adds the subcommand `name` with `help` to `app`, its options to be bound
+// to the returned Args (default-constructed), and `run(args)` as its
+// callback. The callback owns the Args, so the pointer stays valid as long
+// as `app`: bind options to its fields right after the call.
+template <class Args, class Run>
+std::pair<CLI::App*, Args*> AddCommand(CLI::App& app, const std::string& name,
+                                       const std::string& help, Run run) {
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(name, help);
+  cmd->callback([args, run] { run(*args); });
+  return {cmd, args.get()};
+}
 
 // Flushes stdout (std::cout writes through it) and returns the error of any
 // write to it that failed: "cannot write to standard output: <reason>".

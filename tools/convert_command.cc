@@ -105,61 +105,54 @@ void RunUpdate(const UpdateArgs& a) {
 }  // namespace
 
 void RegisterConvertCommand(CLI::App& app) {
-  auto a = std::make_shared<ConvertArgs>();
-  auto* cmd = app.add_subcommand(
-      "convert",
+  auto [cmd, a] = AddCommand<ConvertArgs>(
+      app, "convert",
       "Convert between the dense store and the sparse (LMDB, variable-resolution)\n"
       "store. --to sparse keeps a diamond only when its error or a descendant's exceeds\n"
       "--tolerance (0: lossless); --to dense checks every block of the sparse store\n"
       "(a damaged one is refused), then rebuilds the full grid from it (at a tolerance,\n"
       "an integer field's rebuilt values are rounded to its type). The field is read\n"
       "into memory (a double a grid point within --memory-mb) and built from there.\n"
-      "Example: simplexdb convert tooth.sdb --to sparse --tolerance 1% -o tooth.lmdb");
+      "Example: simplexdb convert tooth.sdb --to sparse --tolerance 1% -o tooth.lmdb",
+      RunConvert);
   cmd->add_option("store", a->input, "the store to read")->required();
-  cmd->add_option("-o,--output", a->output, "the store to write")->required();
+  AddOutputOptions(cmd, &a->output, &a->force, "the store to write");
   cmd->add_option("--to", a->to, "dense or sparse")->required()->check(CLI::IsMember({"dense", "sparse"}));
   cmd->add_option("--tolerance", a->tolerance,
                   "--to sparse: drop subtrees whose errors are all within this (7.3, or 1% of "
                   "the field range)")
       ->capture_default_str();
   cmd->add_option("--compression", a->compression, "--to dense: blocks as zstd or none")->capture_default_str();
-  cmd->add_option("--memory-mb", a->memory_mb,
+  AddMemoryOption(cmd, &a->memory_mb,
                   "memory bound of the conversion (as import's), block index and vertex set "
-                  "included; too small fails at once with the need")
-      ->capture_default_str();
-  cmd->add_option("--threads", a->threads,
-                  "the builder's worker threads (0: one per core; a dense store's bricks are laid "
-                  "out in the order the threads finish them: the same bytes run after run only "
-                  "with 1)")
-      ->capture_default_str();
-  cmd->add_flag("--json", a->json, "print the report as JSON");
-  cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
-  AddForceOption(cmd, &a->force);
-  cmd->callback([a] { RunConvert(*a); });
+                  "included; too small fails at once with the need");
+  AddThreadsOption(cmd, &a->threads,
+                   "the builder's worker threads (0: one per core; a dense store's bricks are laid "
+                   "out in the order the threads finish them: the same bytes run after run only "
+                   "with 1)");
+  AddReportFlags(cmd, &a->json, &a->quiet);
 }
 
 void RegisterUpdateCommand(CLI::App& app) {
-  auto a = std::make_shared<UpdateArgs>();
-  auto* cmd = app.add_subcommand(
-      "update",
+  auto [cmd, a] = AddCommand<UpdateArgs>(
+      app, "update",
       "Re-import a box of a volume into a sparse store, in one LMDB transaction: readers\n"
       "see the old store or the new one, never a mix. The store becomes what importing\n"
       "VOLUME with its tolerance gives; only the blocks that change are written. VOLUME\n"
       "must have the store's grid and voxel type, and outside --box the values the store\n"
       "holds (within its tolerance): a point that differs there is named and nothing is\n"
       "written. The whole volume is read and rebuilt in memory (as import --sparse).\n"
-      "Example: simplexdb update tooth.lmdb tooth-fixed.nrrd --box 10,10,10,40,40,40");
+      "Example: simplexdb update tooth.lmdb tooth-fixed.nrrd --box 10,10,10,40,40,40",
+      RunUpdate);
   cmd->add_option("store", a->store, "the sparse store to update")->required();
   cmd->add_option("volume", a->input, "the new volume (NRRD or NIfTI-1)")->required();
   cmd->add_option("--box", a->box,
                   "the grid points that changed, inclusive: x0,y0,z0,x1,y1,z1 (4D: "
                   "x0,y0,z0,t0,x1,y1,z1,t1)")
       ->required();
-  cmd->add_option("--memory-mb", a->memory_mb, "the rebuild's memory bound")->capture_default_str();
-  cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")->capture_default_str();
-  cmd->add_flag("--json", a->json, "print the report as JSON");
-  cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
-  cmd->callback([a] { RunUpdate(*a); });
+  AddMemoryOption(cmd, &a->memory_mb, "the rebuild's memory bound");
+  AddThreadsOption(cmd, &a->threads);
+  AddReportFlags(cmd, &a->json, &a->quiet);
 }
 
 }  // namespace simplexdb::tools

@@ -53,9 +53,8 @@ void RunExport(ExportArgs a) {
 }  // namespace
 
 void RegisterExportCommand(CLI::App& app) {
-  auto a = std::make_shared<ExportArgs>();
-  auto* cmd = app.add_subcommand(
-      "export",
+  auto [cmd, a] = AddCommand<ExportArgs>(
+      app, "export",
       "Write a store's field back out: OUT.nrrd as one NRRD file, anything else\n"
       "as raw with a detached NRRD header beside it (OUT.raw + OUT.nhdr). Values\n"
       "are the store's own, losslessly; a sparse store's rebuilt ones (exact when\n"
@@ -79,12 +78,12 @@ void RegisterExportCommand(CLI::App& app) {
       "while writing leaves none of them.\n"
       "Example: simplexdb export tooth.sdb --roi 0,0,0,50,50,80 --step 2 -o part.nrrd\n"
       "         simplexdb export flow.sdb -o flow.pvd\n"
-      "         simplexdb export flow.sdb --time 3 -o flow_t3.nrrd");
+      "         simplexdb export flow.sdb --time 3 -o flow_t3.nrrd",
+      RunExport);
   cmd->add_option("store", a->store, "a store file (dense or sparse)")->required();
-  cmd->add_option("-o,--output", a->output,
-                  "OUT.nrrd (a 4D store: OUT_t<t>.nrrd per step + OUT.pvd), OUT.pvd (a 4D "
-                  "store: OUT_t<t>.vti per step), or OUT.raw (+ OUT.nhdr)")
-      ->required();
+  AddOutputOptions(cmd, &a->output, &a->force,
+                   "OUT.nrrd (a 4D store: OUT_t<t>.nrrd per step + OUT.pvd), OUT.pvd (a 4D "
+                   "store: OUT_t<t>.vti per step), or OUT.raw (+ OUT.nhdr)");
   cmd->add_option("--roi", a->roi,
                   "x0,y0,z0[,t0],x1,y1,z1[,t1]: a box of the grid, inclusive, one range per "
                   "axis of the store; with --time the three space axes only");
@@ -93,8 +92,6 @@ void RegisterExportCommand(CLI::App& app) {
                   "every step-th point along each axis (a coarser resolution); in a 4D "
                   "export without --time, every step-th time step too")
       ->capture_default_str();
-  AddForceOption(cmd, &a->force);
-  cmd->callback([a] { RunExport(*a); });
 }
 
 }  // namespace simplexdb::tools

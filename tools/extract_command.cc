@@ -27,22 +27,18 @@ namespace {
 using json = nlohmann::ordered_json;
 
 struct ExtractArgs {
+  // The options that need no parsing (--iso, --time, --units, --algorithm,
+  // --budget, --time-limit, --check) are bound to the request's fields.
+  ExtractRequest request;
   std::string store;
   std::string error;
   std::string box;
-  std::optional<double> iso;
-  std::optional<double> time;
-  std::string algorithm = "depth-first";
   std::string format;  // empty: from the output's extension, else json
   std::string output = "-";
   std::string from;
   std::string slices;
-  std::string units = "grid";  // of --box, --time and --slices: grid or physical
-  uint64_t budget = 0;
-  double time_limit = 0;
   bool in_memory = false;
   size_t cache_mb = 256;
-  bool check = false;
   bool force = false;
 };
 
@@ -58,17 +54,10 @@ void RunExtract(ExtractArgs a) {
   if (a.in_memory && ProbeStoreKind(a.store) == StoreKind::kSparse) {
     throw CommandError("--in-memory applies to dense stores; the LMDB store is read in place", 2);
   }
-  ExtractRequest request;
+  ExtractRequest& request = a.request;
   request.error = ParseAmountOption(a.error, "--error");
   if (!a.box.empty()) request.box = ParseNumberList(a.box, "--box", 1, 8);
-  request.iso = a.iso;
-  request.time = a.time;
-  request.units = a.units;
-  request.algorithm = a.algorithm;
-  request.budget = a.budget;
-  request.time_limit = a.time_limit;
   if (!a.slices.empty()) request.slices = ParseNumberList(a.slices, "--slices", 1, 100000);
-  request.check = a.check;
   StoreOptions options;
   options.in_memory = a.in_memory;
   options.cache_bytes = MebibytesOption(a.cache_mb, "--cache-mb");
@@ -94,7 +83,7 @@ void RunExtract(ExtractArgs a) {
 }
 
 template <int D>
-void RunConformity(const std::string& path) {
+void RunConformityOf(const std::string& path) {
   Result<std::vector<uint64_t>> keys = ReadLeafCodes(path, D);
   if (!keys.ok()) Fail(keys.status());
   std::vector<SimplexCode<D>> leaves;
@@ -112,35 +101,50 @@ void RunConformity(const std::string& path) {
   if (!r.ok) throw CommandError(fmt::format("{}: not a conforming mesh: {}", path, r.problem), 3);
 }
 
+struct ConformityArgs {
+  std::string path;
+  std::string hierarchy = "ht";
+};
+
+void RunConformity(const ConformityArgs& a) {
+  if (a.hierarchy == "ht") {
+    RunConformityOf<3>(a.path);
+  } else if (a.hierarchy == "hp") {
+    RunConformityOf<4>(a.path);
+  } else {
+    throw CommandError(fmt::format("--hierarchy {}: expected ht or hp", a.hierarchy), 2);
+  }
+}
+
 }  // namespace
 
 void RegisterExtractCommand(CLI::App& app) {
-  auto args = std::make_shared<ExtractArgs>();
-  auto* cmd = app.add_subcommand(
-      "extract",
+  auto [cmd, args] = AddCommand<ExtractArgs>(
+      app, "extract",
       "Extract the mesh that meets LOD criteria from a store (selective refinement, seed 3.6 / 4.6).\n"
       "A simplex is split when its error exceeds --error and every other criterion given applies to it;\n"
-      "the result is the minimal conforming mesh (depth-first and priority agree).");
+      "the result is the minimal conforming mesh (depth-first and priority agree).",
+      RunExtract);
   cmd->add_option("store", args->store, "Dense (.sdb) or sparse (LMDB) store")->required();
   cmd->add_option("--error", args->error, "Error threshold: 7.3 (field units) or 1% (of the field range)")
       ->required();
   cmd->add_option("--box", args->box,
                   "Hold only simplices meeting this closed box to the threshold: x0,y0,z0,x1,y1,z1[,t0,t1] "
                   "in grid coordinates, or physical ones with --units physical (an exact test)");
-  cmd->add_option("--iso", args->iso,
+  cmd->add_option("--iso", args->request.iso,
                   "Hold only simplices that may contain this isovalue (vertex range widened by their error)");
-  cmd->add_option("--time", args->time, "HP: hold only pentatopes meeting the time slice t = T (grid units, or\n"
+  cmd->add_option("--time", args->request.time, "HP: hold only pentatopes meeting the time slice t = T (grid units, or\n"
                   "physical with --units physical)");
-  cmd->add_option("--units", args->units,
+  cmd->add_option("--units", args->request.units,
                   "grid (default: point i of an axis is at i) or physical (the store's origin + i x spacing,\n"
                   "`simplexdb info` shows them): the units of --box, --time and --slices. Meshes are\n"
                   "always written in physical coordinates")
       ->capture_default_str();
-  cmd->add_option("--algorithm", args->algorithm, "depth-first (default), priority, incremental, saturated, or level-order (the\n"
+  cmd->add_option("--algorithm", args->request.algorithm, "depth-first (default), priority, incremental, saturated, or level-order (the\n"
                   "depth-first mesh, candidates taken level by level in the store's order: each\n"
                   "block of a format-2 store read about once, for a cache far smaller than the store)");
-  cmd->add_option("--budget", args->budget, "priority: stop before the mesh would pass this many simplices");
-  cmd->add_option("--time-limit", args->time_limit, "priority: stop after this many seconds");
+  cmd->add_option("--budget", args->request.budget, "priority: stop before the mesh would pass this many simplices");
+  cmd->add_option("--time-limit", args->request.time_limit, "priority: stop after this many seconds");
   cmd->add_option("--from", args->from, "incremental: the previous mesh, as leaf codes (--format codes)");
   cmd->add_option("--format", args->format,
                   "codes (leaf codes, one per line), vtu (VTK unstructured grid: the HT's tetrahedra, or the\n"
@@ -155,28 +159,17 @@ void RegisterExtractCommand(CLI::App& app) {
                 "slower to open, for comparing with out-of-core)");
   cmd->add_option("--cache-mb", args->cache_mb, "Block cache budget, MiB (out-of-core)")
       ->capture_default_str();
-  cmd->add_flag("--check", args->check, "Check the result's conformity from geometry (exit 3 if not)");
+  cmd->add_flag("--check", args->request.check, "Check the result's conformity from geometry (exit 3 if not)");
   AddForceOption(cmd, &args->force);
-  cmd->callback([args] { RunExtract(*args); });
 
-  auto path = std::make_shared<std::string>();
-  auto hierarchy = std::make_shared<std::string>("ht");
-  auto* conf = app.add_subcommand(
-      "conformity",
+  auto [conf, c] = AddCommand<ConformityArgs>(
+      app, "conformity",
       "Check that a list of leaf codes is a conforming mesh of the domain: the simplices tile it and every\n"
-      "interior face is shared by exactly two simplices with the same vertices. Exit 0 if so, 3 if not.");
-  conf->add_option("codes", *path, "File of leaf codes, one per line (as extract --format codes writes)")
+      "interior face is shared by exactly two simplices with the same vertices. Exit 0 if so, 3 if not.",
+      RunConformity);
+  conf->add_option("codes", c->path, "File of leaf codes, one per line (as extract --format codes writes)")
       ->required();
-  conf->add_option("--hierarchy", *hierarchy, "ht or hp")->capture_default_str();
-  conf->callback([path, hierarchy] {
-    if (*hierarchy == "ht") {
-      RunConformity<3>(*path);
-    } else if (*hierarchy == "hp") {
-      RunConformity<4>(*path);
-    } else {
-      throw CommandError(fmt::format("--hierarchy {}: expected ht or hp", *hierarchy), 2);
-    }
-  });
+  conf->add_option("--hierarchy", c->hierarchy, "ht or hp")->capture_default_str();
 }
 
 }  // namespace simplexdb::tools

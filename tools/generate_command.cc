@@ -57,7 +57,8 @@ double Representable(VoxelType type, double v) {
   return v;
 }
 
-void RunGenerate(const GenerateArgs& a) {
+void RunGenerate(GenerateArgs a) {
+  a.output = CheckOutput(a.output, {}, a.force);
   GenerateOptions options;
   Result<FieldKind> kind = ParseFieldKind(a.field);
   if (!kind.ok()) throw CommandError("--field: " + std::string(kind.status().message()), 2);
@@ -193,34 +194,33 @@ void RunTo4d(To4dArgs a) {
 }  // namespace
 
 void RegisterTo4dCommand(CLI::App& app) {
-  auto a = std::make_shared<To4dArgs>();
-  auto* cmd = app.add_subcommand(
-      "to4d",
+  auto [cmd, a] = AddCommand<To4dArgs>(
+      app, "to4d",
       "Make a 4D volume (NRRD) from a 3D one as the seed's section 4.7 made its 4D\n"
       "Buckyball: the values of each SxSxS subgrid become the time axis of the point\n"
       "standing for the subgrid: out(i,j,k,t) = in(S i + t%S, S j + (t/S)%S, S k + t/S^2),\n"
       "clamped to the grid. Each axis of n points gives (n-1)/S + 1.\n"
-      "Example: simplexdb to4d bucky129.nrrd -o bucky4d.nrrd   (33^4, as in the seed)");
+      "Example: simplexdb to4d bucky129.nrrd -o bucky4d.nrrd   (33^4, as in the seed)",
+      RunTo4d);
   cmd->add_option("input", a->input, "3D volume: NRRD or NIfTI-1, or raw with --dims and --type")
       ->required();
-  cmd->add_option("-o,--output", a->output, "the 4D NRRD file to write")->required();
+  AddOutputOptions(cmd, &a->output, &a->force, "the 4D NRRD file to write");
   cmd->add_option("--subgrid", a->subgrid, "S, the side of a subgrid")->capture_default_str();
   cmd->add_option("--steps", a->steps,
                   "time steps, 2..S^3 (default: the longest output axis, at most S^3)");
   AddRawInputOptions(cmd, &a->raw, "raw input: X,Y,Z (x fastest)");
-  cmd->add_flag("-q,--quiet", a->quiet, "no summary");
-  AddForceOption(cmd, &a->force);
-  cmd->callback([a] { RunTo4d(*a); });
+  AddQuietFlag(cmd, &a->quiet, "no summary");
 }
 
 void RegisterGenerateCommand(CLI::App& app) {
-  auto a = std::make_shared<GenerateArgs>();
-  auto* cmd = app.add_subcommand(
-      "generate",
+  auto [cmd, a] = AddCommand<GenerateArgs>(
+      app, "generate",
       "Write a synthetic volume as NRRD, the same bits for the same seed on every\n"
       "machine: Perlin noise (3D or 4D; the seed's Plasma64 is 65^3 Perlin noise)\n"
       "and analytic fields. Any size: the volume is streamed to disk.\n"
-      "Example: simplexdb generate --field perlin --dims 65,65,65 -o plasma64.nrrd");
+      "Example: simplexdb generate --field perlin --dims 65,65,65 -o plasma64.nrrd",
+      RunGenerate);
+  AddOutputOptions(cmd, &a->output, &a->force, "the NRRD file to write");
   cmd->add_option("--field", a->field, "perlin|sphere|sines|marschner-lobb|constant|ramp|buckyball (C60, the seed's Buckyball)")
       ->capture_default_str();
   cmd->add_option("--dims", a->dims, "X,Y,Z or X,Y,Z,T")->capture_default_str();
@@ -231,14 +231,8 @@ void RegisterGenerateCommand(CLI::App& app) {
   cmd->add_option("--octaves", a->octaves, "Perlin octaves")->capture_default_str();
   cmd->add_option("--frequency", a->frequency, "periods across the domain")->capture_default_str();
   cmd->add_option("--constant", a->constant, "the value of --field constant")->capture_default_str();
-  cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")->capture_default_str();
-  cmd->add_option("-o,--output", a->output, "the NRRD file to write")->required();
-  cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
-  AddForceOption(cmd, &a->force);
-  cmd->callback([a] {
-    a->output = CheckOutput(a->output, {}, a->force);
-    RunGenerate(*a);
-  });
+  AddThreadsOption(cmd, &a->threads);
+  AddQuietFlag(cmd, &a->quiet);
 }
 
 }  // namespace simplexdb::tools

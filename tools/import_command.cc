@@ -176,9 +176,8 @@ void RunImport(ImportArgs a) {
 }  // namespace
 
 void RegisterImportCommand(CLI::App& app) {
-  auto a = std::make_shared<ImportArgs>();
-  auto* cmd = app.add_subcommand(
-      "import",
+  auto [cmd, a] = AddCommand<ImportArgs>(
+      app, "import",
       "Build a store from a volume (dense; or sparse with --sparse): NRRD (.nrrd, .nhdr) and NIfTI-1 (.nii)\n"
       "files describe themselves; raw files need --dims and --type. A 3D volume\n"
       "builds a Hierarchy of Tetrahedra, a 4D one (or several 3D volumes, a time\n"
@@ -187,9 +186,10 @@ void RegisterImportCommand(CLI::App& app) {
       "NIfTI scl_slope/scl_inter are applied (a scaled integer volume is stored as\n"
       "float32). NaN marks a missing value; Inf or a value beyond float32's range\n"
       "(+-3.4e38) is an error naming the voxel, and nothing is written.\n"
-      "Example: simplexdb import tooth.raw --dims 103,94,161 --type uint8 -o tooth.sdb");
+      "Example: simplexdb import tooth.raw --dims 103,94,161 --type uint8 -o tooth.sdb",
+      RunImport);
   cmd->add_option("input", a->inputs, "volume file(s); several 3D files form a time series")->required();
-  cmd->add_option("-o,--output", a->output, "the store to write")->required();
+  AddOutputOptions(cmd, &a->output, &a->force, "the store to write");
   cmd->add_option("--hierarchy", a->hierarchy, "ht or hp (checked against the volume)")
       ->check(CLI::IsMember({"ht", "hp"}));
   AddRawInputOptions(cmd, &a->raw, "raw input: X,Y,Z or X,Y,Z,T (x fastest)");
@@ -214,19 +214,15 @@ void RegisterImportCommand(CLI::App& app) {
                   "become missing values (NaN; integer fields are then stored as float32). NaN "
                   "in a float input is missing too")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--memory-mb", a->memory_mb,
+  AddMemoryOption(cmd, &a->memory_mb,
                   "the builder's memory bound, block index included; a volume larger than it is read a "
-                  "window of planes at a time; too small fails at once with the need")
-      ->capture_default_str();
-  cmd->add_option("--threads", a->threads, "worker threads (0: one per core)")->capture_default_str();
+                  "window of planes at a time; too small fails at once with the need");
+  AddThreadsOption(cmd, &a->threads);
   cmd->add_option("--zstd-level", a->zstd_level,
                   "zstd compression level (default 3; 19 with --sparse, whose blocks are few "
                   "and built for size)")
       ->check(CLI::Range(1, 22));
-  cmd->add_flag("--json", a->json, "print the build report as JSON");
-  cmd->add_flag("-q,--quiet", a->quiet, "no progress or summary");
-  AddForceOption(cmd, &a->force);
-  cmd->callback([a] { RunImport(*a); });
+  AddReportFlags(cmd, &a->json, &a->quiet, "print the build report as JSON");
 }
 
 }  // namespace simplexdb::tools

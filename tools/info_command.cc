@@ -119,25 +119,33 @@ void RunVerify(const std::string& path, bool quiet) {
 }  // namespace
 
 void RegisterInfoCommands(CLI::App& app) {
-  {
-    auto path = std::make_shared<std::string>();
-    auto as_json = std::make_shared<bool>(false);
-    auto* cmd = app.add_subcommand(
-        "info", "Describe a store: kind, grid, levels, value ranges, quantization, sizes on\n"
-                "disk against logical, compression ratio.");
-    cmd->add_option("store", *path, "a store file")->required();
-    cmd->add_flag("--json", *as_json, "as one JSON object");
-    cmd->callback([path, as_json] { RunInfo(*path, *as_json); });
-  }
-  {
-    auto path = std::make_shared<std::string>();
-    auto quiet = std::make_shared<bool>(false);
-    auto* cmd = app.add_subcommand(
-        "verify", "Check every checksum and invariant of a store; exit 0 only if all hold,\n"
-                  "otherwise 1 with the first bad block named.");
-    cmd->add_option("store", *path, "a store file")->required();
-    cmd->add_flag("-q,--quiet", *quiet, "no progress or summary");
-    cmd->callback([path, quiet] { RunVerify(*path, *quiet); });
+  // Both read one store and take one flag.
+  struct Command {
+    const char* name;
+    const char* help;
+    const char* flag;
+    const char* flag_help;
+    void (*run)(const std::string& path, bool flag);
+  };
+  const Command commands[] = {
+      {"info",
+       "Describe a store: kind, grid, levels, value ranges, quantization, sizes on\n"
+       "disk against logical, compression ratio.",
+       "--json", "as one JSON object", RunInfo},
+      {"verify",
+       "Check every checksum and invariant of a store; exit 0 only if all hold,\n"
+       "otherwise 1 with the first bad block named.",
+       "-q,--quiet", "no progress or summary", RunVerify},
+  };
+  struct Args {
+    std::string path;
+    bool flag = false;
+  };
+  for (const Command& c : commands) {
+    auto [cmd, a] = AddCommand<Args>(app, c.name, c.help,
+                                     [run = c.run](const Args& args) { run(args.path, args.flag); });
+    cmd->add_option("store", a->path, "a store file")->required();
+    cmd->add_flag(c.flag, a->flag, c.flag_help);
   }
 }
 

@@ -18,17 +18,13 @@
 #include "storage/dense/dense_format.h"
 
 #include "tests/storage/address_space_limit.h"
-#include "tests/storage/store_test_util.h"
-#include "tests/tools/cli_runner.h"
+#include "tests/tools/cli_test_util.h"
 #include "util/utf8.h"
 
 namespace simplexdb {
 namespace {
 
 using testing::kAddressSpaceLimited;
-using testing::ReadWholeFile;
-using testing::RunCli;
-using testing::TempDir;
 
 std::string Quote(const std::string& s) { return "'" + s + "'"; }  // no ' in our paths
 
@@ -40,10 +36,11 @@ std::string FromHex(const std::string& hex) {
   return out;
 }
 
-// A small NRRD volume at `path`.
-void Generate(const std::string& path) {
-  const auto r = RunCli("generate --field perlin --dims 17,13,9 --type int16 --seed 3 -o " +
-                        Quote(path));
+// A small NRRD volume at `in`, imported into the dense store `store`.
+void GenerateAndImport(const std::string& in, const std::string& store) {
+  auto r = RunCli("generate --field perlin --dims 17,13,9 --type int16 --seed 3 -o " + Quote(in));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunCli("import " + Quote(in) + " -o " + store + " --quiet");
   ASSERT_EQ(r.exit_code, 0) << r.err;
 }
 
@@ -52,38 +49,31 @@ TEST(BytesCli, PathThatIsNotUtf8IsCarriedThroughInfoJsonAndConvert) {
   const std::string in = dir.path() + "/bad\xff" "name.nrrd";
   const std::string store = dir.path() + "/s.sdb";
   const std::string sparse = dir.path() + "/sp\xfe.lmdb";
-  ASSERT_NO_FATAL_FAILURE(Generate(in));
-  auto r = RunCli("import " + Quote(in) + " -o " + store + " --quiet");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_NO_FATAL_FAILURE(GenerateAndImport(in, store));
 
   // JSON: readable with U+FFFD, exact in "source_hex".
-  r = RunCli("info " + store + " --json");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const auto info = nlohmann::json::parse(r.out);
+  nlohmann::json info = RunJson("info " + store + " --json");
   EXPECT_EQ(info["source"], "NRRD file " + dir.path() + "/bad\xEF\xBF\xBDname.nrrd");
-  ASSERT_TRUE(info.contains("source_hex")) << r.out;
+  ASSERT_TRUE(info.contains("source_hex")) << info.dump();
   EXPECT_EQ(FromHex(info["source_hex"]), "NRRD file " + in);
   EXPECT_FALSE(info.contains("store_hex"));  // a UTF-8 path gets no hex
 
   // Text: the bytes as they are.
-  r = RunCli("info " + store);
+  auto r = RunCli("info " + store);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("NRRD file " + in), std::string::npos) << r.out;
 
-  r = RunCli("convert " + store + " --to sparse -o " + Quote(sparse) + " --json --quiet");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const auto report = nlohmann::json::parse(r.out);
-  ASSERT_TRUE(report.contains("store_hex")) << r.out;
+  nlohmann::json report =
+      RunJson("convert " + store + " --to sparse -o " + Quote(sparse) + " --json --quiet");
+  ASSERT_TRUE(report.contains("store_hex")) << report.dump();
   EXPECT_EQ(FromHex(report["store_hex"]), sparse);
 
   // The sparse header is JSON: invalid bytes are stored as U+FFFD.
-  r = RunCli("info " + Quote(sparse) + " --json");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const auto sparse_info = nlohmann::json::parse(r.out);
+  nlohmann::json sparse_info = RunJson("info " + Quote(sparse) + " --json");
   EXPECT_EQ(FromHex(sparse_info["store_hex"]), sparse);
   EXPECT_NE(sparse_info["source"].get<std::string>().find("bad\xEF\xBF\xBDname.nrrd"),
             std::string::npos)
-      << r.out;
+      << sparse_info.dump();
   EXPECT_EQ(RunCli("verify " + Quote(sparse)).exit_code, 0);
 }
 
@@ -106,16 +96,12 @@ TEST(BytesCli, SourceLongerThanTheHeaderFieldIsCutBetweenCharacters) {
       << "temporary directory too deep for this test";
   std::filesystem::create_directories(sub);
   const std::string store = dir.path() + "/s.sdb";
-  ASSERT_NO_FATAL_FAILURE(Generate(in));
-  auto r = RunCli("import " + Quote(in) + " -o " + store + " --quiet");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_NO_FATAL_FAILURE(GenerateAndImport(in, store));
 
-  r = RunCli("info " + store + " --json");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const auto info = nlohmann::json::parse(r.out);
+  nlohmann::json info = RunJson("info " + store + " --json");
   EXPECT_EQ(info["source"], full.substr(0, kMax - 1));  // the whole characters that fit
   EXPECT_FALSE(info.contains("source_hex"));
-  r = RunCli("info " + store);
+  auto r = RunCli("info " + store);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find(full.substr(0, kMax - 1)), std::string::npos);
   r = RunCli("convert " + store + " --to sparse -o " + dir.path() + "/s.lmdb --quiet");

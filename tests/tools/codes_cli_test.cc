@@ -33,37 +33,55 @@ std::vector<json> ParseLines(const std::string& out) {
 
 // Runs `codes` over `codes` and checks what the lines of every hierarchy
 // share: one per code, in order, with the contract's keys in its order, the
-// code and its level.
-template <class Code>
-void RunContract(const char* hierarchy, const std::vector<Code>& codes,
-                 std::vector<json>* lines) {
+// code, its level, its parent (null at level 0) and its `children` children
+// (null at the deepest level a key holds); then `check(code, line)` checks
+// the rest. The first failed ASSERT in `check` ends the run.
+template <class Code, class Check>
+void RunContract(const char* hierarchy, const std::vector<Code>& codes, int children,
+                 Check check) {
   std::string input;
   for (const Code c : codes) input += c.ToString() + "\n";
   const auto r = RunCli(std::string("codes --hierarchy ") + hierarchy, input);
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  *lines = ParseLines(r.out);
-  ASSERT_EQ(lines->size(), codes.size());
+  const std::vector<json> lines = ParseLines(r.out);
+  ASSERT_EQ(lines.size(), codes.size());
   for (size_t i = 0; i < codes.size(); ++i) {
-    const json& j = (*lines)[i];
-    SCOPED_TRACE(codes[i].ToString());
+    const Code c = codes[i];
+    const json& j = lines[i];
+    SCOPED_TRACE(c.ToString());
     std::vector<std::string> keys;
     for (auto it = j.begin(); it != j.end(); ++it) keys.push_back(it.key());
     ASSERT_EQ(keys, (std::vector<std::string>{"code", "level", "vertices", "neighbors",
                                               "parent", "children", "cluster"}));
-    ASSERT_EQ(j["code"], codes[i].ToString());
-    ASSERT_EQ(j["level"], codes[i].level());
+    ASSERT_EQ(j["code"], c.ToString());
+    ASSERT_EQ(j["level"], c.level());
+    if (c.level() == 0) {
+      ASSERT_TRUE(j["parent"].is_null());
+    } else {
+      ASSERT_EQ(j["parent"], c.parent().ToString());
+    }
+    if (c.level() == Code::kMaxLevel) {
+      ASSERT_TRUE(j["children"].is_null()) << "no deeper level in a 64-bit key";
+    } else {
+      json expected = json::array();
+      for (int k = 0; k < children; ++k) expected.push_back(c.child(k).ToString());
+      ASSERT_EQ(j["children"], expected);
+    }
+    check(c, j);
+    if (Test::HasFatalFailure()) return;
   }
 }
 
-// The contract for one hierarchy: every code up to level 4 and random deep
-// ones, each line checked against the library and geometry.
-template <int D>
-void CheckContract(const char* hierarchy, uint64_t seed) {
-  using Code = SimplexCode<D>;
+// The codes a contract test checks: every code down to `full_level` below
+// each of the `roots` roots (base faces for triangles), then 200 random ones
+// from `seed` at levels 1 to the deepest a key holds. A level takes `bits`
+// path bits: 1 for a simplex (two children), 2 for a triangle (four).
+template <class Code>
+std::vector<Code> ContractCodes(int roots, int bits, int full_level, uint64_t seed) {
   std::vector<Code> codes;
-  for (int top = 0; top < Code::kRoots; ++top) {
-    for (int level = 0; level <= 4; ++level) {
-      for (uint64_t p = 0; p < (uint64_t{1} << level); ++p) {
+  for (int top = 0; top < roots; ++top) {
+    for (int level = 0; level <= full_level; ++level) {
+      for (uint64_t p = 0; p < (uint64_t{1} << (bits * level)); ++p) {
         codes.push_back(Code::FromPath(top, p, level));
       }
     }
@@ -71,16 +89,19 @@ void CheckContract(const char* hierarchy, uint64_t seed) {
   std::mt19937_64 rng(seed);
   for (int i = 0; i < 200; ++i) {
     const int level = 1 + static_cast<int>(rng() % Code::kMaxLevel);  // 1..max
-    codes.push_back(Code::FromPath(static_cast<int>(rng() % Code::kRoots),
-                                   rng() >> (64 - level), level));
+    codes.push_back(Code::FromPath(static_cast<int>(rng() % roots), rng() >> (64 - bits * level),
+                                   level));
   }
-  std::vector<json> lines;
-  RunContract(hierarchy, codes, &lines);
-  ASSERT_FALSE(Test::HasFatalFailure());
-  for (size_t i = 0; i < codes.size(); ++i) {
-    const Code c = codes[i];
-    const json& j = lines[i];
-    SCOPED_TRACE(c.ToString());
+  return codes;
+}
+
+// The contract for one hierarchy: every code up to level 4 and random deep
+// ones, each line checked against the library and geometry.
+template <int D>
+void CheckContract(const char* hierarchy, uint64_t seed) {
+  using Code = SimplexCode<D>;
+  const std::vector<Code> codes = ContractCodes<Code>(Code::kRoots, 1, 4, seed);
+  RunContract(hierarchy, codes, 2, [](const Code c, const json& j) {
     // Unit-cube coordinates, exactly the lattice vertices scaled.
     const auto v = Vertices(c);
     ASSERT_EQ(j["vertices"].size(), size_t{D + 1});
@@ -102,21 +123,11 @@ void CheckContract(const char* hierarchy, uint64_t seed) {
         ASSERT_EQ(j["neighbors"][k - 1], n.ToString());
       }
     }
-    if (c.level() == 0) {
-      ASSERT_TRUE(j["parent"].is_null());
-    } else {
-      ASSERT_EQ(j["parent"], c.parent().ToString());
-    }
-    if (c.level() == Code::kMaxLevel) {
-      ASSERT_TRUE(j["children"].is_null()) << "no deeper level in a 64-bit key";
-    } else {
-      ASSERT_EQ(j["children"], (json{c.child(0).ToString(), c.child(1).ToString()}));
-    }
     std::set<std::string> cluster;
     for (const Code m : Cluster(c)) cluster.insert(m.ToString());
     ASSERT_EQ(j["cluster"].get<std::set<std::string>>(), cluster);
     ASSERT_EQ(j["cluster"][0], c.ToString());
-  }
+  });
 }
 
 TEST(CodesCli, HtContract) { CheckContract<3>("ht", 4); }
@@ -128,28 +139,10 @@ TEST(CodesCli, HpContract) { CheckContract<4>("hp", 5); }
 template <Polyhedron P>
 void CheckTriContract(const char* hierarchy, uint64_t seed) {
   using Code = TriCode<P>;
-  std::vector<Code> codes;
-  for (int f = 0; f < Code::kFaces; ++f) {
-    for (int level = 0; level <= 3; ++level) {
-      for (uint64_t p = 0; p < (uint64_t{1} << (2 * level)); ++p) {
-        codes.push_back(Code::FromPath(f, p, level));
-      }
-    }
-  }
-  std::mt19937_64 rng(seed);
-  for (int i = 0; i < 200; ++i) {
-    const int level = 1 + static_cast<int>(rng() % Code::kMaxLevel);  // 1..max
-    codes.push_back(Code::FromPath(static_cast<int>(rng() % Code::kFaces),
-                                   rng() >> (64 - 2 * level), level));
-  }
-  std::vector<json> lines;
-  RunContract(hierarchy, codes, &lines);
-  ASSERT_FALSE(Test::HasFatalFailure());
+  const std::vector<Code> codes = ContractCodes<Code>(Code::kFaces, 2, 3, seed);
   bool deepest = false;
-  for (size_t i = 0; i < codes.size(); ++i) {
-    const Code c = codes[i];
-    const json& j = lines[i];
-    SCOPED_TRACE(c.ToString());
+  ASSERT_NO_FATAL_FAILURE(RunContract(hierarchy, codes, 4, [&](const Code c, const json& j) {
+    deepest = deepest || c.level() == Code::kMaxLevel;
     // Apex, left, right on the solid, inscribed in the unit sphere; JSON
     // numbers round-trip doubles exactly.
     const TriPoints v = PolyhedronVertices(c);
@@ -162,21 +155,9 @@ void CheckTriContract(const char* hierarchy, uint64_t seed) {
     for (int d = 0; d < 3; ++d) {
       ASSERT_EQ(j["neighbors"][d], TriNeighborScan(c, static_cast<TriDirection>(d)).ToString());
     }
-    if (c.level() == 0) {
-      ASSERT_TRUE(j["parent"].is_null());
-    } else {
-      ASSERT_EQ(j["parent"], c.parent().ToString());
-    }
-    if (c.level() == Code::kMaxLevel) {
-      deepest = true;
-      ASSERT_TRUE(j["children"].is_null()) << "no deeper level in a 64-bit key";
-    } else {
-      ASSERT_EQ(j["children"], (json{c.child(0).ToString(), c.child(1).ToString(),
-                                     c.child(2).ToString(), c.child(3).ToString()}));
-    }
     ASSERT_TRUE(j["cluster"].is_array());
     ASSERT_TRUE(j["cluster"].empty());
-  }
+  }));
   EXPECT_TRUE(deepest || codes.size() < 1000);
 }
 

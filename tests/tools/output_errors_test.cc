@@ -9,29 +9,16 @@
 #include <string>
 #include <vector>
 
-#include "tests/storage/store_test_util.h"
-#include "tests/tools/cli_runner.h"
+#include "tests/tools/cli_test_util.h"
 
 namespace simplexdb {
 namespace {
 
-using testing::RunCli;
-using testing::TempDir;
-
 class OutputErrors : public ::testing::Test {
  protected:
   void SetUp() override {
-    const std::string d = dir_.path();
-    ASSERT_EQ(RunCli("generate --field perlin --dims 17,17,17 --type uint8 -q -o " + d + "/v.nrrd")
-                  .exit_code,
-              0);
-    ASSERT_EQ(RunCli("generate --field perlin --dims 9,9,9,9 --type uint8 -q -o " + d + "/v4.nrrd")
-                  .exit_code,
-              0);
-    ASSERT_EQ(RunCli("import " + d + "/v.nrrd -q -o " + d + "/v.sdb").exit_code, 0);
-    ASSERT_EQ(RunCli("import " + d + "/v4.nrrd -q -o " + d + "/v4.sdb").exit_code, 0);
-    ASSERT_EQ(RunCli("import " + d + "/v.nrrd --sparse -q -o " + d + "/v.lmdb").exit_code, 0);
-    std::ofstream(d + "/file") << "x";
+    ASSERT_NO_FATAL_FAILURE(testing::MakeEveryCommandsInputs(dir_.path(), "17,17,17"));
+    std::ofstream(dir_.path() + "/file") << "x";
   }
 
   // Each command (with OUT for its output's folder) fails naming the output.

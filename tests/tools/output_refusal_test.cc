@@ -18,34 +18,24 @@
 #include <string>
 #include <vector>
 
-#include "tests/storage/store_test_util.h"
-#include "tests/tools/cli_runner.h"
+#include "tests/tools/cli_test_util.h"
 
 namespace simplexdb {
 namespace {
 
-namespace fs = std::filesystem;
-using testing::ReadWholeFile;
-using testing::RunCli;
 using testing::SortedNames;
-using testing::TempDir;
 
 class OutputRefusal : public ::testing::Test {
  protected:
   void SetUp() override {
     const std::string d = dir_.path();
-    for (const char* name : {"v", "t0", "t1"}) {
+    ASSERT_NO_FATAL_FAILURE(testing::MakeEveryCommandsInputs(d, "9,9,9"));
+    for (const char* name : {"t0", "t1"}) {  // a time series
       ASSERT_EQ(RunCli("generate --field perlin --dims 9,9,9 --type uint8 -q -o " + d + "/" +
                        name + ".nrrd")
                     .exit_code,
                 0);
     }
-    ASSERT_EQ(RunCli("generate --field perlin --dims 9,9,9,9 --type uint8 -q -o " + d + "/v4.nrrd")
-                  .exit_code,
-              0);
-    ASSERT_EQ(RunCli("import " + d + "/v.nrrd -q -o " + d + "/v.sdb").exit_code, 0);
-    ASSERT_EQ(RunCli("import " + d + "/v4.nrrd -q -o " + d + "/v4.sdb").exit_code, 0);
-    ASSERT_EQ(RunCli("import " + d + "/v.nrrd --sparse -q -o " + d + "/v.lmdb").exit_code, 0);
   }
 
   // Runs `args` and expects exit 1 naming `output` with `words`, and the

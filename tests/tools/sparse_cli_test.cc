@@ -14,20 +14,11 @@
 
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
-#include "tests/storage/store_test_util.h"
-#include "tests/tools/cli_runner.h"
+#include "tests/tools/cli_test_util.h"
 #include "tests/util/python_vtk.h"
 
 namespace simplexdb {
 namespace {
-
-using testing::ReadVolumeValues;
-using testing::RunCli;
-using testing::TempDir;
-namespace fs = std::filesystem;
-
-
-nlohmann::json Json(const testing::CommandResult& r) { return nlohmann::json::parse(r.out); }
 
 TEST(SparseCli, ImportConvertInfoVerifyRoundTrip) {
   const TempDir dir;

@@ -17,17 +17,10 @@
 
 #include "storage/dense/dense_format.h"
 #include "storage/volume/volume.h"
-#include "tests/storage/store_test_util.h"
-#include "tests/tools/cli_runner.h"
+#include "tests/tools/cli_test_util.h"
 
 namespace simplexdb {
 namespace {
-
-using testing::ReadVolumeValues;
-using testing::RunCli;
-using testing::TempDir;
-namespace fs = std::filesystem;
-
 
 TEST(StoreCli, GenerateImportInfoVerifyExport) {
   const TempDir dir;

@@ -19,16 +19,10 @@
 
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
-#include "tests/storage/store_test_util.h"
-#include "tests/tools/cli_runner.h"
+#include "tests/tools/cli_test_util.h"
 
 namespace simplexdb {
 namespace {
-
-using testing::ReadVolumeValues;
-using testing::RunCli;
-using testing::TempDir;
-namespace fs = std::filesystem;
 
 static_assert(std::endian::native == std::endian::little, "the files below are written as is");
 
@@ -97,6 +91,25 @@ TEST(ValuesCli, ScaledNiftiDenseStoreHasThePerNodeMesh) {
   EXPECT_EQ(la, lb);
 }
 
+// Imports `nii` (stored with slope 0.25, intercept -3) into `store` with
+// `flags` and checks what import and info report: the scaling, float32
+// values, the field's range [lo, hi].
+void ExpectScaledImport(const std::string& nii, const std::string& store, const std::string& flags,
+                        double lo, double hi) {
+  SCOPED_TRACE(store);
+  const auto r = RunCli("import " + nii + flags + " -o " + store);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("scaled: slope 0.25, intercept -3 -> float32"), std::string::npos)
+      << r.out;
+  nlohmann::json info = RunJson("info " + store + " --json");
+  EXPECT_EQ(info["voxel_type"], "float32");
+  EXPECT_NE(info.value("source", "").find("(scaled: slope 0.25, intercept -3)"),
+            std::string::npos)
+      << info["source"];
+  EXPECT_EQ(info.value("field_min", 0.0), lo);
+  EXPECT_EQ(info.value("field_max", 0.0), hi);
+}
+
 TEST(ValuesCli, ScaledNiftiImportsTheScaledValues) {
   const TempDir dir;
   const std::string nii = dir.path() + "/s.nii";
@@ -108,50 +121,23 @@ TEST(ValuesCli, ScaledNiftiImportsTheScaledValues) {
     expected.push_back(((i * i) % 23 - 11) / 4.0 - 3.0);
   }
   WriteScaledNifti(nii, {5, 4, 3}, stored, 0.25f, -3.0f);
+  const auto [lo, hi] = std::minmax_element(expected.begin(), expected.end());
 
   const std::string store = dir.path() + "/s.sdb";
-  auto r = RunCli("import " + nii + " -o " + store);
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("scaled: slope 0.25, intercept -3 -> float32"), std::string::npos)
-      << r.out;
-  r = RunCli("info " + store + " --json");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const auto info = nlohmann::json::parse(r.out);
-  EXPECT_EQ(info["voxel_type"], "float32");
-  EXPECT_NE(info["source"].get<std::string>().find("(scaled: slope 0.25, intercept -3)"),
-            std::string::npos)
-      << info["source"];
-  r = RunCli("info " + store);
+  ASSERT_NO_FATAL_FAILURE(ExpectScaledImport(nii, store, "", *lo, *hi));
+  const auto r = RunCli("info " + store);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("(scaled: slope 0.25, intercept -3)"), std::string::npos) << r.out;
-  const auto [lo, hi] = std::minmax_element(expected.begin(), expected.end());
-  EXPECT_EQ(info["field_min"].get<double>(), *lo);
-  EXPECT_EQ(info["field_max"].get<double>(), *hi);
   ASSERT_EQ(RunCli("export " + store + " -o " + dir.path() + "/back.nrrd").exit_code, 0);
   EXPECT_EQ(ReadVolumeValues(dir.path() + "/back.nrrd"), expected);
   EXPECT_EQ(RunCli("verify " + store).exit_code, 0);
 
-  r = RunCli("import " + nii + " --json -o " + dir.path() + "/j.sdb");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const auto report = nlohmann::json::parse(r.out);
+  nlohmann::json report = RunJson("import " + nii + " --json -o " + dir.path() + "/j.sdb");
   EXPECT_EQ(report["scaling"]["slope"], 0.25);
   EXPECT_EQ(report["scaling"]["intercept"], -3.0);
 
   // The sparse store holds the same values.
-  const std::string sparse = dir.path() + "/s.lmdb";
-  r = RunCli("import " + nii + " --sparse -o " + sparse);
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("scaled: slope 0.25, intercept -3 -> float32"), std::string::npos)
-      << r.out;
-  r = RunCli("info " + sparse + " --json");
-  ASSERT_EQ(r.exit_code, 0) << r.err;
-  const auto sinfo = nlohmann::json::parse(r.out);
-  EXPECT_EQ(sinfo["voxel_type"], "float32");
-  EXPECT_NE(sinfo["source"].get<std::string>().find("(scaled: slope 0.25, intercept -3)"),
-            std::string::npos)
-      << sinfo["source"];
-  EXPECT_EQ(sinfo["field_min"].get<double>(), *lo);
-  EXPECT_EQ(sinfo["field_max"].get<double>(), *hi);
+  ExpectScaledImport(nii, dir.path() + "/s.lmdb", " --sparse", *lo, *hi);
 }
 
 // Exit 1 (not 0, not 70) with `mentions` on stderr, and `output` absent.
