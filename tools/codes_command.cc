@@ -223,35 +223,37 @@ void WithCodeType(const std::string& name, Fn&& fn) {
   }
 }
 
+// `simplexdb codes --help`.
+constexpr const char* kCodesHelp = R"(Describe location codes read from stdin, one per line, as JSON lines:
+{"code","level","vertices" (unit-cube coordinates, v1 first),
+"neighbors" (face types 1..D+1, null on the domain boundary),
+"parent","children" (null at the deepest level a key holds: HT 55,
+HP 53),"cluster"}. Triangle quadtrees (tri-*): vertices apex, left,
+right on the solid inscribed in the unit sphere; neighbors left, right,
+vertical; four children (null at level 27 on the icosahedron, 28 on the
+others); an empty cluster. A line that is not a code gets
+{"code","error"} (and "code_hex", its bytes in hex, when the
+line is not UTF-8; a line over 256 bytes is cut there) and the exit
+status is 1.)";
+
+// `simplexdb inspect --help`.
+constexpr const char* kInspectHelp = R"(Explain location codes for people: shape, vertices, split edge,
+parent and children, face neighbors and cluster.
+Examples: simplexdb inspect --hierarchy ht 2:10011
+          simplexdb inspect --hierarchy hp 7:10100110101100100011
+          simplexdb inspect --hierarchy tri-icosahedron 2:010001010001)";
+
 }  // namespace
 
 void RegisterCodesCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand(
-      "codes",
-      "Describe location codes read from stdin, one per line, as JSON lines:\n"
-      "{\"code\",\"level\",\"vertices\" (unit-cube coordinates, v1 first),\n"
-      "\"neighbors\" (face types 1..D+1, null on the domain boundary),\n"
-      "\"parent\",\"children\" (null at the deepest level a key holds: HT 55,\n"
-      "HP 53),\"cluster\"}. Triangle quadtrees (tri-*): vertices apex, left,\n"
-      "right on the solid inscribed in the unit sphere; neighbors left, right,\n"
-      "vertical; four children (null at level 27 on the icosahedron, 28 on the\n"
-      "others); an empty cluster. A line that is not a code gets\n"
-      "{\"code\",\"error\"} (and \"code_hex\", its bytes in hex, when the\n"
-      "line is not UTF-8; a line over 256 bytes is cut there) and the exit\n"
-      "status is 1.");
+  auto* cmd = app.add_subcommand("codes", kCodesHelp);
   auto hierarchy = AddHierarchyOption(cmd, /*required=*/true);
   cmd->callback(
       [hierarchy] { WithCodeType(*hierarchy, []<class Code>() { RunCodes<Code>(); }); });
 }
 
 void RegisterInspectCommand(CLI::App& app) {
-  auto* cmd = app.add_subcommand(
-      "inspect",
-      "Explain location codes for people: shape, vertices, split edge,\n"
-      "parent and children, face neighbors and cluster.\n"
-      "Examples: simplexdb inspect --hierarchy ht 2:10011\n"
-      "          simplexdb inspect --hierarchy hp 7:10100110101100100011\n"
-      "          simplexdb inspect --hierarchy tri-icosahedron 2:010001010001");
+  auto* cmd = app.add_subcommand("inspect", kInspectHelp);
   auto hierarchy = AddHierarchyOption(cmd, /*required=*/false);
   auto codes = std::make_shared<std::vector<std::string>>();
   cmd->add_option("codes", *codes, "location codes T:bits (F:bits for tri-*)")->required();

@@ -102,19 +102,28 @@ void RunUpdate(const UpdateArgs& a) {
   }
 }
 
+// `simplexdb convert --help`.
+constexpr const char* kConvertHelp = R"(Convert between the dense store and the sparse (LMDB, variable-resolution)
+store. --to sparse keeps a diamond only when its error or a descendant's exceeds
+--tolerance (0: lossless); --to dense checks every block of the sparse store
+(a damaged one is refused), then rebuilds the full grid from it (at a tolerance,
+an integer field's rebuilt values are rounded to its type). The field is read
+into memory (a double a grid point within --memory-mb) and built from there.
+Example: simplexdb convert tooth.sdb --to sparse --tolerance 1% -o tooth.lmdb)";
+
+// `simplexdb update --help`.
+constexpr const char* kUpdateHelp = R"(Re-import a box of a volume into a sparse store, in one LMDB transaction: readers
+see the old store or the new one, never a mix. The store becomes what importing
+VOLUME with its tolerance gives; only the blocks that change are written. VOLUME
+must have the store's grid and voxel type, and outside --box the values the store
+holds (within its tolerance): a point that differs there is named and nothing is
+written. The whole volume is read and rebuilt in memory (as import --sparse).
+Example: simplexdb update tooth.lmdb tooth-fixed.nrrd --box 10,10,10,40,40,40)";
+
 }  // namespace
 
 void RegisterConvertCommand(CLI::App& app) {
-  auto [cmd, a] = AddCommand<ConvertArgs>(
-      app, "convert",
-      "Convert between the dense store and the sparse (LMDB, variable-resolution)\n"
-      "store. --to sparse keeps a diamond only when its error or a descendant's exceeds\n"
-      "--tolerance (0: lossless); --to dense checks every block of the sparse store\n"
-      "(a damaged one is refused), then rebuilds the full grid from it (at a tolerance,\n"
-      "an integer field's rebuilt values are rounded to its type). The field is read\n"
-      "into memory (a double a grid point within --memory-mb) and built from there.\n"
-      "Example: simplexdb convert tooth.sdb --to sparse --tolerance 1% -o tooth.lmdb",
-      RunConvert);
+  auto [cmd, a] = AddCommand<ConvertArgs>(app, "convert", kConvertHelp, RunConvert);
   cmd->add_option("store", a->input, "the store to read")->required();
   AddOutputOptions(cmd, &a->output, &a->force, "the store to write");
   cmd->add_option("--to", a->to, "dense or sparse")->required()->check(CLI::IsMember({"dense", "sparse"}));
@@ -134,16 +143,7 @@ void RegisterConvertCommand(CLI::App& app) {
 }
 
 void RegisterUpdateCommand(CLI::App& app) {
-  auto [cmd, a] = AddCommand<UpdateArgs>(
-      app, "update",
-      "Re-import a box of a volume into a sparse store, in one LMDB transaction: readers\n"
-      "see the old store or the new one, never a mix. The store becomes what importing\n"
-      "VOLUME with its tolerance gives; only the blocks that change are written. VOLUME\n"
-      "must have the store's grid and voxel type, and outside --box the values the store\n"
-      "holds (within its tolerance): a point that differs there is named and nothing is\n"
-      "written. The whole volume is read and rebuilt in memory (as import --sparse).\n"
-      "Example: simplexdb update tooth.lmdb tooth-fixed.nrrd --box 10,10,10,40,40,40",
-      RunUpdate);
+  auto [cmd, a] = AddCommand<UpdateArgs>(app, "update", kUpdateHelp, RunUpdate);
   cmd->add_option("store", a->store, "the sparse store to update")->required();
   cmd->add_option("volume", a->input, "the new volume (NRRD or NIfTI-1)")->required();
   cmd->add_option("--box", a->box,

@@ -50,36 +50,36 @@ void RunExport(ExportArgs a) {
              r->time_step ? fmt::format(", time step {}", *r->time_step) : "", r->written);
 }
 
+// `simplexdb export --help`.
+constexpr const char* kExportHelp = R"(Write a store's field back out: OUT.nrrd as one NRRD file, anything else
+as raw with a detached NRRD header beside it (OUT.raw + OUT.nhdr). Values
+are the store's own, losslessly; a sparse store's rebuilt ones (exact when
+lossless; at a tolerance an integer field's are rounded to its type). A 3D
+image says where it is: "space directions" and "space origin" from the
+store's spacing and origin.
+A 4D (HP) store is written as one 3D image per time step (VTK's NRRD
+reader, and so ParaView, reads no 4D NRRD as 4D: it takes the first axis
+for vector components):
+  -o OUT.pvd   OUT_t0000.vti, OUT_t0001.vti, ... (VTK XML image data) and
+               OUT.pvd listing them with their times (origin_t + t *
+               spacing_t): ParaView opens OUT.pvd as a time series.
+  -o OUT.nrrd  OUT_t0000.nrrd, ... (for VTK, Slicer, ITK) and OUT.pvd
+               listing them (for scripts: ParaView's .pvd reader opens
+               VTK XML files only).
+  --time T     the one 3D time step T as OUT.nrrd (or OUT.raw).
+Files are named by the grid time t. To OUT.raw a 4D store stays one 4D
+file (x fastest, t slowest) for teem, ITK and Slicer. VTK also takes an
+x axis of 9 points or fewer for vector components, whatever the header.
+Every file is complete before the first is renamed into place: a failure
+while writing leaves none of them.
+Example: simplexdb export tooth.sdb --roi 0,0,0,50,50,80 --step 2 -o part.nrrd
+         simplexdb export flow.sdb -o flow.pvd
+         simplexdb export flow.sdb --time 3 -o flow_t3.nrrd)";
+
 }  // namespace
 
 void RegisterExportCommand(CLI::App& app) {
-  auto [cmd, a] = AddCommand<ExportArgs>(
-      app, "export",
-      "Write a store's field back out: OUT.nrrd as one NRRD file, anything else\n"
-      "as raw with a detached NRRD header beside it (OUT.raw + OUT.nhdr). Values\n"
-      "are the store's own, losslessly; a sparse store's rebuilt ones (exact when\n"
-      "lossless; at a tolerance an integer field's are rounded to its type). A 3D\n"
-      "image says where it is: \"space directions\" and \"space origin\" from the\n"
-      "store's spacing and origin.\n"
-      "A 4D (HP) store is written as one 3D image per time step (VTK's NRRD\n"
-      "reader, and so ParaView, reads no 4D NRRD as 4D: it takes the first axis\n"
-      "for vector components):\n"
-      "  -o OUT.pvd   OUT_t0000.vti, OUT_t0001.vti, ... (VTK XML image data) and\n"
-      "               OUT.pvd listing them with their times (origin_t + t *\n"
-      "               spacing_t): ParaView opens OUT.pvd as a time series.\n"
-      "  -o OUT.nrrd  OUT_t0000.nrrd, ... (for VTK, Slicer, ITK) and OUT.pvd\n"
-      "               listing them (for scripts: ParaView's .pvd reader opens\n"
-      "               VTK XML files only).\n"
-      "  --time T     the one 3D time step T as OUT.nrrd (or OUT.raw).\n"
-      "Files are named by the grid time t. To OUT.raw a 4D store stays one 4D\n"
-      "file (x fastest, t slowest) for teem, ITK and Slicer. VTK also takes an\n"
-      "x axis of 9 points or fewer for vector components, whatever the header.\n"
-      "Every file is complete before the first is renamed into place: a failure\n"
-      "while writing leaves none of them.\n"
-      "Example: simplexdb export tooth.sdb --roi 0,0,0,50,50,80 --step 2 -o part.nrrd\n"
-      "         simplexdb export flow.sdb -o flow.pvd\n"
-      "         simplexdb export flow.sdb --time 3 -o flow_t3.nrrd",
-      RunExport);
+  auto [cmd, a] = AddCommand<ExportArgs>(app, "export", kExportHelp, RunExport);
   cmd->add_option("store", a->store, "a store file (dense or sparse)")->required();
   AddOutputOptions(cmd, &a->output, &a->force,
                    "OUT.nrrd (a 4D store: OUT_t<t>.nrrd per step + OUT.pvd), OUT.pvd (a 4D "

@@ -116,15 +116,15 @@ void RunConformity(const ConformityArgs& a) {
   }
 }
 
+// `simplexdb extract --help`.
+constexpr const char* kExtractHelp = R"(Extract the mesh that meets LOD criteria from a store (selective refinement, seed 3.6 / 4.6).
+A simplex is split when its error exceeds --error and every other criterion given applies to it;
+the result is the minimal conforming mesh (depth-first and priority agree).)";
+
 }  // namespace
 
 void RegisterExtractCommand(CLI::App& app) {
-  auto [cmd, args] = AddCommand<ExtractArgs>(
-      app, "extract",
-      "Extract the mesh that meets LOD criteria from a store (selective refinement, seed 3.6 / 4.6).\n"
-      "A simplex is split when its error exceeds --error and every other criterion given applies to it;\n"
-      "the result is the minimal conforming mesh (depth-first and priority agree).",
-      RunExtract);
+  auto [cmd, args] = AddCommand<ExtractArgs>(app, "extract", kExtractHelp, RunExtract);
   cmd->add_option("store", args->store, "Dense (.sdb) or sparse (LMDB) store")->required();
   cmd->add_option("--error", args->error, "Error threshold: 7.3 (field units) or 1% (of the field range)")
       ->required();

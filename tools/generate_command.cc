@@ -191,17 +191,23 @@ void RunTo4d(To4dArgs a) {
   }
 }
 
+// `simplexdb to4d --help`.
+constexpr const char* kTo4dHelp = R"(Make a 4D volume (NRRD) from a 3D one as the seed's section 4.7 made its 4D
+Buckyball: the values of each SxSxS subgrid become the time axis of the point
+standing for the subgrid: out(i,j,k,t) = in(S i + t%S, S j + (t/S)%S, S k + t/S^2),
+clamped to the grid. Each axis of n points gives (n-1)/S + 1.
+Example: simplexdb to4d bucky129.nrrd -o bucky4d.nrrd   (33^4, as in the seed))";
+
+// `simplexdb generate --help`.
+constexpr const char* kGenerateHelp = R"(Write a synthetic volume as NRRD, the same bits for the same seed on every
+machine: Perlin noise (3D or 4D; the seed's Plasma64 is 65^3 Perlin noise)
+and analytic fields. Any size: the volume is streamed to disk.
+Example: simplexdb generate --field perlin --dims 65,65,65 -o plasma64.nrrd)";
+
 }  // namespace
 
 void RegisterTo4dCommand(CLI::App& app) {
-  auto [cmd, a] = AddCommand<To4dArgs>(
-      app, "to4d",
-      "Make a 4D volume (NRRD) from a 3D one as the seed's section 4.7 made its 4D\n"
-      "Buckyball: the values of each SxSxS subgrid become the time axis of the point\n"
-      "standing for the subgrid: out(i,j,k,t) = in(S i + t%S, S j + (t/S)%S, S k + t/S^2),\n"
-      "clamped to the grid. Each axis of n points gives (n-1)/S + 1.\n"
-      "Example: simplexdb to4d bucky129.nrrd -o bucky4d.nrrd   (33^4, as in the seed)",
-      RunTo4d);
+  auto [cmd, a] = AddCommand<To4dArgs>(app, "to4d", kTo4dHelp, RunTo4d);
   cmd->add_option("input", a->input, "3D volume: NRRD or NIfTI-1, or raw with --dims and --type")
       ->required();
   AddOutputOptions(cmd, &a->output, &a->force, "the 4D NRRD file to write");
@@ -213,13 +219,7 @@ void RegisterTo4dCommand(CLI::App& app) {
 }
 
 void RegisterGenerateCommand(CLI::App& app) {
-  auto [cmd, a] = AddCommand<GenerateArgs>(
-      app, "generate",
-      "Write a synthetic volume as NRRD, the same bits for the same seed on every\n"
-      "machine: Perlin noise (3D or 4D; the seed's Plasma64 is 65^3 Perlin noise)\n"
-      "and analytic fields. Any size: the volume is streamed to disk.\n"
-      "Example: simplexdb generate --field perlin --dims 65,65,65 -o plasma64.nrrd",
-      RunGenerate);
+  auto [cmd, a] = AddCommand<GenerateArgs>(app, "generate", kGenerateHelp, RunGenerate);
   AddOutputOptions(cmd, &a->output, &a->force, "the NRRD file to write");
   cmd->add_option("--field", a->field, "perlin|sphere|sines|marschner-lobb|constant|ramp|buckyball (C60, the seed's Buckyball)")
       ->capture_default_str();

@@ -173,21 +173,21 @@ void RunImport(ImportArgs a) {
   }
 }
 
+// `simplexdb import --help`.
+constexpr const char* kImportHelp = R"(Build a store from a volume (dense; or sparse with --sparse): NRRD (.nrrd, .nhdr) and NIfTI-1 (.nii)
+files describe themselves; raw files need --dims and --type. A 3D volume
+builds a Hierarchy of Tetrahedra, a 4D one (or several 3D volumes, a time
+series) a Hierarchy of Pentatopes. Any grid size: the domain is the
+smallest cube of side 2^k + 1 points covering it (see README: padding).
+NIfTI scl_slope/scl_inter are applied (a scaled integer volume is stored as
+float32). NaN marks a missing value; Inf or a value beyond float32's range
+(+-3.4e38) is an error naming the voxel, and nothing is written.
+Example: simplexdb import tooth.raw --dims 103,94,161 --type uint8 -o tooth.sdb)";
+
 }  // namespace
 
 void RegisterImportCommand(CLI::App& app) {
-  auto [cmd, a] = AddCommand<ImportArgs>(
-      app, "import",
-      "Build a store from a volume (dense; or sparse with --sparse): NRRD (.nrrd, .nhdr) and NIfTI-1 (.nii)\n"
-      "files describe themselves; raw files need --dims and --type. A 3D volume\n"
-      "builds a Hierarchy of Tetrahedra, a 4D one (or several 3D volumes, a time\n"
-      "series) a Hierarchy of Pentatopes. Any grid size: the domain is the\n"
-      "smallest cube of side 2^k + 1 points covering it (see README: padding).\n"
-      "NIfTI scl_slope/scl_inter are applied (a scaled integer volume is stored as\n"
-      "float32). NaN marks a missing value; Inf or a value beyond float32's range\n"
-      "(+-3.4e38) is an error naming the voxel, and nothing is written.\n"
-      "Example: simplexdb import tooth.raw --dims 103,94,161 --type uint8 -o tooth.sdb",
-      RunImport);
+  auto [cmd, a] = AddCommand<ImportArgs>(app, "import", kImportHelp, RunImport);
   cmd->add_option("input", a->inputs, "volume file(s); several 3D files form a time series")->required();
   AddOutputOptions(cmd, &a->output, &a->force, "the store to write");
   cmd->add_option("--hierarchy", a->hierarchy, "ht or hp (checked against the volume)")
