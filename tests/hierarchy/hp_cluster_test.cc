@@ -14,8 +14,6 @@
 namespace simplexdb {
 namespace {
 
-using testing::P4;
-using testing::Penta;
 using testing::PointsHash;
 
 using testing::EdgeOf;

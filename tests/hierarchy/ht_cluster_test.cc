@@ -14,7 +14,6 @@
 namespace simplexdb {
 namespace {
 
-using testing::P3;
 using testing::PointsHash;
 using testing::Tet;
 
