@@ -21,6 +21,7 @@
 #include "storage/dense/dense_store.h"
 #include "tests/fuzz/dense_checksums.h"
 #include "tests/fuzz/memory_file.h"
+#include "tests/fuzz/store_probe.h"
 
 namespace simplexdb {
 namespace {
@@ -28,23 +29,11 @@ namespace {
 template <int D>
 void Exercise(const DenseStore& store) {
   DenseStore::Reader<D> reader(store);
-  const int leaf = store.header().leaf_level();
-  int budget = 4096;  // bounded work per input
-  for (int top = 0; top < SimplexCode<D>::kRoots && budget > 0; ++top) {
-    for (int l = 0; l < leaf && budget > 0; ++l) {
-      for (uint64_t p = 0; p < (uint64_t{1} << l) && --budget > 0; p += 1 + (p * 5) % 7) {
-        const SimplexCode<D> c = SimplexCode<D>::FromPath(top, p, l);
-        (void)reader.ErrorBound(c);
-        (void)reader.ErrorBoundForThreshold(c, 1.0);
-      }
-    }
-  }
-  const int64_t side = int64_t{1} << store.header().domain_bits;
-  for (int64_t i = 0; i < 512; ++i) {
-    std::array<int64_t, D> p{};
-    for (int c = 0; c < D; ++c) p[c] = (i * (7 + 2 * c)) % (side + 1);
-    (void)reader.Field(p);
-  }
+  fuzz::ForSampledNodes<D>(store.header().leaf_level(), 4096, [&](SimplexCode<D> c) {
+    (void)reader.ErrorBound(c);
+    (void)reader.ErrorBoundForThreshold(c, 1.0);
+  });
+  fuzz::ForSampledPoints<D>(store.header().domain_bits, 512, [&](const auto& p) { (void)reader.Field(p); });
   (void)store.Verify();
 }
 

@@ -70,6 +70,16 @@ inline void ReadAll(const VolumeInfo& info, uint64_t max_voxels = uint64_t{1} <<
   }
 }
 
+// The whole of a volume reader's target: writes the input as InputFolder()/
+// `name`, opens it with `open`, and reads an accepted volume through.
+inline int FuzzVolumeReader(const char* name, Result<VolumeInfo> (*open)(const std::string&), const uint8_t* data,
+                            size_t size) {
+  const std::string path = WriteInput(name, data, size);
+  const Result<VolumeInfo> info = open(path);
+  if (info.ok()) ReadAll(*info);
+  return 0;
+}
+
 }  // namespace simplexdb::fuzz
 
 #endif  // SIMPLEXDB_TESTS_FUZZ_FUZZ_INPUT_FILE_H_

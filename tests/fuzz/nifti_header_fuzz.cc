@@ -18,9 +18,5 @@
 #include "tests/fuzz/fuzz_input_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  using namespace simplexdb;
-  const std::string path = fuzz::WriteInput("in.nii", data, size);
-  const Result<VolumeInfo> info = OpenNifti(path);
-  if (info.ok()) fuzz::ReadAll(*info);
-  return 0;
+  return simplexdb::fuzz::FuzzVolumeReader("in.nii", &simplexdb::OpenNifti, data, size);
 }

@@ -18,9 +18,5 @@
 #include "tests/fuzz/fuzz_input_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  using namespace simplexdb;
-  const std::string path = fuzz::WriteInput("in.nrrd", data, size);
-  const Result<VolumeInfo> info = OpenNrrd(path);
-  if (info.ok()) fuzz::ReadAll(*info);
-  return 0;
+  return simplexdb::fuzz::FuzzVolumeReader("in.nrrd", &simplexdb::OpenNrrd, data, size);
 }

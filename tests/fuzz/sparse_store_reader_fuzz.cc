@@ -22,6 +22,7 @@
 #include "hierarchy/simplex_code.h"
 #include "storage/sparse/sparse_store.h"
 #include "tests/fuzz/memory_file.h"
+#include "tests/fuzz/store_probe.h"
 
 namespace simplexdb {
 namespace {
@@ -29,21 +30,9 @@ namespace {
 template <int D>
 void Exercise(const SparseStore& store) {
   typename SparseStore::Reader<D> reader(store);
-  const int leaf = D * store.header().domain_bits;
-  int budget = 2048;  // bounded work per input
-  for (int top = 0; top < SimplexCode<D>::kRoots && budget > 0; ++top) {
-    for (int l = 0; l < leaf && budget > 0; ++l) {
-      for (uint64_t p = 0; p < (uint64_t{1} << l) && --budget > 0; p += 1 + (p * 5) % 7) {
-        (void)reader.ErrorBound(SimplexCode<D>::FromPath(top, p, l));
-      }
-    }
-  }
-  const int64_t side = int64_t{1} << store.header().domain_bits;
-  for (int64_t i = 0; i < 256; ++i) {
-    std::array<int64_t, D> p{};
-    for (int c = 0; c < D; ++c) p[c] = (i * (7 + 2 * c)) % (side + 1);
-    (void)reader.Field(p);
-  }
+  fuzz::ForSampledNodes<D>(D * store.header().domain_bits, 2048,
+                           [&](SimplexCode<D> c) { (void)reader.ErrorBound(c); });
+  fuzz::ForSampledPoints<D>(store.header().domain_bits, 256, [&](const auto& p) { (void)reader.Field(p); });
   (void)store.Verify();
 }
 

@@ -14,29 +14,23 @@
 namespace simplexdb {
 namespace {
 
-using testing::P4;
-using testing::Penta;
-using testing::Points4Hash;
+using testing::PointsHash;
 
-using Edge4 = std::array<P4, 2>;
-Edge4 EdgeOf4(const Penta& t, int i, int j) {
-  Edge4 e{t[i], t[j]};
-  std::sort(e.begin(), e.end());
-  return e;
-}
+using testing::EdgeOf;
+using Edge4 = testing::Edge<4>;
 
 TEST(HpCluster, ClustersEqualThePentatopesSharingTheSplitEdge) {
   std::map<std::pair<int, size_t>, size_t> sizes;  // (shape + 10 if on the boundary, size)
   for (int level = 0; level <= 10; ++level) {
-    const auto pentas = testing::AllPentasAtLevel(level);
+    const auto pentas = testing::AllAtLevel<4>(level);
     // Every edge -> the pentatopes containing it, and those splitting it.
-    std::unordered_map<Edge4, std::set<PentaCode>, Points4Hash<2>> containing, splitting;
+    std::unordered_map<Edge4, std::set<PentaCode>, PointsHash> containing, splitting;
     for (const auto& [code, t] : pentas) {
       for (int i = 0; i < 5; ++i) {
-        for (int j = i + 1; j < 5; ++j) containing[EdgeOf4(t, i, j)].insert(code);
+        for (int j = i + 1; j < 5; ++j) containing[EdgeOf(t, i, j)].insert(code);
       }
       const auto e = SplitEdge(code);
-      splitting[EdgeOf4(t, e[0], e[1])].insert(code);
+      splitting[EdgeOf(t, e[0], e[1])].insert(code);
     }
     for (const auto& [code, t] : pentas) {
       SCOPED_TRACE(code.ToString());
@@ -45,11 +39,11 @@ TEST(HpCluster, ClustersEqualThePentatopesSharingTheSplitEdge) {
       const std::set<PentaCode> got(cluster.begin(), cluster.end());
       ASSERT_EQ(got.size(), cluster.size()) << "a member appears twice";
       const auto e = SplitEdge(code);
-      const Edge4 split = EdgeOf4(t, e[0], e[1]);
+      const Edge4 split = EdgeOf(t, e[0], e[1]);
       ASSERT_EQ(got, splitting.at(split));
       // Every pentatope at this level around the edge splits it too.
       ASSERT_EQ(containing.at(split), splitting.at(split));
-      const bool boundary = testing::OnHypercubeBoundary(split);
+      const bool boundary = testing::OnDomainBoundary(split);
       sizes[{level % 4 + (boundary ? 10 : 0), cluster.size()}]++;
     }
   }

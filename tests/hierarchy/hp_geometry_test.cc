@@ -6,6 +6,7 @@
 #include <random>
 
 #include "hierarchy/geometry.h"
+#include "tests/hierarchy/geometry_checks.h"
 #include "tests/hierarchy/hp_reference.h"
 
 namespace simplexdb {
@@ -15,26 +16,21 @@ using testing::Abs128;
 using testing::Int128;
 using testing::Det4;
 using testing::Dist2;
-using testing::ForEachPentaLiteral;
+using testing::ForEachLiteral;
 using testing::P4;
 using testing::Penta;
 
 constexpr int kExhaustiveLevel = 10;
 
 TEST(HpGeometry, VerticesEqualRecursiveBisectionEveryCodeToLevel10) {
-  size_t count = 0;
-  ForEachPentaLiteral(kExhaustiveLevel, [&](PentaCode c, const Penta& t) {
-    ++count;
-    ASSERT_EQ(Vertices(c), t) << c.ToString();
-  });
-  EXPECT_EQ(count, 24 * ((size_t{2} << kExhaustiveLevel) - 1));
+  testing::CheckVerticesEqualLiteral<4>(kExhaustiveLevel);
 }
 
 // Every split bisects a longest edge; e-pentatopes have three longest edges
 // of equal length (v3v4, v3v5, v4v5), SEED-ERRATA item 7.
 TEST(HpGeometry, EverySplitBisectsALongestEdge) {
   std::map<int, std::map<int, int>> ties;  // level % 4 -> number of longest edges -> count
-  ForEachPentaLiteral(kExhaustiveLevel, [&](PentaCode c, const Penta& t) {
+  ForEachLiteral<4>(kExhaustiveLevel, [&](PentaCode c, const Penta& t) {
     SCOPED_TRACE(c.ToString());
     const auto edge = SplitEdge(c);
     const int64_t split = Dist2(t[edge[0]], t[edge[1]]);
@@ -56,7 +52,7 @@ TEST(HpGeometry, EverySplitBisectsALongestEdge) {
 }
 
 TEST(HpGeometry, ChildrenHalveTheParent) {
-  ForEachPentaLiteral(8, [&](PentaCode c, const Penta& t) {
+  ForEachLiteral<4>(8, [&](PentaCode c, const Penta& t) {
     if (c.level() == 8) return;
     const Int128 vp = Abs128(Det4(t));
     ASSERT_GT(vp, 0);
@@ -66,22 +62,9 @@ TEST(HpGeometry, ChildrenHalveTheParent) {
 }
 
 // ChildVertices (one split, for descents) agrees with Vertices.
-TEST(HpGeometry, ChildVerticesFromTheParent) {
-  ForEachPentaLiteral(9, [&](PentaCode c, const Penta& t) {
-    if (c.level() == 9) return;
-    for (int i = 0; i < 2; ++i) ASSERT_EQ(ChildVertices(c, t, i), Vertices(c.child(i)));
-  });
-}
+TEST(HpGeometry, ChildVerticesFromTheParent) { testing::CheckChildVertices<4>(9); }
 
-TEST(HpGeometry, ShapesCycleEveryFourLevels) {
-  for (int level = 0; level <= 8; ++level) {
-    const Penta a = Vertices(PentaCode::FromPath(5, 0, level));
-    const Penta b = Vertices(PentaCode::FromPath(5, 0, level + 4));
-    for (int i = 0; i < 5; ++i) {
-      for (int j = i + 1; j < 5; ++j) ASSERT_EQ(Dist2(a[i], a[j]), 4 * Dist2(b[i], b[j]));
-    }
-  }
-}
+TEST(HpGeometry, ShapesCycleEveryFourLevels) { testing::CheckShapesCycle<4>(5, 8); }
 
 TEST(HpGeometry, RootsAreTheSeedsLabeling) {
   for (int top = 0; top < 24; ++top) {

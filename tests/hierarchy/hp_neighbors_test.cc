@@ -14,95 +14,33 @@
 #include "hierarchy/neighbors.h"
 #include "hierarchy/level_scan.h"
 #include "tests/hierarchy/hp_reference.h"
+#include "tests/hierarchy/neighbors_test_util.h"
 #include "tests/util/long_run.h"
 
 namespace simplexdb {
 namespace {
 
-using testing::Face4;
-using testing::FaceOf4;
-using testing::P4;
-using testing::Penta;
-using testing::Points4Hash;
-
 constexpr int kExhaustiveLevel = 10;
 
 PentaCode P(const char* text) { return PentaCode::Parse(text).value(); }
 
-struct Algorithm {
-  const char* name;
-  PentaCode (*fn)(PentaCode, int);
-};
-PentaCode ByCursor(PentaCode c, int type) {
-  PentaCursor cursor(c);
-  return cursor.Step(type) ? cursor.code() : PentaCode::None();
-}
-const Algorithm kAlgorithms[] = {
+const testing::NamedNeighbor<4> kAlgorithms[] = {
     {"level scan", &NeighborByLevelScan<4>},
     {"Fig. 53 scan", &NeighborScan<4>},
     {"constant time", &Neighbor<4>},
-    {"cursor", &ByCursor},
+    {"cursor", &testing::ByCursor<4>},
 };
 
 TEST(HpNeighbors, EveryCodeToLevel10SharesTheNamedFaceWithTheSameVertexPositions) {
-  for (int level = 0; level <= kExhaustiveLevel; ++level) {
-    const auto pentas = testing::AllPentasAtLevel(level);
-    std::unordered_map<Face4, std::vector<std::pair<PentaCode, int>>, Points4Hash<4>> faces;
-    for (const auto& [code, t] : pentas) {
-      for (int k = 1; k <= 5; ++k) faces[FaceOf4(t, k, true)].emplace_back(code, k);
-    }
-    std::map<PentaCode, Penta> vertices(pentas.begin(), pentas.end());
-    for (const auto& [code, t] : pentas) {
-      for (int k = 1; k <= 5; ++k) {
-        const Face4 f = FaceOf4(t, k, true);
-        const auto& holders = faces[f];
-        ASSERT_LE(holders.size(), 2u) << "a face shared by three pentatopes";
-        for (const Algorithm& alg : kAlgorithms) {
-          SCOPED_TRACE(::testing::Message() << alg.name << ": " << code.ToString() << " type "
-                                            << k);
-          const PentaCode n = alg.fn(code, k);
-          if (holders.size() == 1) {
-            ASSERT_TRUE(testing::OnHypercubeBoundary(f)) << "an unmatched inner face";
-            ASSERT_TRUE(n.is_none()) << "got " << n.ToString();
-            continue;
-          }
-          ASSERT_FALSE(testing::OnHypercubeBoundary(f));
-          const auto& other = holders[0].first == code ? holders[1] : holders[0];
-          ASSERT_EQ(n, other.first);
-          ASSERT_EQ(other.second, k) << "the shared face has another type there";
-          // In the HP the shared face keeps its vertex positions.
-          ASSERT_EQ(FaceOf4(vertices.at(n), k, false), FaceOf4(t, k, false));
-          ASSERT_EQ(alg.fn(n, k), code) << "not an involution";
-        }
-      }
-    }
-  }
+  testing::CheckNeighborsByGeometry<4>(kExhaustiveLevel, kAlgorithms, true);
 }
 
 TEST(HpNeighbors, RandomDeepCodesShareTheFaceGeometrically) {
-  std::mt19937_64 rng(31);
-  for (int i = 0; i < 100000; ++i) {
-    const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
-    const PentaCode c = PentaCode::FromPath(static_cast<int>(rng() % 24),
-                                            level ? rng() >> (64 - level) : 0, level);
-    const Penta t = Vertices(c);
-    for (int k = 1; k <= 5; ++k) {
-      SCOPED_TRACE(::testing::Message() << c.ToString() << " type " << k);
-      const PentaCode n = Neighbor(c, k);
-      if (n.is_none()) {
-        ASSERT_TRUE(testing::OnHypercubeBoundary(FaceOf4(t, k, false)));
-        continue;
-      }
-      const Penta u = Vertices(n);
-      ASSERT_EQ(FaceOf4(u, k, false), FaceOf4(t, k, false));
-      ASSERT_NE(u[5 - k], t[5 - k]);
-      ASSERT_EQ(Neighbor(n, k), c);
-    }
-  }
+  testing::CheckRandomNeighborsGeometrically<4>(31, 100000, true);
 }
 
 TEST(HpNeighbors, SeedExamples) {
-  for (const Algorithm& alg : kAlgorithms) {
+  for (const auto& alg : kAlgorithms) {
     SCOPED_TRACE(alg.name);
     // 4.3.1-4.3.2: type 4 of 9010110 is 9010010.
     EXPECT_EQ(alg.fn(P("9:010110"), 4), P("9:010010"));
@@ -288,46 +226,20 @@ TEST(HpNeighbors, ConstantTimeEqualsScanOnRandomCodes) {
 }
 
 TEST(HpNeighbors, Fig53ScanEqualsLevelScanOnRandomDeepCodes) {
-  std::mt19937_64 rng(61);
-  for (int i = 0; i < 1'000'000; ++i) {
-    const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
-    const PentaCode c = LongChainCode(rng, level, 0.5);
-    for (int k = 1; k <= 5; ++k) {
-      ASSERT_EQ(NeighborScan(c, k), NeighborByLevelScan<4>(c, k)) << c.ToString() << " " << k;
-    }
-  }
+  testing::CheckScanEqualsLevelScan<4>(61, [](std::mt19937_64& rng, int level) {
+    return LongChainCode(rng, level, 0.5);
+  });
 }
 
 // The mask a cursor updates by the swaps of Fig. 56 stays equal to the mask
 // derived from scratch, along long random walks.
 TEST(HpNeighbors, CursorMaskStaysExactAlongRandomWalks) {
-  std::mt19937_64 rng(71);
-  for (int walk = 0; walk < 2000; ++walk) {
-    const int level = static_cast<int>(rng() % (PentaCode::kMaxLevel + 1));
-    PentaCursor cursor(LongChainCode(rng, level, 0.7));
-    for (int step = 0; step < 500; ++step) {
-      const PentaCode before = cursor.code();
-      const int k = 1 + static_cast<int>(rng() % 5);
-      const PentaCode expected = NeighborScan(before, k);
-      const bool moved = cursor.Step(k);
-      ASSERT_EQ(moved, !expected.is_none());
-      ASSERT_EQ(cursor.code(), moved ? expected : before);
-      ASSERT_EQ(cursor.mask(), NeighborMask(cursor.code())) << before.ToString() << " " << k;
-    }
-  }
+  testing::CheckCursorMaskAlongWalks<4>(71, [](std::mt19937_64& rng, int level) {
+    return LongChainCode(rng, level, 0.7);
+  });
 }
 
-TEST(HpNeighbors, RootTable) {
-  for (int top = 0; top < 24; ++top) {
-    EXPECT_EQ(kRootFaceToRoot<4>[top][0], -1);
-    EXPECT_EQ(kRootFaceToRoot<4>[top][1], -1);
-    for (int k = 3; k <= 5; ++k) {
-      const int other = kRootFaceToRoot<4>[top][k - 1];
-      ASSERT_GE(other, 0);
-      EXPECT_EQ(kRootFaceToRoot<4>[other][k - 1], top);
-    }
-  }
-}
+TEST(HpNeighbors, RootTable) { testing::CheckRootTable<4>(); }
 
 }  // namespace
 }  // namespace simplexdb

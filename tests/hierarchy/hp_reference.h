@@ -1,7 +1,8 @@
 // Independent references for the HP tests: the split rules of Fig. 52
-// written out literally with named vertices (not using split_rules.h), the
-// 24 roots, a recursive bisection enumerating every code with its vertices,
-// and exact geometric predicates in 4D.
+// written out literally with named vertices (not using split_rules.h) and
+// the 24 roots, for the recursive bisection of tests/hierarchy/
+// simplex_reference.h that enumerates every code with its vertices, and the
+// exact 4-volume.
 #pragma once
 
 #include <algorithm>
@@ -12,6 +13,7 @@
 
 #include "hierarchy/geometry.h"
 #include "hierarchy/simplex_code.h"
+#include "tests/hierarchy/simplex_reference.h"
 
 namespace simplexdb::testing {
 
@@ -21,43 +23,39 @@ __extension__ typedef __int128 Int128;
 using P4 = Point<4>;
 using Penta = SimplexVertices<4>;  // v1..v5
 
-inline P4 Mid4(const P4& a, const P4& b) {
-  return {(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, (a[2] + b[2]) / 2, (a[3] + b[3]) / 2};
-}
-
 // Fig. 52, literally. `g` is the child index of the parent of `t`, `p` that
 // of `t` itself (both 0 where no rule reads them).
 inline std::array<Penta, 2> SplitLiteral4(const Penta& t, int level, int g, int p) {
   const P4 &v1 = t[0], &v2 = t[1], &v3 = t[2], &v4 = t[3], &v5 = t[4];
   switch (level % 4) {
     case 0: {  // case 1: h-pentatope, split v4v5
-      const P4 vm = Mid4(v4, v5);
+      const P4 vm = Mid<4>(v4, v5);
       return {Penta{vm, v1, v2, v3, v5}, Penta{vm, v1, v2, v3, v4}};
     }
     case 1:
       if (p == 0) {  // case 2: c-pentatope, child 0, split v4v5
-        const P4 vm = Mid4(v4, v5);
+        const P4 vm = Mid<4>(v4, v5);
         return {Penta{vm, v1, v2, v3, v5}, Penta{vm, v1, v2, v3, v4}};
       } else {  // case 3: c-pentatope, child 1, split v2v5
-        const P4 vm = Mid4(v2, v5);
+        const P4 vm = Mid<4>(v2, v5);
         return {Penta{vm, v1, v5, v3, v4}, Penta{vm, v1, v2, v3, v4}};
       }
     case 2:
       if (g == 0 && p == 0) {  // case 4: split v4v5
-        const P4 vm = Mid4(v4, v5);
+        const P4 vm = Mid<4>(v4, v5);
         return {Penta{vm, v1, v2, v3, v4}, Penta{vm, v1, v2, v3, v5}};
       } else if (g == 0 && p == 1) {  // case 5: split v3v5
-        const P4 vm = Mid4(v3, v5);
+        const P4 vm = Mid<4>(v3, v5);
         return {Penta{vm, v1, v2, v3, v4}, Penta{vm, v1, v2, v5, v4}};
       } else if (g == 1 && p == 0) {  // case 6: split v3v4
-        const P4 vm = Mid4(v3, v4);
+        const P4 vm = Mid<4>(v3, v4);
         return {Penta{vm, v1, v2, v5, v3}, Penta{vm, v1, v2, v5, v4}};
       } else {  // case 7: split v3v5
-        const P4 vm = Mid4(v3, v5);
+        const P4 vm = Mid<4>(v3, v5);
         return {Penta{vm, v1, v2, v3, v4}, Penta{vm, v1, v2, v5, v4}};
       }
     default: {  // case 8: e-pentatope, split v4v5
-      const P4 vm = Mid4(v4, v5);
+      const P4 vm = Mid<4>(v4, v5);
       return {Penta{vm, v1, v2, v3, v4}, Penta{vm, v1, v2, v3, v5}};
     }
   }
@@ -78,37 +76,11 @@ inline Penta RootLiteral4(int top) {
   return Penta{v1, v2, v3, P4{0, 0, 0, 0}, P4{s, s, s, s}};
 }
 
-// Calls visit(code, vertices) for every code of level <= max_level, in
-// preorder, by recursive bisection with the literal rules.
-inline void ForEachPentaLiteral(int max_level,
-                                const std::function<void(PentaCode, const Penta&)>& visit) {
-  std::function<void(PentaCode, const Penta&, int, int)> rec =
-      [&](PentaCode c, const Penta& t, int g, int p) {
-        visit(c, t);
-        if (c.level() == max_level) return;
-        const std::array<Penta, 2> kids = SplitLiteral4(t, c.level(), g, p);
-        rec(c.child(0), kids[0], p, 0);
-        rec(c.child(1), kids[1], p, 1);
-      };
-  for (int top = 0; top < 24; ++top) rec(PentaCode::Root(top), RootLiteral4(top), 0, 0);
-}
-
-inline std::vector<std::pair<PentaCode, Penta>> AllPentasAtLevel(int level) {
-  std::vector<std::pair<PentaCode, Penta>> out;
-  ForEachPentaLiteral(level, [&](PentaCode c, const Penta& t) {
-    if (c.level() == level) out.emplace_back(c, t);
-  });
-  return out;
-}
-
-inline int64_t Dist2(const P4& a, const P4& b) {
-  int64_t s = 0;
-  for (int i = 0; i < 4; ++i) {
-    const int64_t d = int64_t{a[i]} - b[i];
-    s += d * d;
-  }
-  return s;
-}
+template <>
+struct LiteralRules<4> {
+  static std::array<Penta, 2> Split(const Penta& t, int level, int g, int p) { return SplitLiteral4(t, level, g, p); }
+  static Penta Root(int top) { return RootLiteral4(top); }
+};
 
 // 24 times the signed 4-volume, exactly.
 inline Int128 Det4(const Penta& t) {
@@ -126,46 +98,5 @@ inline Int128 Det4(const Penta& t) {
 }
 
 inline Int128 Abs128(Int128 x) { return x < 0 ? -x : x; }
-
-// Face type k (1..5) omits vertex position 5-k; FaceOf4 keeps positions.
-using Face4 = std::array<P4, 4>;
-inline Face4 FaceOf4(const Penta& t, int type, bool sorted) {
-  const int omit = 5 - type;
-  Face4 f{};
-  int n = 0;
-  for (int i = 0; i < 5; ++i) {
-    if (i != omit) f[n++] = t[i];
-  }
-  if (sorted) std::sort(f.begin(), f.end());
-  return f;
-}
-
-template <size_t N>
-bool OnHypercubeBoundary(const std::array<P4, N>& pts) {
-  for (int axis = 0; axis < 4; ++axis) {
-    for (int side : {0, kDomainSide<4>}) {
-      bool all = true;
-      for (const P4& p : pts) all = all && p[axis] == side;
-      if (all) return true;
-    }
-  }
-  return false;
-}
-
-struct P4Hash {
-  size_t operator()(const P4& p) const {
-    uint64_t h = 0;
-    for (int v : p) h = h * 0x9E3779B97F4A7C15ULL + static_cast<uint32_t>(v);
-    return std::hash<uint64_t>()(h);
-  }
-};
-template <size_t N>
-struct Points4Hash {
-  size_t operator()(const std::array<P4, N>& a) const {
-    size_t h = 0;
-    for (const P4& p : a) h = h * 1000003u ^ P4Hash()(p);
-    return h;
-  }
-};
 
 }  // namespace simplexdb::testing

@@ -14,19 +14,14 @@
 namespace simplexdb {
 namespace {
 
-using testing::P3;
 using testing::PointsHash;
 using testing::Tet;
 
-using EdgeKey = std::array<P3, 2>;
-EdgeKey EdgeOf(const Tet& t, int i, int j) {
-  EdgeKey e{t[i], t[j]};
-  std::sort(e.begin(), e.end());
-  return e;
-}
+using testing::EdgeOf;
+using EdgeKey = testing::Edge<3>;
 
 // Every edge of every tetrahedron at `level` -> the tetrahedra containing it.
-using EdgeMap = std::unordered_map<EdgeKey, std::set<TetCode>, PointsHash<2>>;
+using EdgeMap = std::unordered_map<EdgeKey, std::set<TetCode>, PointsHash>;
 EdgeMap EdgesAtLevel(const std::vector<std::pair<TetCode, Tet>>& tets) {
   EdgeMap edges;
   for (const auto& [code, t] : tets) {
@@ -42,7 +37,7 @@ constexpr int kExhaustiveLevel = 12;
 TEST(HtCluster, ClustersEqualTheTetrahedraAroundTheSplitEdge) {
   std::map<std::pair<int, size_t>, size_t> sizes;  // (level % 3, size) -> count
   for (int level = 0; level <= kExhaustiveLevel; ++level) {
-    const auto tets = testing::AllTetsAtLevel(level);
+    const auto tets = testing::AllAtLevel<3>(level);
     const EdgeMap edges = EdgesAtLevel(tets);
     for (const auto& [code, t] : tets) {
       SCOPED_TRACE(code.ToString());
@@ -63,7 +58,7 @@ TEST(HtCluster, ClustersEqualTheTetrahedraAroundTheSplitEdge) {
           ASSERT_TRUE(n.is_none() || got.count(n)) << m.ToString() << " type " << k;
         }
       }
-      const bool boundary = testing::OnCubeBoundary(split);
+      const bool boundary = testing::OnDomainBoundary(split);
       sizes[{level % 3 + (boundary ? 10 : 0), cluster.size()}]++;
     }
   }
@@ -87,7 +82,7 @@ TEST(HtCluster, RootClusterIsAllSixRoots) {
 
 TEST(HtEdgeNeighbors, EqualTheTetrahedraAroundEveryEdge) {
   for (int level = 0; level <= 10; ++level) {
-    const auto tets = testing::AllTetsAtLevel(level);
+    const auto tets = testing::AllAtLevel<3>(level);
     const EdgeMap edges = EdgesAtLevel(tets);
     for (const auto& [code, t] : tets) {
       for (int i = 0; i < 4; ++i) {
@@ -139,14 +134,14 @@ TEST(HtEdgeNeighbors, Fig39IsWrongForExactlyTwoRows) {
   std::map<std::pair<int, int>, int> failures;  // (row, shape) -> count
   std::map<std::pair<int, int>, int> checked;
   for (int level = 1; level <= 9; ++level) {
-    const auto tets = testing::AllTetsAtLevel(level);
+    const auto tets = testing::AllAtLevel<3>(level);
     const EdgeMap edges = EdgesAtLevel(tets);
     const int shape = (level % 3 + 2) % 3;  // 0: 1/2, 1: 1/4, 2: 1/8 pyramid
     for (const auto& [code, t] : tets) {
       for (int row = 0; row < 6; ++row) {
         const Fig39Row& r = kFig39[row];
         const EdgeKey e = EdgeOf(t, r.i, r.j);
-        if (testing::OnCubeBoundary(e)) continue;  // the figure is for interior edges
+        if (testing::OnDomainBoundary(e)) continue;  // the figure is for interior edges
         const std::set<TetCode>& around = edges.at(e);
         ++checked[{row, shape}];
         if (!SequenceWalksAround(code, r.seq[shape], around)) ++failures[{row, shape}];

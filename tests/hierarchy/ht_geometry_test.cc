@@ -5,6 +5,7 @@
 #include <random>
 
 #include "hierarchy/geometry.h"
+#include "tests/hierarchy/geometry_checks.h"
 #include "tests/hierarchy/ht_reference.h"
 
 namespace simplexdb {
@@ -12,23 +13,18 @@ namespace {
 
 using testing::Det;
 using testing::Dist2;
-using testing::ForEachTetLiteral;
+using testing::ForEachLiteral;
 using testing::P3;
 using testing::Tet;
 
 constexpr int kExhaustiveLevel = 12;
 
 TEST(HtGeometry, VerticesEqualRecursiveBisectionEveryCodeToLevel12) {
-  size_t count = 0;
-  ForEachTetLiteral(kExhaustiveLevel, [&](TetCode c, const Tet& t) {
-    ++count;
-    ASSERT_EQ(Vertices(c), t) << c.ToString();
-  });
-  EXPECT_EQ(count, 6 * ((size_t{2} << kExhaustiveLevel) - 1));
+  testing::CheckVerticesEqualLiteral<3>(kExhaustiveLevel);
 }
 
 TEST(HtGeometry, EverySplitBisectsTheUniqueLongestEdge) {
-  ForEachTetLiteral(kExhaustiveLevel, [&](TetCode c, const Tet& t) {
+  ForEachLiteral<3>(kExhaustiveLevel, [&](TetCode c, const Tet& t) {
     SCOPED_TRACE(c.ToString());
     const auto edge = SplitEdge(c);
     const int64_t split = Dist2(t[edge[0]], t[edge[1]]);
@@ -45,7 +41,7 @@ TEST(HtGeometry, EverySplitBisectsTheUniqueLongestEdge) {
 }
 
 TEST(HtGeometry, ChildrenHalveTheParent) {
-  ForEachTetLiteral(9, [&](TetCode c, const Tet& t) {
+  ForEachLiteral<3>(9, [&](TetCode c, const Tet& t) {
     if (c.level() == 9) return;
     const Tet a = Vertices(c.child(0));
     const Tet b = Vertices(c.child(1));
@@ -57,27 +53,11 @@ TEST(HtGeometry, ChildrenHalveTheParent) {
 }
 
 // ChildVertices (one split, for descents) agrees with Vertices.
-TEST(HtGeometry, ChildVerticesFromTheParent) {
-  ForEachTetLiteral(11, [&](TetCode c, const Tet& t) {
-    if (c.level() == 11) return;
-    for (int i = 0; i < 2; ++i) ASSERT_EQ(ChildVertices(c, t, i), Vertices(c.child(i)));
-  });
-}
+TEST(HtGeometry, ChildVerticesFromTheParent) { testing::CheckChildVertices<3>(11); }
 
 // Shapes repeat every three levels at half the size (3.1.1): the level-3
 // descendants of a root are congruent to it, scaled by 1/2.
-TEST(HtGeometry, ShapesCycleEveryThreeLevels) {
-  for (int level = 0; level <= 9; ++level) {
-    const TetCode c = TetCode::FromPath(0, 0, level);
-    const Tet a = Vertices(c);
-    const Tet b = Vertices(TetCode::FromPath(0, 0, level + 3));
-    for (int i = 0; i < 4; ++i) {
-      for (int j = i + 1; j < 4; ++j) {
-        ASSERT_EQ(Dist2(a[i], a[j]), 4 * Dist2(b[i], b[j]));
-      }
-    }
-  }
-}
+TEST(HtGeometry, ShapesCycleEveryThreeLevels) { testing::CheckShapesCycle<3>(0, 9); }
 
 TEST(HtGeometry, RootsAreTheSeedsLabeling) {
   const int s = kDomainSide<3>;

@@ -11,99 +11,38 @@
 #include "hierarchy/neighbors.h"
 #include "hierarchy/level_scan.h"
 #include "tests/hierarchy/ht_reference.h"
+#include "tests/hierarchy/neighbors_test_util.h"
 #include "tests/util/long_run.h"
 
 namespace simplexdb {
 namespace {
 
-using testing::FaceKey;
-using testing::FaceOf;
-using testing::P3;
-using testing::PointsHash;
-using testing::Tet;
-
 constexpr int kExhaustiveLevel = 12;
 
 TetCode T(const char* text) { return TetCode::Parse(text).value(); }
 
-// The algorithms under test, by name, so failures say which one broke.
-struct Algorithm {
-  const char* name;
-  TetCode (*fn)(TetCode, int);
-};
-TetCode ByCursor(TetCode c, int type) {
-  TetCursor cursor(c);
-  return cursor.Step(type) ? cursor.code() : TetCode::None();
-}
-const Algorithm kAlgorithms[] = {
+const testing::NamedNeighbor<3> kAlgorithms[] = {
     {"level scan", &NeighborByLevelScan<3>},
     {"Fig. 38 scan", &NeighborScan<3>},
     {"constant time", &Neighbor<3>},
-    {"cursor", &ByCursor},
+    {"cursor", &testing::ByCursor<3>},
 };
 
 // For each level: every face of every tetrahedron, matched with the other
 // tetrahedron (if any) that has the same three vertices.
 TEST(HtNeighbors, EveryCodeToLevel12SharesExactlyTheNamedFace) {
-  for (int level = 0; level <= kExhaustiveLevel; ++level) {
-    const auto tets = testing::AllTetsAtLevel(level);
-    std::unordered_map<FaceKey, std::vector<std::pair<TetCode, int>>, PointsHash<3>> faces;
-    for (const auto& [code, t] : tets) {
-      for (int k = 1; k <= 4; ++k) faces[FaceOf(t, k)].emplace_back(code, k);
-    }
-    for (const auto& [code, t] : tets) {
-      for (int k = 1; k <= 4; ++k) {
-        const FaceKey f = FaceOf(t, k);
-        const auto& holders = faces[f];
-        ASSERT_LE(holders.size(), 2u) << "a face shared by three tetrahedra";
-        for (const Algorithm& alg : kAlgorithms) {
-          SCOPED_TRACE(::testing::Message() << alg.name << ": " << code.ToString()
-                                            << " type " << k);
-          const TetCode n = alg.fn(code, k);
-          if (holders.size() == 1) {
-            ASSERT_TRUE(testing::OnCubeBoundary(f)) << "an unmatched inner face";
-            ASSERT_TRUE(n.is_none()) << "got " << n.ToString();
-            continue;
-          }
-          ASSERT_FALSE(testing::OnCubeBoundary(f));
-          const auto& other = holders[0].first == code ? holders[1] : holders[0];
-          ASSERT_EQ(n, other.first);
-          ASSERT_EQ(other.second, k) << "the shared face has another type there";
-          ASSERT_EQ(n.level(), code.level());
-          ASSERT_EQ(alg.fn(n, k), code) << "not an involution";
-        }
-      }
-    }
-  }
+  testing::CheckNeighborsByGeometry<3>(kExhaustiveLevel, kAlgorithms, false);
 }
 
 // Deep codes, random: the neighbor computed from the code shares the face
 // geometrically (same three vertices, other apex), up to the maximum level.
 TEST(HtNeighbors, RandomDeepCodesShareTheFaceGeometrically) {
-  std::mt19937_64 rng(21);
-  for (int i = 0; i < 200000; ++i) {
-    const int level = static_cast<int>(rng() % (TetCode::kMaxLevel + 1));
-    const TetCode c = TetCode::FromPath(static_cast<int>(rng() % 6),
-                                        level ? rng() >> (64 - level) : 0, level);
-    const Tet t = Vertices(c);
-    for (int k = 1; k <= 4; ++k) {
-      SCOPED_TRACE(::testing::Message() << c.ToString() << " type " << k);
-      const TetCode n = Neighbor(c, k);
-      if (n.is_none()) {
-        ASSERT_TRUE(testing::OnCubeBoundary(FaceOf(t, k)));
-        continue;
-      }
-      const Tet u = Vertices(n);
-      ASSERT_EQ(FaceOf(u, k), FaceOf(t, k));
-      ASSERT_NE(u[4 - k], t[4 - k]) << "the apex must differ";
-      ASSERT_EQ(Neighbor(n, k), c);
-    }
-  }
+  testing::CheckRandomNeighborsGeometrically<3>(21, 200000, false);
 }
 
 // The seed's worked examples.
 TEST(HtNeighbors, SeedExamples) {
-  for (const Algorithm& alg : kAlgorithms) {
+  for (const auto& alg : kAlgorithms) {
     SCOPED_TRACE(alg.name);
     // 3.2.2: type 3 of 210011 is 210111 (Fig. 34).
     EXPECT_EQ(alg.fn(T("2:10011"), 3), T("2:10111"));
@@ -122,17 +61,7 @@ TEST(HtNeighbors, SeedExamples) {
 
 // Root faces of types 1 and 2 lie on the cube's boundary, types 3 and 4 are
 // shared with another root (SEED-ERRATA item 3).
-TEST(HtNeighbors, RootTable) {
-  for (int top = 0; top < 6; ++top) {
-    EXPECT_EQ(kRootFaceToRoot<3>[top][0], -1);
-    EXPECT_EQ(kRootFaceToRoot<3>[top][1], -1);
-    for (int k = 3; k <= 4; ++k) {
-      const int other = kRootFaceToRoot<3>[top][k - 1];
-      ASSERT_GE(other, 0);
-      EXPECT_EQ(kRootFaceToRoot<3>[other][k - 1], top);
-    }
-  }
-}
+TEST(HtNeighbors, RootTable) { testing::CheckRootTable<3>(); }
 
 // Composes three per-level steps of a FaceTransitions-like table over a group
 // b1b2b3 and renders the outcome the way Fig. 38 prints it.
@@ -248,35 +177,17 @@ TEST(HtNeighbors, ConstantTimeEqualsScanOnRandomCodes) {
 
 // The scan against the per-level reference on deep codes too.
 TEST(HtNeighbors, Fig38ScanEqualsLevelScanOnRandomDeepCodes) {
-  std::mt19937_64 rng(99);
-  for (int i = 0; i < 1'000'000; ++i) {
-    const int level = static_cast<int>(rng() % (TetCode::kMaxLevel + 1));
-    const TetCode c = LongChainCode(rng, level, 0.5);
-    for (int k = 1; k <= 4; ++k) {
-      ASSERT_EQ(NeighborScan(c, k), NeighborByLevelScan<3>(c, k))
-          << c.ToString() << " type " << k;
-    }
-  }
+  testing::CheckScanEqualsLevelScan<3>(99, [](std::mt19937_64& rng, int level) {
+    return LongChainCode(rng, level, 0.5);
+  });
 }
 
 // The mask a cursor maintains in O(1) per step (UPDATE_MASK) stays equal to
 // the mask derived from scratch, along long random walks.
 TEST(HtNeighbors, CursorMaskStaysExactAlongRandomWalks) {
-  std::mt19937_64 rng(8);
-  for (int walk = 0; walk < 2000; ++walk) {
-    const int level = static_cast<int>(rng() % (TetCode::kMaxLevel + 1));
-    TetCursor cursor(LongChainCode(rng, level, 0.7));
-    for (int step = 0; step < 500; ++step) {
-      const TetCode before = cursor.code();
-      const int k = 1 + static_cast<int>(rng() % 4);
-      const TetCode expected = NeighborScan(before, k);
-      const bool moved = cursor.Step(k);
-      ASSERT_EQ(moved, !expected.is_none());
-      ASSERT_EQ(cursor.code(), moved ? expected : before);
-      ASSERT_EQ(cursor.mask(), NeighborMask(cursor.code()))
-          << before.ToString() << " type " << k;
-    }
-  }
+  testing::CheckCursorMaskAlongWalks<3>(8, [](std::mt19937_64& rng, int level) {
+    return LongChainCode(rng, level, 0.7);
+  });
 }
 
 }  // namespace

@@ -7,8 +7,11 @@
 //               interpolation of its vertices' values| over the real grid
 //               points inside or on the closed simplex. Every real point of
 //               the node's bounding box is tested with exact integer
-//               barycentric weights (the adjugate of the edge matrix); a
-//               vertex in the padding takes the nearest real point's value
+//               barycentric weights (the adjugate of the edge matrix: on
+//               purpose not the signed volumes of tests/util/
+//               brute_force_simplex.h, whose box walk it shares, so that
+//               tests/query/diamond_refine_test.cc's CheckOracle compares
+//               two brute forces); a vertex in the padding takes the nearest real point's value
 //               (TestVolume::ClampedAt); a node holding no real point has
 //               error 0, and so has every node at or below the leaf level.
 //               Exact: test values are multiples of 1/256, so 256 * det *
@@ -43,6 +46,7 @@
 #include "hierarchy/simplex_code.h"
 #include "query/criteria.h"
 #include "tests/storage/store_test_util.h"
+#include "tests/util/brute_force_simplex.h"
 
 namespace simplexdb::testing {
 
@@ -240,7 +244,7 @@ class BruteForceErrors {
 
   // The seed's error of the simplex with lattice vertices `lattice`.
   double ErrorOf(const SimplexVertices<D>& lattice) const {
-    std::array<std::array<int64_t, D>, D + 1> g{};
+    GridSimplex<D> g{};
     for (int i = 0; i <= D; ++i) g[i] = LatticeToGrid<D>(lattice[i], k_);
     // M's columns are the edges g[j+1] - g[0]: p - g[0] = M b for the
     // barycentric coordinates b[1..D]; det(M) * b = adj(M) (p - g[0]).
@@ -267,17 +271,13 @@ class BruteForceErrors {
     }
     std::array<int64_t, D + 1> f{};
     for (int i = 0; i <= D; ++i) f[i] = Scaled(volume_.template ClampedAt<D>(g[i]));
-    std::array<int64_t, D> lo = g[0], hi = g[0];
-    for (const auto& q : g) {
-      for (int a = 0; a < D; ++a) lo[a] = std::min(lo[a], q[a]), hi[a] = std::max(hi[a], q[a]);
-    }
+    auto [lo, hi] = BoundingBox<D>(g);
     for (int a = 0; a < D; ++a) {
       hi[a] = std::min<int64_t>(hi[a], int64_t{volume_.dims[a]} - 1);
       if (lo[a] > hi[a]) return 0;  // wholly in the padding
     }
     Int128 worst = 0;
-    std::array<int64_t, D> p = lo;
-    while (true) {
+    ForEachBoxPoint<D>(lo, hi, [&](const IPoint<D>& p) {
       std::array<int64_t, D + 1> w{};  // det * barycentric coordinates
       w[0] = det;
       bool inside = true;
@@ -288,24 +288,11 @@ class BruteForceErrors {
         w[0] -= s;
         inside = s == 0 || (s > 0) == (det > 0);
       }
-      inside = inside && (w[0] == 0 || (w[0] > 0) == (det > 0));
-      if (inside) {
-        std::array<int64_t, 4> q = {0, 0, 0, 0};
-        for (int a = 0; a < D; ++a) q[a] = p[a];
-        Int128 num = static_cast<Int128>(Scaled(volume_.At(q))) * det;
-        for (int i = 0; i <= D; ++i) num -= static_cast<Int128>(w[i]) * f[i];
-        worst = std::max(worst, num < 0 ? -num : num);
-      }
-      int a = 0;
-      for (; a < D; ++a) {
-        if (p[a] < hi[a]) {
-          ++p[a];
-          break;
-        }
-        p[a] = lo[a];
-      }
-      if (a == D) break;
-    }
+      if (!inside || (w[0] != 0 && (w[0] > 0) != (det > 0))) return;
+      Int128 num = static_cast<Int128>(Scaled(volume_.template ValueAt<D>(p))) * det;
+      for (int i = 0; i <= D; ++i) num -= static_cast<Int128>(w[i]) * f[i];
+      worst = std::max(worst, num < 0 ? -num : num);
+    });
     return static_cast<double>(static_cast<long double>(worst) /
                                (static_cast<long double>(det < 0 ? -det : det) * 256));
   }

@@ -28,6 +28,16 @@ double Det3(const std::array<std::array<double, 3>, 3>& e) {
          e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0]);
 }
 
+// The edge vectors of cell c, from its first point to the other three.
+std::array<std::array<double, 3>, 3> CellEdges(const TetMeshData& m, uint64_t c) {
+  const int64_t* t = &m.connectivity[4 * c];
+  std::array<std::array<double, 3>, 3> e{};
+  for (int i = 0; i < 3; ++i) {
+    for (int a = 0; a < 3; ++a) e[i][a] = m.points[3 * t[i + 1] + a] - m.points[3 * t[0] + a];
+  }
+  return e;
+}
+
 // The box [0, hi] meshed: see the file comment.
 void CheckMeshOfBox(const TetMeshData& m, const std::array<double, 3>& hi) {
   ASSERT_GT(m.cells(), 0u);
@@ -44,10 +54,7 @@ void CheckMeshOfBox(const TetMeshData& m, const std::array<double, 3>& hi) {
   std::map<std::array<int64_t, 3>, int> faces;
   for (uint64_t c = 0; c < m.cells(); ++c) {
     const int64_t* t = &m.connectivity[4 * c];
-    std::array<std::array<double, 3>, 3> e{};
-    for (int i = 0; i < 3; ++i) {
-      for (int a = 0; a < 3; ++a) e[i][a] = m.points[3 * t[i + 1] + a] - m.points[3 * t[0] + a];
-    }
+    const std::array<std::array<double, 3>, 3> e = CellEdges(m, c);
     const double det = Det3(e);
     ASSERT_GT(det, 0) << "cell " << c << " is not positively oriented";
     volume += det / 6;
@@ -81,10 +88,7 @@ void CheckMeshOfBox(const TetMeshData& m, const std::array<double, 3>& hi) {
 std::optional<double> Interpolate(const TetMeshData& m, const std::array<double, 3>& x) {
   for (uint64_t c = 0; c < m.cells(); ++c) {
     const int64_t* t = &m.connectivity[4 * c];
-    std::array<std::array<double, 3>, 3> e{};
-    for (int i = 0; i < 3; ++i) {
-      for (int a = 0; a < 3; ++a) e[i][a] = m.points[3 * t[i + 1] + a] - m.points[3 * t[0] + a];
-    }
+    const std::array<std::array<double, 3>, 3> e = CellEdges(m, c);
     const double det = Det3(e);
     std::array<double, 4> w{};
     double sum = 0;
@@ -157,18 +161,8 @@ void CheckHtMeshesCoverTheRealGrid(Source& source, const TestVolume& volume) {
 TEST(ClipToGrid, HtMeshesCoverTheRealGridWithinTheErrorBound) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(3, {11, 7, 13, 1}, VoxelType::kU8, 5);
-  const auto dense = testing::BuildDense(volume, dir.path(), "ht", DenseBuildOptions{});
-  const auto sparse = testing::BuildSparse(volume, dir.path(), "ht", SparseBuildOptions{});
-  DenseSource<3> d(*dense);
-  SparseSource<3> s(*sparse);
-  {
-    SCOPED_TRACE("dense");
-    CheckHtMeshesCoverTheRealGrid(d, volume);
-  }
-  {
-    SCOPED_TRACE("sparse");
-    CheckHtMeshesCoverTheRealGrid(s, volume);
-  }
+  testing::OverDenseAndSparse<3>(volume, dir.path(), "ht",
+                                 [&](auto& source) { CheckHtMeshesCoverTheRealGrid(source, volume); });
 }
 
 TEST(ClipToGrid, AMeshInsideTheGridIsUnchanged) {
@@ -240,14 +234,8 @@ TEST(PlacePhysically, FlippedAxesKeepCellsPositive) {
     info.spacing = spacing;
     PlacePhysically(m, info);
     for (size_t c = 0; c < m.connectivity.size(); c += 4) {
-      std::array<std::array<double, 3>, 3> e{};
-      for (int i = 0; i < 3; ++i) {
-        for (int a = 0; a < 3; ++a) {
-          e[i][a] = m.points[3 * m.connectivity[c + i + 1] + a] - m.points[3 * m.connectivity[c] + a];
-        }
-      }
       const double in_grid_units = c == 0 ? 1 : 2;  // the two cells' determinants before
-      EXPECT_NEAR(Det3(e), in_grid_units * 2 * 3 * 4, 1e-12) << "cell " << c / 4;
+      EXPECT_NEAR(Det3(CellEdges(m, c / 4)), in_grid_units * 2 * 3 * 4, 1e-12) << "cell " << c / 4;
     }
     // Points stay where the spacing puts them; only cells are reordered.
     for (size_t p = 0; p < points.size(); ++p) EXPECT_EQ(m.points[p], points[p] * spacing[p % 3]);

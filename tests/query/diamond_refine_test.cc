@@ -129,19 +129,7 @@ void CheckDiamondMeshes(uint32_t side, uint64_t seed, bool smooth) {
     EXPECT_EQ(RunSplits<D>(sparse, c, Algorithm::kDepthFirst, mesh, stats), per_simplex);
     if (pct != 2.0 && pct != 10.0) continue;
 
-    std::vector<std::pair<std::string, CriteriaSpec>> others;
-    CriteriaSpec box = uniform;
-    const double s = std::ldexp(1.0, k);
-    box.box = std::vector<double>{s * 0.2, s * 0.3, s * 0.1, s * 0.55, s * 0.6, s * 0.45};
-    others.emplace_back("box", box);
-    CriteriaSpec iso = uniform;
-    iso.iso = info.field_min + range / 3 + 1.0 / 3;
-    others.emplace_back("iso", iso);
-    if constexpr (D == 4) {
-      CriteriaSpec time = uniform;
-      time.time = s * 0.375;
-      others.emplace_back("time", time);
-    }
+    const auto others = testing::OtherCriteria<D>(uniform, k, info.field_min + range / 3 + 1.0 / 3);
     for (const auto& [name, spec] : others) {
       SCOPED_TRACE(name);
       Criteria<D> criteria = *MakeCriteria<D>(spec, k, range);

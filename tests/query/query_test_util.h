@@ -7,11 +7,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
+#include "query/criteria.h"
 #include "query/refine.h"
 #include "query/source.h"
 #include "storage/dense/dense_builder.h"
@@ -51,17 +54,29 @@ inline std::string WriteInput(const TestVolume& volume, const std::string& dir, 
   return nrrd;
 }
 
+// Builds `volume` (written as dir/name.nrrd) into dir/name + `extension`
+// with build(input, path), and opens it with Store::Open(path, open); null
+// after a failed expectation.
+template <class Store, class Build>
+std::unique_ptr<Store> BuildAndOpen(const TestVolume& volume, const std::string& dir, const std::string& name,
+                                    const std::string& extension, Build&& build,
+                                    const typename Store::Options& open) {
+  const std::string path = dir + "/" + name + extension;
+  const auto built = build(*OpenVolume(WriteInput(volume, dir, name)), path);
+  EXPECT_TRUE(built.ok()) << built.status().ToString();
+  auto store = Store::Open(path, open);
+  EXPECT_TRUE(store.ok()) << store.status().ToString();
+  return store.ok() ? std::move(store).value() : nullptr;
+}
+
 // The dense store of `volume` at dir/name.sdb, opened with `open`.
 inline std::unique_ptr<DenseStore> BuildDense(const TestVolume& volume, const std::string& dir,
                                               const std::string& name,
                                               const DenseBuildOptions& options = ExactDenseOptions(),
                                               const DenseStore::Options& open = {}) {
-  const std::string path = dir + "/" + name + ".sdb";
-  const auto built = BuildDenseStore(*OpenVolume(WriteInput(volume, dir, name)), path, options);
-  EXPECT_TRUE(built.ok()) << built.status().ToString();
-  auto store = DenseStore::Open(path, open);
-  EXPECT_TRUE(store.ok()) << store.status().ToString();
-  return store.ok() ? std::move(store).value() : nullptr;
+  return BuildAndOpen<DenseStore>(
+      volume, dir, name, ".sdb",
+      [&](const VolumeInfo& input, const std::string& path) { return BuildDenseStore(input, path, options); }, open);
 }
 
 // The sparse store of `volume` at dir/name.lmdb, opened with `open`.
@@ -69,12 +84,50 @@ inline std::unique_ptr<SparseStore> BuildSparse(const TestVolume& volume, const 
                                                 const std::string& name,
                                                 const SparseBuildOptions& options = ExactSparseOptions(),
                                                 const SparseStore::Options& open = {}) {
-  const std::string path = dir + "/" + name + ".lmdb";
-  const auto built = BuildSparseStore(*OpenVolume(WriteInput(volume, dir, name)), path, options);
-  EXPECT_TRUE(built.ok()) << built.status().ToString();
-  auto store = SparseStore::Open(path, open);
-  EXPECT_TRUE(store.ok()) << store.status().ToString();
-  return store.ok() ? std::move(store).value() : nullptr;
+  return BuildAndOpen<SparseStore>(
+      volume, dir, name, ".lmdb",
+      [&](const VolumeInfo& input, const std::string& path) { return BuildSparseStore(input, path, options); }, open);
+}
+
+// Calls check(source) over the dense store of `volume` as import makes it
+// (u16 errors) and over the lossless sparse store, both built in `dir`, each
+// under a SCOPED_TRACE naming it.
+template <int D, class Check>
+void OverDenseAndSparse(const TestVolume& volume, const std::string& dir, const std::string& name, Check&& check) {
+  const auto dense = BuildDense(volume, dir, name, DenseBuildOptions{});
+  const auto sparse = BuildSparse(volume, dir, name, SparseBuildOptions{});
+  ASSERT_TRUE(dense != nullptr && sparse != nullptr);
+  DenseSource<D> d(*dense);
+  SparseSource<D> s(*sparse);
+  {
+    SCOPED_TRACE("dense");
+    check(d);
+  }
+  {
+    SCOPED_TRACE("sparse");
+    check(s);
+  }
+}
+
+// The tests the oracle tests add to a uniform error criterion `uniform`,
+// by name: a box (0.2-0.55, 0.3-0.6, 0.1-0.45 of the side 2^k), an iso
+// value `iso`, and in the HP a time slice at 0.375 of the side.
+template <int D>
+std::vector<std::pair<std::string, CriteriaSpec>> OtherCriteria(const CriteriaSpec& uniform, int k, double iso) {
+  std::vector<std::pair<std::string, CriteriaSpec>> out;
+  const double side = std::ldexp(1.0, k);
+  CriteriaSpec box = uniform;
+  box.box = std::vector<double>{side * 0.2, side * 0.3, side * 0.1, side * 0.55, side * 0.6, side * 0.45};
+  out.emplace_back("box", box);
+  CriteriaSpec with_iso = uniform;
+  with_iso.iso = iso;
+  out.emplace_back("iso", with_iso);
+  if constexpr (D == 4) {
+    CriteriaSpec time = uniform;
+    time.time = side * 0.375;
+    out.emplace_back("time", time);
+  }
+  return out;
 }
 
 // A source over no store: every node above the leaf level of a domain of

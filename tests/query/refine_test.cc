@@ -61,18 +61,7 @@ std::vector<std::pair<std::string, Criteria<D>>> CriteriaCases(const BruteForceE
     CriteriaSpec uniform;
     uniform.error = {pct, true};
     std::vector<std::pair<std::string, CriteriaSpec>> specs = {{"uniform", uniform}};
-    CriteriaSpec box = uniform;
-    const double side = std::ldexp(1.0, k);
-    box.box = std::vector<double>{side * 0.2, side * 0.3, side * 0.1, side * 0.55, side * 0.6, side * 0.45};
-    specs.emplace_back("box", box);
-    CriteriaSpec with_iso = uniform;
-    with_iso.iso = iso;
-    specs.emplace_back("iso", with_iso);
-    if constexpr (D == 4) {
-      CriteriaSpec time = uniform;
-      time.time = side * 0.375;
-      specs.emplace_back("time", time);
-    }
+    for (auto& other : testing::OtherCriteria<D>(uniform, k, iso)) specs.push_back(std::move(other));
     for (const auto& [name, spec] : specs) {
       Criteria<D> c = *MakeCriteria<D>(spec, k, range);
       c.threshold = oracle.ClearThreshold(c.threshold);

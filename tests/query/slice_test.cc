@@ -88,18 +88,7 @@ void CheckSlices(Source& source, const TestVolume& volume) {
 TEST(Slice, HpSlicesAreConformingMeshesOfTheCube) {
   TempDir dir;
   const TestVolume volume = TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kU8, 31);
-  const auto dense = testing::BuildDense(volume, dir.path(), "hp", DenseBuildOptions{});
-  const auto sparse = testing::BuildSparse(volume, dir.path(), "hp", SparseBuildOptions{});
-  DenseSource<4> d(*dense);
-  SparseSource<4> s(*sparse);
-  {
-    SCOPED_TRACE("dense");
-    CheckSlices(d, volume);
-  }
-  {
-    SCOPED_TRACE("sparse");
-    CheckSlices(s, volume);
-  }
+  testing::OverDenseAndSparse<4>(volume, dir.path(), "hp", [&](auto& source) { CheckSlices(source, volume); });
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // and the seed's error computed by brute force, independent of the builder.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <stdlib.h>
 #include <unistd.h>
 
@@ -10,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <random>
 #include <string>
@@ -21,33 +23,9 @@
 #include "storage/error/simplex_scan.h"
 #include "storage/volume/volume.h"
 #include "storage/volume/voxel_type.h"
+#include "tests/util/brute_force_simplex.h"
 
 namespace simplexdb::testing {
-
-// Determinant by cofactor expansion along the first row, in 128 bits: the
-// reference for the library's closed-form adjugate and determinant.
-template <int N>
-Int128 Det(const std::array<std::array<int64_t, N>, N>& m) {
-  if constexpr (N == 1) {
-    return m[0][0];
-  } else if constexpr (N == 2) {
-    return m[0][0] * m[1][1] - m[0][1] * m[1][0];
-  } else {
-    Int128 det = 0;
-    for (int c = 0; c < N; ++c) {
-      std::array<std::array<int64_t, N - 1>, N - 1> minor{};
-      for (int r = 1; r < N; ++r) {
-        int cc = 0;
-        for (int k = 0; k < N; ++k) {
-          if (k != c) minor[r - 1][cc++] = m[r][k];
-        }
-      }
-      const Int128 term = m[0][c] * Det<N - 1>(minor);
-      det += (c % 2 == 0) ? term : -term;
-    }
-    return det;
-  }
-}
 
 // Every value of the volume file at `path` (any format OpenVolume reads).
 inline std::vector<double> ReadVolumeValues(const std::string& path) {
@@ -62,6 +40,19 @@ inline std::vector<double> ReadVolumeValues(const std::string& path) {
 inline std::vector<uint8_t> ReadFileBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
+}
+
+// The bytes of the file at `path` as a string (empty when it cannot be read).
+inline std::string ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Writes `bytes` to the file at `path`, replacing it.
+inline void WriteFile(const std::string& path, const std::string& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  ASSERT_TRUE(out.good()) << path;
 }
 
 // A fresh directory, removed with everything in it at scope exit.
@@ -128,6 +119,22 @@ struct TestVolume {
     return values[i];
   }
 
+  // The value at real point p of a D-dimensional volume.
+  template <int D>
+  double ValueAt(const IPoint<D>& p) const {
+    std::array<int64_t, 4> q = {0, 0, 0, 0};
+    for (int a = 0; a < D; ++a) q[a] = p[a];
+    return At(q);
+  }
+
+  // The box [0, hi] of the real points of a D-dimensional volume.
+  template <int D>
+  IPoint<D> RealHi() const {
+    IPoint<D> hi{};
+    for (int a = 0; a < D; ++a) hi[a] = int64_t{dims[a]} - 1;
+    return hi;
+  }
+
   // The value at a domain point: the nearest real point's (the padding).
   template <int D>
   double ClampedAt(const std::array<int64_t, D>& p) const {
@@ -141,100 +148,50 @@ struct TestVolume {
   }
 };
 
-// Calls fn(p, weights, total) for every real grid point p in the closed
-// simplex of node `code` (a domain of side 2^k): every real point of the
-// node's bounding box is tested by signed volumes; weights[i] is total times
-// p's barycentric coordinate for vertex i (integers). Also gives the grid
-// vertices.
-template <int D, class Fn>
-void ForEachPointInside(SimplexCode<D> code, int k, const TestVolume& volume,
-                        std::array<IPoint<D>, D + 1>* vertices, Fn&& fn) {
-  const auto lattice = Vertices(code);
-  std::array<IPoint<D>, D + 1>& v = *vertices;
-  for (int i = 0; i <= D; ++i) {
-    for (int c = 0; c < D; ++c) v[i][c] = lattice[i][c] >> (kCoordBits<D> - k);
-  }
-  const auto volume_with = [&](int i, const IPoint<D>& p) {
-    auto w = v;
-    if (i >= 0) w[i] = p;
-    std::array<std::array<int64_t, D>, D> m{};
-    for (int j = 0; j < D; ++j) {
-      for (int c = 0; c < D; ++c) m[j][c] = w[j + 1][c] - w[0][c];
-    }
-    return Det<D>(m);
-  };
-  const Int128 total = volume_with(-1, v[0]);
-  IPoint<D> lo = v[0], hi = v[0];
-  for (const auto& q : v) {
-    for (int c = 0; c < D; ++c) {
-      lo[c] = std::min(lo[c], q[c]);
-      hi[c] = std::max(hi[c], q[c]);
+// Calls f(c) for every node above `leaf_level`, by root, level, then path.
+template <int D>
+void ForEachInternalCode(int leaf_level, const std::function<void(SimplexCode<D>)>& f) {
+  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
+    for (int l = 0; l < leaf_level; ++l) {
+      for (uint64_t p = 0; p < (uint64_t{1} << l); ++p) f(SimplexCode<D>::FromPath(top, p, l));
     }
   }
-  for (int c = 0; c < D; ++c) {
-    hi[c] = std::min<int64_t>(hi[c], volume.dims[c] - 1);
-    if (lo[c] > hi[c]) return;  // no real point
-  }
-  IPoint<D> p = lo;
-  while (true) {
-    bool inside = true;
-    std::array<Int128, D + 1> weights{};
-    for (int i = 0; i <= D && inside; ++i) {
-      weights[i] = volume_with(i, p);
-      if (weights[i] != 0 && (weights[i] > 0) != (total > 0)) inside = false;
-    }
-    if (inside) fn(p, weights, total);
-    int c = 0;
-    for (; c < D; ++c) {
-      if (p[c] < hi[c]) {
-        ++p[c];
-        break;
-      }
-      p[c] = lo[c];
-    }
-    if (c == D) break;
-  }
+}
+
+// Calls f(p, i) for every real point p of the D-dimensional `volume`, x
+// fastest: i is p's index in volume.values.
+template <int D, class F>
+void ForEachRealPoint(const TestVolume& volume, F&& f) {
+  uint64_t i = 0;
+  ForEachBoxPoint<D>(IPoint<D>{}, volume.RealHi<D>(), [&](const IPoint<D>& p) { f(p, i++); });
 }
 
 // The seed's error of node `code` of a domain of side 2^k over `volume`,
 // compared with the barycentric interpolation of the (clamped) vertex
-// values. Exact: test values are multiples of 1/256, so 256 * det * (value -
-// interpolation) is an integer; one division at the end.
+// values, over the node's real grid points (tests/util/brute_force_simplex.h:
+// points inside by signed volumes). Exact: test values are multiples of
+// 1/256, so 256 * det * (value - interpolation) is an integer; one division
+// at the end.
 // REQUIRES: no NaN in the node's points or vertex values.
 template <int D>
 long double BruteForceError(SimplexCode<D> code, int k, const TestVolume& volume) {
   const auto scaled = [](double value) { return static_cast<Int128>(std::llround(value * 256)); };
-  std::array<IPoint<D>, D + 1> v{};
-  Int128 worst = 0, det = 1;
-  bool first = true;
+  const GridSimplex<D> v = GridVertices<D>(code, k);
   std::array<Int128, D + 1> f{};
-  ForEachPointInside<D>(code, k, volume, &v, [&](const IPoint<D>& p, const auto& w, Int128 total) {
-    if (first) {
-      for (int i = 0; i <= D; ++i) f[i] = scaled(volume.ClampedAt<D>(v[i]));
-      det = total;
-      first = false;
-    }
-    Int128 interp = 0;  // det * 256 * interpolation
-    for (int i = 0; i <= D; ++i) interp += w[i] * f[i];
-    std::array<int64_t, 4> q = {0, 0, 0, 0};
-    for (int c = 0; c < D; ++c) q[c] = p[c];
-    const Int128 num = scaled(volume.At(q)) * total - interp;
-    worst = std::max(worst, num < 0 ? -num : num);
-  });
-  const Int128 adet = det < 0 ? -det : det;
-  return static_cast<long double>(worst) / (static_cast<long double>(adet) * 256);
+  for (int i = 0; i <= D; ++i) f[i] = scaled(volume.ClampedAt<D>(v[i]));
+  return MaxInterpolationError<D>(v, f, IPoint<D>{}, volume.RealHi<D>(), [&](const IPoint<D>& p) {
+           return scaled(volume.ValueAt<D>(p));
+         }).Value(256);
 }
 
 // With NaN as a missing value: whether any real point of the node has a
 // value, and whether any point or vertex has none.
 template <int D>
 std::pair<bool, bool> BruteForceAvailability(SimplexCode<D> code, int k, const TestVolume& volume) {
-  std::array<IPoint<D>, D + 1> v{};
+  const GridSimplex<D> v = GridVertices<D>(code, k);
   bool any_value = false, any_missing = false;
-  ForEachPointInside<D>(code, k, volume, &v, [&](const IPoint<D>& p, const auto&, Int128) {
-    std::array<int64_t, 4> q = {0, 0, 0, 0};
-    for (int c = 0; c < D; ++c) q[c] = p[c];
-    (std::isnan(volume.At(q)) ? any_missing : any_value) = true;
+  ForEachPointInside<D>(v, IPoint<D>{}, volume.RealHi<D>(), [&](const IPoint<D>& p, const auto&, Int128) {
+    (std::isnan(volume.ValueAt<D>(p)) ? any_missing : any_value) = true;
   });
   for (int i = 0; i <= D; ++i) any_missing = any_missing || std::isnan(volume.ClampedAt<D>(v[i]));
   return {any_value, any_missing};

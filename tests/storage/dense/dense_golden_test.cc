@@ -12,7 +12,6 @@
 //   SIMPLEXDB_REGENERATE_GOLDEN=1 build/release/tests/storage/dense_tests --gtest_filter='DenseGolden*'
 #include <gtest/gtest.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <unordered_map>
 
@@ -21,6 +20,7 @@
 #include "storage/dense/dense_format.h"
 #include "storage/dense/dense_store.h"
 #include "storage/volume/volume.h"
+#include "tests/storage/golden_test_util.h"
 #include "tests/storage/store_test_util.h"
 
 namespace simplexdb {
@@ -32,33 +32,27 @@ using testing::TestVolume;
 
 struct Golden {
   const char* file;
-  int dimension;
-  std::array<uint32_t, 4> dims;
-  VoxelType type;
+  testing::GoldenVolume volume;
   Quantization quantization;
-  uint64_t seed;
 };
 
 // Grids that do not fill their domains (the finest errors computed at the
 // real grid's faces) and both hierarchies.
 const Golden kGolden[] = {
-    {"ht_7x6x5_u8_u16.sdb", 3, {7, 6, 5, 1}, VoxelType::kU8, Quantization::kU16, 201},
-    {"hp_3x3x3x3_i16_f32.sdb", 4, {3, 3, 3, 3}, VoxelType::kI16, Quantization::kF32, 202},
+    {"ht_7x6x5_u8_u16.sdb", {3, {7, 6, 5, 1}, VoxelType::kU8, 201}, Quantization::kU16},
+    {"hp_3x3x3x3_i16_f32.sdb", {4, {3, 3, 3, 3}, VoxelType::kI16, 202}, Quantization::kF32},
 };
 
 std::string GoldenPath(const Golden& g) {
   return std::string(SIMPLEXDB_GOLDEN_DIR) + "/" + g.file;
 }
 
-Status Build(const Golden& g, const std::string& dir, const std::string& out) {
-  const TestVolume volume = TestVolume::Random(g.dimension, g.dims, g.type, g.seed);
-  SDB_RETURN_IF_ERROR(volume.WriteNrrd(dir + "/in.nrrd"));
+Status Build(const Golden& g, const VolumeInfo& input, const std::string& out) {
   DenseBuildOptions options;
   options.quantization = g.quantization;
   options.compression = Compression::kNone;
   options.block_bits = 6;  // several blocks on a small grid
   options.threads = 1;
-  SDB_ASSIGN_OR_RETURN(const VolumeInfo input, OpenVolume(dir + "/in.nrrd"));
   return BuildDenseStore(input, out, options).status();
 }
 
@@ -77,49 +71,34 @@ void CheckAnswers(const DenseStore& store, const TestVolume& volume) {
     }
     return it->second;
   };
-  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
-    for (int l = 0; l < h.leaf_level(); ++l) {
-      for (uint64_t p = 0; p < (uint64_t{1} << l); ++p) {
-        const SimplexCode<D> c = SimplexCode<D>::FromPath(top, p, l);
-        long double truth = 0;
-        for (const auto m : Cluster(c)) truth = std::max(truth, error_of(m));
-        const Result<double> stored = reader.ErrorBound(c);
-        ASSERT_TRUE(stored.ok()) << stored.status().ToString();
-        ASSERT_GE(static_cast<long double>(*stored), truth) << c.ToString();
-        ASSERT_LE(static_cast<long double>(*stored), truth * (1 + 1e-6L) + h.quantum + 1e-9L)
-            << c.ToString();
-      }
-    }
-  }
-  std::array<int64_t, D> p{};
-  for (uint64_t i = 0; i < volume.values.size(); ++i) {
-    uint64_t rest = i;
-    for (int c = 0; c < D; ++c) {
-      p[c] = static_cast<int64_t>(rest % volume.dims[c]);
-      rest /= volume.dims[c];
-    }
+  testing::ForEachInternalCode<D>(h.leaf_level(), [&](SimplexCode<D> c) {
+    if (::testing::Test::HasFatalFailure()) return;
+    long double truth = 0;
+    for (const auto m : Cluster(c)) truth = std::max(truth, error_of(m));
+    const Result<double> stored = reader.ErrorBound(c);
+    ASSERT_TRUE(stored.ok()) << stored.status().ToString();
+    ASSERT_GE(static_cast<long double>(*stored), truth) << c.ToString();
+    ASSERT_LE(static_cast<long double>(*stored), truth * (1 + 1e-6L) + h.quantum + 1e-9L) << c.ToString();
+  });
+  testing::ForEachRealPoint<D>(volume, [&](const IPoint<D>& p, uint64_t i) {
+    if (::testing::Test::HasFatalFailure()) return;
     ASSERT_EQ(*reader.Field(p), volume.values[i]);
-  }
+  });
 }
 
 TEST(DenseGolden, ReferenceStoresStillReadAndRebuildIdentically) {
-  const bool regenerate = std::getenv("SIMPLEXDB_REGENERATE_GOLDEN") != nullptr;
-  for (const Golden& g : kGolden) {
+for (const Golden& g : kGolden) {
     SCOPED_TRACE(g.file);
     const TempDir dir;
     const std::string fresh = dir.path() + "/fresh.sdb";
-    const Status built = Build(g, dir.path(), fresh);
-    ASSERT_TRUE(built.ok()) << built.ToString();
-    if (regenerate) {
-      std::filesystem::copy_file(fresh, GoldenPath(g),
-                                 std::filesystem::copy_options::overwrite_existing);
-    }
-    ASSERT_TRUE(std::filesystem::exists(GoldenPath(g))) << "missing reference file";
+    ASSERT_TRUE(testing::BuildFreshGolden(g.volume, dir.path(), fresh, GoldenPath(g), [&](const auto& in, const auto& out) {
+      return Build(g, in, out);
+    }));
     auto store = DenseStore::Open(GoldenPath(g));
     ASSERT_TRUE(store.ok()) << store.status().ToString();
     ASSERT_TRUE((*store)->Verify().ok());
-    const TestVolume volume = TestVolume::Random(g.dimension, g.dims, g.type, g.seed);
-    if (g.dimension == 3) {
+    const TestVolume volume = g.volume.Make();
+    if (volume.dimension == 3) {
       CheckAnswers<3>(**store, volume);
     } else {
       CheckAnswers<4>(**store, volume);

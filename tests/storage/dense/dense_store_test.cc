@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <set>
 
 #include "hierarchy/hz_order.h"
@@ -49,61 +50,43 @@ void ExpectOnlyBlocksWithData(const DenseStore& store) {
   EXPECT_EQ(h.bricks, bricks);
 }
 
-TEST(DenseStore, Ht17DiamondErrorsAndFields) {
+// Builds `v` with float32 errors (blocks of 2^block_bits nodes when given)
+// and checks every diamond error and field against brute force, then the
+// store's checksums; with `padding`, also that only blocks with data are
+// stored and that they are fewer than half the virtual blocks.
+template <int D>
+void ExpectF32Store(const TestVolume& v, std::optional<int> block_bits, bool padding) {
   TempDir dir;
-  const TestVolume v = TestVolume::Random(3, {17, 17, 17, 1}, VoxelType::kU8, 1);
   DenseBuildOptions o;
   o.quantization = Quantization::kF32;
+  if (block_bits) o.block_bits = *block_bits;
   const auto store = BuildStore(v, dir, "v", o);
   ASSERT_NE(store, nullptr);
-  ExpectDiamondErrors<3>(*store, v);
-  ExpectFields<3>(*store, v);
+  ExpectDiamondErrors<D>(*store, v);
+  ExpectFields<D>(*store, v);
   ASSERT_TRUE(store->Verify().ok());
+  if (!padding) return;
+  ExpectOnlyBlocksWithData<D>(*store);
+  EXPECT_LT(store->header().stored_blocks, store->header().virtual_blocks / 2);
+}
+
+TEST(DenseStore, Ht17DiamondErrorsAndFields) {
+  ExpectF32Store<3>(TestVolume::Random(3, {17, 17, 17, 1}, VoxelType::kU8, 1), std::nullopt, false);
 }
 
 TEST(DenseStore, Hp9DiamondErrorsAndFields) {
-  TempDir dir;
-  const TestVolume v = TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kI16, 2);
-  DenseBuildOptions o;
-  o.quantization = Quantization::kF32;
-  o.block_bits = 6;
-  const auto store = BuildStore(v, dir, "v", o);
-  ASSERT_NE(store, nullptr);
-  ExpectDiamondErrors<4>(*store, v);
-  ExpectFields<4>(*store, v);
-  ASSERT_TRUE(store->Verify().ok());
+  ExpectF32Store<4>(TestVolume::Random(4, {9, 9, 9, 9}, VoxelType::kI16, 2), 6, false);
 }
 
 // Non-cubic grids: padding vertices whose diamonds reach real points keep
-// their errors; blocks wholly in the padding are not stored.
+// their errors; blocks wholly in the padding are not stored. The real grid
+// is 3% of the domain in HT, a tenth in HP: most virtual blocks are padding.
 TEST(DenseStore, HtNonCubicKeepsOnlyBlocksWithData) {
-  TempDir dir;
-  const TestVolume v = TestVolume::Random(3, {11, 6, 17, 1}, VoxelType::kF32, 3);
-  DenseBuildOptions o;
-  o.quantization = Quantization::kF32;
-  o.block_bits = 6;
-  const auto store = BuildStore(v, dir, "v", o);
-  ASSERT_NE(store, nullptr);
-  ExpectDiamondErrors<3>(*store, v);
-  ExpectFields<3>(*store, v);
-  ExpectOnlyBlocksWithData<3>(*store);
-  // The real grid is 3% of the domain: most virtual blocks are padding.
-  EXPECT_LT(store->header().stored_blocks, store->header().virtual_blocks / 2);
+  ExpectF32Store<3>(TestVolume::Random(3, {11, 6, 17, 1}, VoxelType::kF32, 3), 6, true);
 }
 
 TEST(DenseStore, HpShortFourthAxisKeepsOnlyBlocksWithData) {
-  TempDir dir;
-  const TestVolume v = TestVolume::Random(4, {7, 5, 6, 3}, VoxelType::kU8, 4);
-  DenseBuildOptions o;
-  o.quantization = Quantization::kF32;
-  o.block_bits = 6;
-  const auto store = BuildStore(v, dir, "v", o);
-  ASSERT_NE(store, nullptr);
-  ExpectDiamondErrors<4>(*store, v);
-  ExpectFields<4>(*store, v);
-  ExpectOnlyBlocksWithData<4>(*store);
-  // The real grid is a tenth of the domain: most virtual blocks are padding.
-  EXPECT_LT(store->header().stored_blocks, store->header().virtual_blocks / 2);
+  ExpectF32Store<4>(TestVolume::Random(4, {7, 5, 6, 3}, VoxelType::kU8, 4), 6, true);
 }
 
 // Quantized errors: never below the brute-force diamond error, within a

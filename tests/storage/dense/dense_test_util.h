@@ -42,15 +42,6 @@ inline std::unique_ptr<DenseStore> BuildStore(const TestVolume& volume, const Te
   return store.ok() ? *std::move(store) : nullptr;
 }
 
-template <int D>
-void ForEachInternalCode(int leaf_level, const std::function<void(SimplexCode<D>)>& f) {
-  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
-    for (int l = 0; l < leaf_level; ++l) {
-      for (uint64_t p = 0; p < (uint64_t{1} << l); ++p) f(SimplexCode<D>::FromPath(top, p, l));
-    }
-  }
-}
-
 // The error a store records for node m, by brute force: the seed's error
 // where every real point and vertex has a value, 0 where none of its points
 // has one, `range` where only some have (storage/error/simplex_scan.h,

@@ -11,61 +11,19 @@
 
 #include "hierarchy/geometry.h"
 #include "hierarchy/simplex_code.h"
-#include "tests/storage/store_test_util.h"
+#include "tests/util/brute_force_simplex.h"
 
 namespace simplexdb {
 namespace {
 
+using testing::BoundingBox;
 using testing::Det;
+using testing::ForEachBoxPoint;
+using testing::GridVertices;
+using testing::InsideBrute;
 
 template <int D>
-using Verts = std::array<IPoint<D>, D + 1>;
-
-// Signed volume (times D!) of the simplex with vertex i replaced by p.
-template <int D>
-Int128 VolumeWith(const Verts<D>& v, int i, const IPoint<D>& p) {
-  Verts<D> w = v;
-  w[i] = p;
-  std::array<std::array<int64_t, D>, D> m{};
-  for (int j = 0; j < D; ++j) {
-    for (int c = 0; c < D; ++c) m[j][c] = w[j + 1][c] - w[0][c];
-  }
-  return Det<D>(m);
-}
-
-// Brute force: p is in the closed simplex iff replacing any vertex by p
-// gives a volume of the same sign as the simplex's, or zero.
-template <int D>
-bool InsideBrute(const Verts<D>& v, const IPoint<D>& p) {
-  std::array<std::array<int64_t, D>, D> m{};
-  for (int j = 0; j < D; ++j) {
-    for (int c = 0; c < D; ++c) m[j][c] = v[j + 1][c] - v[0][c];
-  }
-  const Int128 total = Det<D>(m);
-  for (int i = 0; i <= D; ++i) {
-    const Int128 part = VolumeWith<D>(v, i, p);
-    if (part != 0 && (part > 0) != (total > 0)) return false;
-  }
-  return true;
-}
-
-// Calls f(p) for every point of the box [lo, hi], x fastest.
-template <int D, class F>
-void ForEachBoxPoint(const IPoint<D>& lo, const IPoint<D>& hi, F&& f) {
-  IPoint<D> p = lo;
-  while (true) {
-    f(p);
-    int c = 0;
-    for (; c < D; ++c) {
-      if (p[c] < hi[c]) {
-        ++p[c];
-        break;
-      }
-      p[c] = lo[c];
-    }
-    if (c == D) return;
-  }
-}
+using Verts = testing::GridSimplex<D>;
 
 // Random simplices from the hierarchy, scaled onto a grid of side 2^k.
 template <int D>
@@ -73,12 +31,7 @@ Verts<D> RandomHierarchySimplex(std::mt19937_64& rng, int k) {
   const int level = static_cast<int>(rng() % (D * k));
   const auto code = SimplexCode<D>::FromPath(static_cast<int>(rng() % SimplexCode<D>::kRoots),
                                              level ? rng() >> (64 - level) : 0, level);
-  const auto v = Vertices(code);
-  Verts<D> out{};
-  for (int i = 0; i <= D; ++i) {
-    for (int c = 0; c < D; ++c) out[i][c] = v[i][c] >> (kCoordBits<D> - k);
-  }
-  return out;
+  return GridVertices<D>(code, k);
 }
 
 // A * adj(A) = det(A) * I, with det(A) by cofactor expansion, for random
@@ -184,33 +137,14 @@ TEST(SimplexScan, RowsVisitExactlyThePointsInsideAtScale3D) { CheckEnumerationAt
 TEST(SimplexScan, RowsVisitExactlyThePointsInsideAtScale4D) { CheckEnumerationAtScale<4>(6, 2000); }
 
 // Exact error by barycentric weights: |f(p) - sum w_i f(v_i)|, w_i = vol_i /
-// vol, as a long double from exact integers.
+// vol, as a long double from exact integers (one division).
 template <int D>
 long double ErrorBrute(const Verts<D>& v, const std::array<int64_t, D + 1>& fv,
                        const std::function<int64_t(const IPoint<D>&)>& field) {
-  std::array<std::array<int64_t, D>, D> m{};
-  for (int j = 0; j < D; ++j) {
-    for (int c = 0; c < D; ++c) m[j][c] = v[j + 1][c] - v[0][c];
-  }
-  const Int128 total = Det<D>(m);
-  long double worst = 0;
-  IPoint<D> lo = v[0], hi = v[0];
-  for (const auto& q : v) {
-    for (int c = 0; c < D; ++c) {
-      lo[c] = std::min(lo[c], q[c]);
-      hi[c] = std::max(hi[c], q[c]);
-    }
-  }
-  ForEachBoxPoint<D>(lo, hi, [&](const IPoint<D>& p) {
-    if (!InsideBrute<D>(v, p)) return;
-    Int128 interp_times_total = 0;
-    for (int i = 0; i <= D; ++i) interp_times_total += VolumeWith<D>(v, i, p) * fv[i];
-    const Int128 num = field(p) * total - interp_times_total;
-    const long double e = static_cast<long double>(num < 0 ? -num : num) /
-                          static_cast<long double>(total < 0 ? -total : total);
-    worst = std::max(worst, e);
-  });
-  return worst;
+  std::array<Int128, D + 1> f{};
+  for (int i = 0; i <= D; ++i) f[i] = fv[i];
+  const auto [lo, hi] = BoundingBox<D>(v);
+  return testing::MaxInterpolationError<D>(v, f, lo, hi, field).Value();
 }
 
 // Field values on the box [0, 2^k]^D, as the kernel reads them.
@@ -304,14 +238,7 @@ TEST(SimplexScan, SeveralInterpolantsOverOneSimplex) {
   for (int t = 0; t < 100; ++t) {
     const int level = 3 + static_cast<int>(rng() % 9);
     const TetCode c = TetCode::FromPath(static_cast<int>(rng() % 6), rng() >> (64 - level), level);
-    const auto grid_of = [&](TetCode code) {
-      const auto v = Vertices(code);
-      Verts<3> out{};
-      for (int i = 0; i < 4; ++i) {
-        for (int a = 0; a < 3; ++a) out[i][a] = v[i][a] >> (kCoordBits<3> - k);
-      }
-      return out;
-    };
+    const auto grid_of = [&](TetCode code) { return GridVertices<3>(code, k); };
     const ScannableSimplex<3> child(grid_of(c));
     std::vector<Interpolant<3, int64_t>> interps;
     std::vector<double> expected;

@@ -26,12 +26,7 @@ namespace simplexdb {
 namespace {
 
 using testing::TempDir;
-
-void WriteFile(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  ASSERT_TRUE(out.good()) << path;
-}
+using testing::WriteFile;
 
 std::string AsText(const std::byte* bytes, size_t n) {
   return std::string(reinterpret_cast<const char*>(bytes), n);

@@ -14,7 +14,6 @@
 //   SIMPLEXDB_REGENERATE_GOLDEN=1 build/release/tests/storage/sparse_tests --gtest_filter='SparseGolden*'
 #include <gtest/gtest.h>
 
-#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <vector>
@@ -24,6 +23,7 @@
 #include "storage/sparse/sparse_builder.h"
 #include "storage/sparse/sparse_store.h"
 #include "storage/volume/volume.h"
+#include "tests/storage/golden_test_util.h"
 #include "tests/storage/store_test_util.h"
 #include "util/little_endian.h"
 
@@ -35,32 +35,26 @@ using testing::TestVolume;
 
 struct Golden {
   const char* file;
-  int dimension;
-  std::array<uint32_t, 4> dims;
-  VoxelType type;
+  testing::GoldenVolume volume;
   Quantization quantization;
   double tolerance;  // in the field's units; > 0: values in steps of 2t
-  uint64_t seed;
 };
 
 // Grids that do not fill their domains, both hierarchies, a lossless store
 // and one whose values are stepped.
 const Golden kGolden[] = {
-    {"ht_7x6x5_u8_t40.sdb", 3, {7, 6, 5, 1}, VoxelType::kU8, Quantization::kU16, 40, 301},
-    {"hp_3x3x3x3_i16_lossless.sdb", 4, {3, 3, 3, 3}, VoxelType::kI16, Quantization::kU8, 0, 302},
+    {"ht_7x6x5_u8_t40.sdb", {3, {7, 6, 5, 1}, VoxelType::kU8, 301}, Quantization::kU16, 40},
+    {"hp_3x3x3x3_i16_lossless.sdb", {4, {3, 3, 3, 3}, VoxelType::kI16, 302}, Quantization::kU8, 0},
 };
 
 std::string GoldenPath(const Golden& g) { return std::string(SIMPLEXDB_SPARSE_GOLDEN_DIR) + "/" + g.file; }
 
-Status Build(const Golden& g, const std::string& dir, const std::string& out) {
-  const TestVolume volume = TestVolume::Random(g.dimension, g.dims, g.type, g.seed);
-  SDB_RETURN_IF_ERROR(volume.WriteNrrd(dir + "/in.nrrd"));
+Status Build(const Golden& g, const VolumeInfo& input, const std::string& out) {
   SparseBuildOptions options;
   options.quantization = g.quantization;
   options.tolerance = g.tolerance;
-  options.block_bits = g.dimension + 2;  // several blocks on a small grid
+  options.block_bits = g.volume.dimension + 2;  // several blocks on a small grid
   options.threads = 1;
-  SDB_ASSIGN_OR_RETURN(const VolumeInfo input, OpenVolume(dir + "/in.nrrd"));
   return BuildSparseStore(input, out, options).status();
 }
 
@@ -135,42 +129,29 @@ template <int D>
 void CheckAnswers(const SparseStore& store, const TestVolume& volume, double t) {
   SparseStore::Reader<D> reader(store);
   const int k = store.header().domain_bits;
-  for (uint64_t i = 0; i < volume.values.size(); ++i) {
-    std::array<int64_t, D> p{};
-    uint64_t rest = i;
-    for (int a = 0; a < D; ++a) {
-      p[a] = static_cast<int64_t>(rest % volume.dims[a]);
-      rest /= volume.dims[a];
-    }
+  testing::ForEachRealPoint<D>(volume, [&](const IPoint<D>& p, uint64_t i) {
+    if (::testing::Test::HasFatalFailure()) return;
     const Result<double> v = reader.Field(p);
     ASSERT_TRUE(v.ok()) << v.status().ToString();
     ASSERT_LE(std::abs(*v - volume.values[i]), t) << i;
-  }
-  for (int top = 0; top < SimplexCode<D>::kRoots; ++top) {
-    for (int l = 0; l < D * k; ++l) {
-      for (uint64_t p = 0; p < (uint64_t{1} << l); ++p) {
-        const SimplexCode<D> c = SimplexCode<D>::FromPath(top, p, l);
-        const Result<double> bound = reader.ErrorBound(c);
-        ASSERT_TRUE(bound.ok()) << bound.status().ToString();
-        const double exact = static_cast<double>(testing::BruteForceError<D>(c, k, volume));
-        ASSERT_LE(exact, *bound == 0 ? t + 1e-9 : *bound + 1e-9) << c.ToString();
-      }
-    }
-  }
+  });
+  testing::ForEachInternalCode<D>(D * k, [&](SimplexCode<D> c) {
+    if (::testing::Test::HasFatalFailure()) return;
+    const Result<double> bound = reader.ErrorBound(c);
+    ASSERT_TRUE(bound.ok()) << bound.status().ToString();
+    const double exact = static_cast<double>(testing::BruteForceError<D>(c, k, volume));
+    ASSERT_LE(exact, *bound == 0 ? t + 1e-9 : *bound + 1e-9) << c.ToString();
+  });
 }
 
 TEST(SparseGolden, ReferenceStoresStillReadAndRebuildIdentically) {
-  const bool regenerate = std::getenv("SIMPLEXDB_REGENERATE_GOLDEN") != nullptr;
   for (const Golden& g : kGolden) {
     SCOPED_TRACE(g.file);
     const TempDir dir;
     const std::string fresh = dir / "fresh.sdb";
-    const Status built = Build(g, dir.path(), fresh);
-    ASSERT_TRUE(built.ok()) << built.ToString();
-    if (regenerate) {
-      std::filesystem::copy_file(fresh, GoldenPath(g), std::filesystem::copy_options::overwrite_existing);
-    }
-    ASSERT_TRUE(std::filesystem::exists(GoldenPath(g))) << "missing reference file";
+    ASSERT_TRUE(testing::BuildFreshGolden(g.volume, dir.path(), fresh, GoldenPath(g), [&](const auto& in, const auto& out) {
+      return Build(g, in, out);
+    }));
     // Read a copy: LMDB writes its lock file beside the store.
     const std::string reference = dir / "reference.sdb";
     std::filesystem::copy_file(GoldenPath(g), reference);
@@ -178,8 +159,8 @@ TEST(SparseGolden, ReferenceStoresStillReadAndRebuildIdentically) {
     ASSERT_TRUE(store.ok()) << store.status().ToString();
     ASSERT_TRUE((*store)->Verify().ok());
     EXPECT_EQ((*store)->header().value_step, 2 * g.tolerance);
-    const TestVolume volume = TestVolume::Random(g.dimension, g.dims, g.type, g.seed);
-    if (g.dimension == 3) {
+    const TestVolume volume = g.volume.Make();
+    if (volume.dimension == 3) {
       CheckAnswers<3>(**store, volume, g.tolerance);
     } else {
       CheckAnswers<4>(**store, volume, g.tolerance);

@@ -13,8 +13,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
+#include <initializer_list>
 #include <random>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -478,72 +481,72 @@ TEST(SparseStore, TwoThreadsReadAsOne) {
   EXPECT_EQ(got[1], want);
 }
 
+// Writes the LMDB file at `path` (with a map of `map_bytes`; 0: the size
+// recorded in the file) in one transaction: write(txn) opens its databases
+// and puts its entries.
+void WriteLmdb(const std::string& path, uint64_t map_bytes, const std::function<void(lmdb::Txn&)>& write) {
+  lmdb::Env::Options o;
+  o.read_only = false;
+  o.map_bytes = map_bytes;
+  auto env = lmdb::Env::Open(path, o);
+  ASSERT_TRUE(env.ok()) << env.status().ToString();
+  auto txn = lmdb::Txn::Begin(**env, false);
+  ASSERT_TRUE(txn.ok()) << txn.status().ToString();
+  ASSERT_NO_FATAL_FAILURE(write(*txn));
+  ASSERT_TRUE(txn->Commit().ok());
+}
+
+// Opening the store at `path` is refused as not supported, the message
+// naming each of `words`.
+void ExpectRefused(const std::string& path, std::initializer_list<std::string_view> words) {
+  const Status s = SparseStore::Open(path, {}).status();
+  EXPECT_TRUE(s.IsNotSupported()) << s.ToString();
+  for (const std::string_view w : words) EXPECT_NE(s.message().find(w), std::string_view::npos) << s.ToString();
+}
+
+// The header of a store built in `dir`, at another version.
+SparseHeader HeaderOfVersion(const TempDir& dir, uint32_t version) {
+  Stores s = Build(BoxInRamp(3, {6, 5, 7, 1}, VoxelType::kU8, 14), dir, 0, 6);
+  EXPECT_NE(s.sparse, nullptr);
+  if (s.sparse == nullptr) return {};
+  SparseHeader h = s.sparse->header();
+  h.version = version;
+  return h;  // the store closed: one environment per file and process (LMDB)
+}
+
 TEST(SparseStore, AFormatOneStoreIsRefused) {
   // An LMDB file with format 1's databases.
   TempDir dir;
-  {
-    lmdb::Env::Options o;
-    o.read_only = false;
-    o.map_bytes = 1 << 20;
-    auto env = *lmdb::Env::Open(dir / "old.sdb", o);
-    auto txn = *lmdb::Txn::Begin(*env, false);
-    ASSERT_TRUE(txn.OpenDb("meta", true).ok());
-    ASSERT_TRUE(txn.OpenDb("errors", true).ok());
-    ASSERT_TRUE(txn.OpenDb("field", true).ok());
-    ASSERT_TRUE(txn.Commit().ok());
-  }
-  const Status s = SparseStore::Open(dir / "old.sdb", {}).status();
-  EXPECT_TRUE(s.IsNotSupported()) << s.ToString();
-  EXPECT_NE(s.message().find("import"), std::string_view::npos) << s.ToString();
+  ASSERT_NO_FATAL_FAILURE(WriteLmdb(dir / "old.sdb", 1 << 20, [](lmdb::Txn& txn) {
+    for (const char* name : {"meta", "errors", "field"}) ASSERT_TRUE(txn.OpenDb(name, true).ok()) << name;
+  }));
+  ExpectRefused(dir / "old.sdb", {"import"});
 }
 
 // Header versions 2 and 3 kept the header in a database "meta" and the
 // blocks in "blocks": refused, with the same advice.
 TEST(SparseStore, AnEarlierLayoutIsRefused) {
   TempDir dir;
-  Stores s = Build(BoxInRamp(3, {6, 5, 7, 1}, VoxelType::kU8, 14), dir, 0, 6);
-  ASSERT_NE(s.sparse, nullptr);
-  SparseHeader h = s.sparse->header();
-  h.version = 3;
-  s.sparse.reset();
-  {
-    lmdb::Env::Options o;
-    o.read_only = false;
-    o.map_bytes = 1 << 20;
-    auto env = *lmdb::Env::Open(dir / "old.sdb", o);
-    auto txn = *lmdb::Txn::Begin(*env, false);
+  const SparseHeader h = HeaderOfVersion(dir, 3);
+  ASSERT_FALSE(HasFailure());
+  ASSERT_NO_FATAL_FAILURE(WriteLmdb(dir / "old.sdb", 1 << 20, [&](lmdb::Txn& txn) {
     ASSERT_TRUE(txn.OpenDb("blocks", true).ok());
     const MDB_dbi meta = *txn.OpenDb("meta", true);
     ASSERT_TRUE(txn.Put(meta, kSparseHeaderKey, EncodeSparseHeader(h)).ok());
-    ASSERT_TRUE(txn.Commit().ok());
-  }
-  const Status opened = SparseStore::Open(dir / "old.sdb", {}).status();
-  EXPECT_TRUE(opened.IsNotSupported()) << opened.ToString();
-  EXPECT_NE(opened.message().find("version 2 or 3"), std::string_view::npos) << opened.ToString();
-  EXPECT_NE(opened.message().find("import the volume again"), std::string_view::npos) << opened.ToString();
+  }));
+  ExpectRefused(dir / "old.sdb", {"version 2 or 3", "import the volume again"});
 }
 
 // A header of another version where this layout keeps it: refused too.
 TEST(SparseStore, AnotherHeaderVersionIsRefused) {
   TempDir dir;
-  Stores s = Build(BoxInRamp(3, {6, 5, 7, 1}, VoxelType::kU8, 14), dir, 0, 6);
-  ASSERT_NE(s.sparse, nullptr);
-  SparseHeader h = s.sparse->header();
-  h.version = 5;
-  s.sparse.reset();  // one environment per file and process (LMDB)
-  {
-    lmdb::Env::Options o;
-    o.read_only = false;
-    auto env = *lmdb::Env::Open(dir / "sparse.sdb", o);
-    auto txn = *lmdb::Txn::Begin(*env, false);
+  const SparseHeader h = HeaderOfVersion(dir, 5);
+  ASSERT_FALSE(HasFailure());
+  ASSERT_NO_FATAL_FAILURE(WriteLmdb(dir / "sparse.sdb", 0, [&](lmdb::Txn& txn) {
     const MDB_dbi dbi = *txn.OpenDb(nullptr, false);
     ASSERT_TRUE(txn.Put(dbi, kSparseHeaderKey, EncodeSparseHeader(h)).ok());
-    ASSERT_TRUE(txn.Commit().ok());
-  }
-  const Status opened = SparseStore::Open(dir / "sparse.sdb", {}).status();
-  EXPECT_TRUE(opened.IsNotSupported()) << opened.ToString();
-  EXPECT_NE(opened.message().find("version 5"), std::string_view::npos) << opened.ToString();
-  EXPECT_NE(opened.message().find("import the volume again"), std::string_view::npos) << opened.ToString();
+  }));
+  ExpectRefused(dir / "sparse.sdb", {"version 5", "import the volume again"});
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "storage/volume/volume.h"
+#include "tests/storage/store_test_util.h"
 #include "tests/util/python_vtk.h"
 
 namespace simplexdb {
@@ -27,37 +28,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A fresh directory, removed with its contents at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    // Normalized: ::testing::TempDir() ends with a slash.
-    std::string tmpl = (fs::path(::testing::TempDir()) / "nrrd_writer_test_XXXXXX").lexically_normal();
-    const char* made = ::mkdtemp(tmpl.data());
-    EXPECT_NE(made, nullptr) << tmpl;
-    path_ = made != nullptr ? made : tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
-  const std::string& path() const { return path_; }
-  std::vector<std::string> Entries() const {
-    std::vector<std::string> names;
-    for (const auto& e : fs::directory_iterator(path_)) names.push_back(e.path().filename());
-    std::sort(names.begin(), names.end());
-    return names;
-  }
-
- private:
-  std::string path_;
-};
-
-std::string ReadFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using testing::TempDir;
+using testing::ReadFile;
 
 constexpr VoxelType kAllTypes[] = {VoxelType::kU8,  VoxelType::kI8,  VoxelType::kU16,
                                    VoxelType::kI16, VoxelType::kF32, VoxelType::kF64};
@@ -266,7 +238,7 @@ TEST(WriteNrrd, ReplacesAtomicallyAndLeavesNoTemporaryFiles) {
   ASSERT_TRUE(WriteNrrd(path, 3, {2, 2, 2, 1}, VoxelType::kU8, std::vector<double>(8, 1)).ok());
   ASSERT_TRUE(WriteNrrd(path, 3, {2, 2, 2, 1}, VoxelType::kU8, std::vector<double>(8, 2)).ok());
   EXPECT_EQ(ReadBack(path), std::vector<double>(8, 2));
-  EXPECT_EQ(dir.Entries(), std::vector<std::string>{"v.nrrd"});
+  EXPECT_EQ(testing::SortedNames(dir.path()), std::vector<std::string>{"v.nrrd"});
   EXPECT_EQ(fs::status(path).permissions() & fs::perms::all,
             fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read |
                 fs::perms::others_read);
@@ -274,7 +246,7 @@ TEST(WriteNrrd, ReplacesAtomicallyAndLeavesNoTemporaryFiles) {
   const Status s = WriteNrrd(path, 3, {2, 2, 2, 1}, VoxelType::kU8, std::vector<double>(8, 300));
   EXPECT_TRUE(s.IsInvalidArgument());
   EXPECT_EQ(ReadBack(path), std::vector<double>(8, 2));
-  EXPECT_EQ(dir.Entries(), std::vector<std::string>{"v.nrrd"});
+  EXPECT_EQ(testing::SortedNames(dir.path()), std::vector<std::string>{"v.nrrd"});
 }
 
 TEST(WriteNrrd, RejectsBadInputNamingFileAndValue) {

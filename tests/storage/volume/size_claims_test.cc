@@ -15,6 +15,7 @@
 #include "storage/volume/volume.h"
 #include "tests/storage/address_space_limit.h"
 #include "tests/storage/store_test_util.h"
+#include "tests/storage/volume/gzip_test_util.h"
 
 namespace simplexdb {
 namespace {
@@ -23,27 +24,10 @@ using testing::kOneGiB;
 using testing::LimitedRun;
 using testing::RunUnderAddressSpaceLimit;
 using testing::TempDir;
+using testing::WriteFile;
 
-void WriteFile(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  ASSERT_TRUE(out.good()) << path;
-}
-
-// gzip (RFC 1952) of `data` at zlib's best compression.
-std::string Gzip(const std::string& data) {
-  z_stream zs{};
-  EXPECT_EQ(deflateInit2(&zs, 9, Z_DEFLATED, 15 + 16, 9, Z_DEFAULT_STRATEGY), Z_OK);
-  std::string out(deflateBound(&zs, data.size()) + 64, '\0');
-  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
-  zs.avail_in = static_cast<uInt>(data.size());
-  zs.next_out = reinterpret_cast<Bytef*>(out.data());
-  zs.avail_out = static_cast<uInt>(out.size());
-  EXPECT_EQ(deflate(&zs, Z_FINISH), Z_STREAM_END);
-  out.resize(zs.total_out);
-  deflateEnd(&zs);
-  return out;
-}
+// gzip at zlib's best compression: the largest claims per byte.
+std::string Gzip(const std::string& data) { return testing::Gzip(data, 9, 9); }
 
 // Sets the gzip trailer's ISIZE (the decompressed size mod 2^32) to that of
 // `claimed` bytes, as a crafted file would to pass a trailer check.

@@ -21,6 +21,9 @@
 #include <utility>
 #include <vector>
 
+#include "tests/storage/store_test_util.h"
+#include "tests/storage/volume/gzip_test_util.h"
+
 namespace simplexdb {
 namespace {
 
@@ -29,6 +32,11 @@ namespace fs = std::filesystem;
 // ---------------------------------------------------------------------------
 // Helpers, independent of the code under test.
 
+using testing::Gzip;
+using testing::TempDir;
+using testing::ReadFile;
+using testing::WriteFile;
+
 const std::string kSharedData = SIMPLEXDB_SHARED_DATA;
 
 #define SKIP_WITHOUT_SHARED_DATA()                                                 \
@@ -36,38 +44,6 @@ const std::string kSharedData = SIMPLEXDB_SHARED_DATA;
     GTEST_SKIP() << "no shared data at " << kSharedData                            \
                  << " (the real volumes live beside the repository in ../shared/data)"; \
   }
-
-// A fresh directory, removed with its contents at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    // Normalized: ::testing::TempDir() ends with a slash.
-    std::string tmpl = (fs::path(::testing::TempDir()) / "volume_test_XXXXXX").lexically_normal();
-    const char* made = ::mkdtemp(tmpl.data());
-    EXPECT_NE(made, nullptr) << tmpl;
-    path_ = made != nullptr ? made : tmpl;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
-
-void WriteFile(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  ASSERT_TRUE(out.good()) << path;
-}
-
-std::string ReadFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
 
 size_t SizeOf(VoxelType t) {
   switch (t) {
@@ -131,22 +107,6 @@ double FreadVoxel(const std::string& path, uint64_t offset, uint64_t index,
   EXPECT_EQ(std::fread(b, 1, SizeOf(type), f), SizeOf(type)) << path << " voxel " << index;
   std::fclose(f);
   return DecodeOne(b, type, order);
-}
-
-std::string Gzip(const std::string& data) {
-  z_stream zs{};
-  EXPECT_EQ(deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16 /* gzip wrapper */, 8,
-                         Z_DEFAULT_STRATEGY),
-            Z_OK);
-  std::string out(deflateBound(&zs, data.size()) + 64, '\0');
-  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
-  zs.avail_in = static_cast<uInt>(data.size());
-  zs.next_out = reinterpret_cast<Bytef*>(out.data());
-  zs.avail_out = static_cast<uInt>(out.size());
-  EXPECT_EQ(deflate(&zs, Z_FINISH), Z_STREAM_END);
-  out.resize(zs.total_out);
-  deflateEnd(&zs);
-  return out;
 }
 
 std::vector<double> ReadAll(const VolumeInfo& info) {

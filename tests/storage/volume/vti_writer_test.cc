@@ -20,11 +20,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::TempDir;
-
-std::string ReadFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using testing::ReadFile;
 
 // The exact bytes: a change of format is a decision.
 TEST(PrepareVti, FileIsPinnedAndAppearsOnCommit) {
