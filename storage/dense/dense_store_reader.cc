@@ -5,7 +5,6 @@
 #include <bit>
 #include <cmath>
 #include <limits>
-#include <utility>
 
 #include "storage/dense/brick_codec.h"
 #include "storage/dense/dense_store.h"
@@ -17,20 +16,19 @@ namespace simplexdb {
 Status DenseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progress) const {
   const uint64_t blocks = header_.stored_blocks, total = blocks + header_.bricks;
   const uint32_t n = static_cast<uint32_t>(header_.block_records());
-  // Entry `e`'s stored bytes against its checksum, even when the block or
-  // brick is cached or resident; `bad`: its Corruption naming it.
-  const auto check = [&](const DenseIndexEntry& e, const std::string& what) {
-    const auto bad = [this, what](const std::string& why) {
-      return Status::Corruption(path_ + ": " + what + ": " + why);
-    };
-    const bool ok = Checksum(file_->bytes().subspan(e.offset, e.stored_size)) == e.checksum;
-    return std::pair(ok ? Status::OK() : bad("checksum mismatch"), bad);
+  // Entry `e`'s stored bytes match its checksum (read from the file even
+  // when the block or brick is cached or resident).
+  const auto stored_ok = [this](const DenseIndexEntry& e) {
+    return Checksum(file_->bytes().subspan(e.offset, e.stored_size)) == e.checksum;
+  };
+  const auto corrupt = [this](const std::string& what, const std::string& why) {
+    return Status::Corruption(path_ + ": " + what + ": " + why);
   };
   for (uint64_t i = 0; i < blocks; ++i) {
     if (progress && i % 256 == 0) progress(i, total);
     const DenseIndexEntry e = entry(i);
-    const auto [checked, bad] = check(e, Describe(i));
-    SDB_RETURN_IF_ERROR(checked);
+    const auto bad = [&](const std::string& why) { return corrupt(Describe(i), why); };
+    if (!stored_ok(e)) return bad("checksum mismatch");
     SDB_ASSIGN_OR_RETURN(const BlockHandle h, Block(i));
     uint32_t largest = 0;
     for (uint32_t slot = 0; slot < n; ++slot) {
@@ -49,8 +47,8 @@ Status DenseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progres
   for (uint64_t b = 0; b < header_.bricks; ++b) {
     if (progress && (blocks + b) % 256 == 0) progress(blocks + b, total);
     const DenseIndexEntry e = brick_entry(b);
-    const auto [checked, bad] = check(e, DescribeBrick(b));
-    SDB_RETURN_IF_ERROR(checked);
+    const auto bad = [&](const std::string& why) { return corrupt(DescribeBrick(b), why); };
+    if (!stored_ok(e)) return bad("checksum mismatch");
     SDB_ASSIGN_OR_RETURN(const BlockHandle h, Brick(b));
     const BrickPlace place = grid_->Place(b);
     const size_t voxels = BrickVoxels(header_.dimension, place.extent);
