@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <type_traits>
@@ -25,13 +26,52 @@
 namespace simplexdb {
 namespace {
 
-// The stored block or brick: appended, checksummed, its entry filled.
-Status Append(AtomicFileWriter& writer, std::span<const uint8_t> stored, DenseIndexEntry& e) {
-  SDB_ASSIGN_OR_RETURN(e.offset, writer.Append(stored));
-  e.stored_size = static_cast<uint32_t>(stored.size());
-  e.checksum = Checksum(stored);
-  return Status::OK();
-}
+// Appends the stored blocks or bricks of one parallel run in the run's
+// item order, whichever worker finishes first, so that a store's bytes do
+// not depend on the thread count or on timing. A worker hands over its
+// item's bytes (none: nothing stored) and whoever completes the items
+// from the next one to append writes them; items finished early wait in
+// memory (a few, as items are taken in order). An item that fails is
+// never handed over: what follows it stays unwritten, and the run fails.
+class AppendInOrder {
+ public:
+  explicit AppendInOrder(AtomicFileWriter& file) : file_(file) {}
+
+  // Item `item`'s stored bytes, whose offset, size and checksum go to
+  // `entry` once written (`entry` null: the item stores nothing).
+  Status Put(uint64_t item, std::vector<uint8_t> bytes, DenseIndexEntry* entry) {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (item != next_) {
+      waiting_.emplace(item, Pending{std::move(bytes), entry});
+      return Status::OK();
+    }
+    SDB_RETURN_IF_ERROR(Write(bytes, entry));
+    for (auto it = waiting_.begin(); it != waiting_.end() && it->first == next_;
+         it = waiting_.erase(it)) {
+      SDB_RETURN_IF_ERROR(Write(it->second.bytes, it->second.entry));
+    }
+    return Status::OK();
+  }
+
+ private:
+  struct Pending {
+    std::vector<uint8_t> bytes;
+    DenseIndexEntry* entry;
+  };
+  Status Write(std::span<const uint8_t> stored, DenseIndexEntry* e) {
+    ++next_;
+    if (e == nullptr) return Status::OK();
+    SDB_ASSIGN_OR_RETURN(e->offset, file_.Append(stored));
+    e->stored_size = static_cast<uint32_t>(stored.size());
+    e->checksum = Checksum(stored);
+    return Status::OK();
+  }
+
+  AtomicFileWriter& file_;
+  std::mutex mu_;
+  uint64_t next_ = 0;
+  std::map<uint64_t, Pending> waiting_;
+};
 
 // OK when every value of the field fits the stored type. A field held in
 // the stored type's own C++ type (as the builder holds it) fits by
@@ -192,8 +232,9 @@ Status DenseStoreWriter::WriteBlocks(std::span<const uint64_t> which, const Dens
   }
   const size_t n = h_.block_records();
   const uint64_t stored_positions = h_.error_positions();
-  const auto block = [&](int w, uint64_t item) -> Status {
-    item = which[item];
+  AppendInOrder in_order(*writer_);
+  const auto block = [&](int w, uint64_t run_item) -> Status {
+    const uint64_t item = which[run_item];
     Worker& wk = Prepare(w);
     const uint64_t first = candidates_[item] << h_.block_bits;
     const size_t filled =
@@ -221,20 +262,17 @@ Status DenseStoreWriter::WriteBlocks(std::span<const uint64_t> which, const Dens
       StoreErrorCode(h_.quantization, wk.raw.data(), i, code);
     }
     RaiseErrorMax(emax);
-    if (!any_error && candidates_[item] != 0) return Status::OK();  // not stored
+    if (!any_error && candidates_[item] != 0) return in_order.Put(run_item, {}, nullptr);  // not stored
     DenseIndexEntry& e = entries_[item];
-    std::vector<uint8_t> compressed;
-    std::span<const uint8_t> bytes(wk.raw);
+    std::vector<uint8_t> bytes;
     e.encoding = static_cast<uint8_t>(BlockEncoding::kRaw);
     if (wk.zstd) {
-      SDB_ASSIGN_OR_RETURN(compressed, wk.zstd->Compress(wk.raw));
-      if (compressed.size() < wk.raw.size()) {
-        bytes = compressed;
-        e.encoding = static_cast<uint8_t>(BlockEncoding::kZstd);
-      }
+      SDB_ASSIGN_OR_RETURN(bytes, wk.zstd->Compress(wk.raw));
+      if (bytes.size() < wk.raw.size()) e.encoding = static_cast<uint8_t>(BlockEncoding::kZstd);
     }
-    SDB_RETURN_IF_ERROR(Append(*writer_, bytes, e));
+    if (e.encoding == static_cast<uint8_t>(BlockEncoding::kRaw)) bytes.assign(wk.raw.begin(), wk.raw.end());
     e.error_max = code_max;
+    SDB_RETURN_IF_ERROR(in_order.Put(run_item, std::move(bytes), &e));
     kept_[item] = 1;
     return Status::OK();
   };
@@ -256,6 +294,7 @@ Status DenseStoreWriter::WriteBricks(std::span<const uint64_t> which, const Held
     }
     brick_written_[b] = 1;
   }
+  AppendInOrder in_order(*writer_);
   const auto brick = [&](int w, uint64_t i) -> Status {
     const uint64_t b = which[i];
     Worker& wk = Prepare(w);
@@ -263,7 +302,7 @@ Status DenseStoreWriter::WriteBricks(std::span<const uint64_t> which, const Held
                          EncodeBrick(*grid_, b, field, h_.voxel_type, wk.zstd.get()));
     DenseIndexEntry& e = brick_entries_[b];
     e.encoding = static_cast<uint8_t>(coded.coding);
-    SDB_RETURN_IF_ERROR(Append(*writer_, coded.bytes, e));
+    SDB_RETURN_IF_ERROR(in_order.Put(i, std::move(coded.bytes), &e));
     e.field_min = RoundDownToFloat(coded.min);
     e.field_max = RoundUpToFloat(coded.max);
     if (b >= grid_->FirstBrick(0) && finest_max != nullptr) {

@@ -6,7 +6,9 @@
 // diamond of its level reaches it), asks the caller to fill those, drops
 // the ones that turn out to hold only zeros, quantizes errors (always
 // rounded up: storage/error/quantize.h), compresses blocks and bricks on
-// `threads` workers and appends them as they finish. Unless the header's
+// `threads` workers and appends them in the order they were asked for,
+// whichever worker finishes first: the same runs give the same bytes at
+// any thread count. Unless the header's
 // flags say kDenseFinestStored, the finest octave's errors are not asked for:
 // each grid brick records the largest of its vertices', which the caller
 // gives (the reader computes them from the field, storage/error/

@@ -218,6 +218,38 @@ TEST(StoreCli, RealVolumesAndTimeSeries) {
   EXPECT_EQ(nlohmann::json::parse(r.out)["dims"], (std::vector<int>{9, 9, 9, 3}));
 }
 
+// An import is reproducible: every shared volume, imported with one thread
+// and with the default (one per core), gives the same bytes; the small ones
+// also as sparse stores (whose build takes seconds on the larger ones).
+TEST(StoreCli, ImportGivesTheSameBytesAtAnyThreadCount) {
+  const std::string data = SIMPLEXDB_SHARED_DATA;
+  if (!fs::exists(data)) GTEST_SKIP() << "no " << data;
+  const TempDir dir;
+  const std::vector<std::pair<std::string, bool>> volumes = {  // and whether sparse too
+      {"bucky/bucky_32x32x32_uint8.raw --dims 32,32,32 --type uint8", true},
+      {"neghip/neghip_64x64x64_uint8.raw --dims 64,64,64 --type uint8", true},
+      {"tooth/tooth_103x94x161_uint8.raw --dims 103,94,161 --type uint8", true},
+      {"headsq/headsq_64x64x93_int16le.raw --dims 64,64,93 --type int16 --spacing 3.2,3.2,1.5", true},
+      {"lidc2/LIDC2_256x256x133_uint8.raw --dims 256,256,133 --type uint8", false},
+      {"fmri_example4d/example4d.nii", false},
+      {"dwi_small_101D/small_101D.nii", false},
+  };
+  for (const auto& [volume, sparse_too] : volumes) {
+    for (const std::string kind : {"", " --sparse"}) {
+      if (!kind.empty() && !sparse_too) continue;
+      SCOPED_TRACE(volume + kind);
+      const std::string one = dir.path() + "/one.sdb", all = dir.path() + "/all.sdb";
+      auto r = RunCli("import " + data + "/" + volume + kind + " --threads 1 --quiet -o " + one);
+      ASSERT_EQ(r.exit_code, 0) << r.err;
+      r = RunCli("import " + data + "/" + volume + kind + " --quiet -o " + all);
+      ASSERT_EQ(r.exit_code, 0) << r.err;
+      // (A sparse store's lock file, beside it, holds no data.)
+      EXPECT_TRUE(testing::ReadFileBytes(one) == testing::ReadFileBytes(all));
+      EXPECT_FALSE(testing::ReadFileBytes(one).empty());
+    }
+  }
+}
+
 TEST(StoreCli, BadInputSaysWhatAndWhere) {
   const TempDir dir;
   const std::string raw = dir.path() + "/v.raw";
