@@ -278,6 +278,7 @@ Result<ExtractResult> Extract(const AnyStore& store, const ExtractRequest& reque
     c.blocks_decoded = hs.blocks_decoded + hs.raw_checked;
     c.distinct_blocks = hs.distinct;
     c.finest_boxes_computed = hs.boxes_computed;
+    c.finest_vertices_computed = hs.finest_computed;
     if (dense->cache() != nullptr) c.cache_bytes = dense->cache()->charge();
     out.dense = c;
   }
@@ -323,6 +324,7 @@ nlohmann::ordered_json ExtractStatsJson(const ExtractResult& r) {
     j["blocks_decoded"] = r.dense->blocks_decoded;
     j["distinct_blocks"] = r.dense->distinct_blocks;
     j["finest_boxes_computed"] = r.dense->finest_boxes_computed;
+    j["finest_vertices_computed"] = r.dense->finest_vertices_computed;
     if (r.dense->cache_bytes) j["cache_bytes"] = *r.dense->cache_bytes;
   }
   if (r.conformity) {

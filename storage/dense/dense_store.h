@@ -110,6 +110,9 @@ class DenseStore {
   struct BlockHandle {
     const uint8_t* data = nullptr;  // block_bytes() bytes, or a brick's voxels
     std::shared_ptr<const void> keep;
+    // FinestCodes out of core: a box whose codes are computed a vertex at a
+    // time as readers ask for them (LazyCode, ComputeLazyCode).
+    bool lazy = false;
   };
   // Stored block `i`, decoded.
   Result<BlockHandle> Block(uint64_t stored) const;
@@ -117,9 +120,19 @@ class DenseStore {
   Result<BlockHandle> Brick(uint64_t b) const;
   // The finest-octave error codes of the vertices grid brick `b` owns
   // (BrickGrid::FinestBox), computed from the field, each as a block's
-  // (StoredErrorAt), at FinestTiles' slots. REQUIRES: !finest_stored(), b a
-  // brick of lattice 0.
+  // (StoredErrorAt), at FinestTiles' slots. In memory every box is
+  // computed at open. Out of core the handle is `lazy`: a shared box of
+  // codes that readers fill a vertex at a time the first time one asks for
+  // it (LazyCode, then ComputeLazyCode from the field around the box,
+  // GatherFinestWindow), so a query that refines part of a brick pays for
+  // that part, and a vertex asked for again costs a load.
+  // REQUIRES: !finest_stored(), b a brick of lattice 0.
   Result<BlockHandle> FinestCodes(uint64_t b) const;
+  // The field around grid brick b's finest box (FinestBoxErrors' window:
+  // the box grown by 2 points per side, x fastest; points past the real
+  // grid 0) as the store's voxels, into `window`. Asks for each brick it
+  // meets once.
+  Status GatherFinestWindow(uint64_t b, std::vector<uint8_t>& window) const;
 
   // Where a finest box's codes are: in tiles of 4^D points (4 per axis, x
   // fastest within), the tiles x fastest over the box. A walk's lookups
@@ -156,10 +169,25 @@ class DenseStore {
   };
 
 
-  // The error code at `slot` of a decoded block (or of FinestCodes).
+  // The error code at `slot` of a decoded block (or of a FinestCodes box
+  // computed whole).
   uint32_t StoredErrorAt(const uint8_t* block, uint32_t slot) const {
     return LoadErrorCode(header_.quantization, block, slot);
   }
+  // A lazy box's code at `slot` (>= 0; tiles: the box's), when some
+  // reader has computed it: true, and *code set.
+  bool LazyCode(const BlockHandle& box, const FinestTiles& tiles, int64_t slot, uint32_t* code) const {
+    const uint8_t bit = static_cast<uint8_t>(1u << (slot & 7));
+    if ((LazyBits(box, tiles)[slot >> 3].load(std::memory_order_acquire) & bit) == 0) return false;
+    *code = LazyCodeRef(box, slot);
+    return true;
+  }
+  // Computes finest vertex g's code (at `slot` of the lazy `box`) from
+  // `window`, GatherFinestWindow's for the box, stores it in the box and
+  // returns it. Thread-safe: readers racing on a vertex store the same code.
+  template <size_t N>
+  uint32_t ComputeLazyCode(const BlockHandle& box, const FinestTiles& tiles,
+                           const std::array<int64_t, N>& g, int64_t slot, const uint8_t* window) const;
   double VoxelAt(const uint8_t* brick, size_t slot) const;
 
   // Reads every stored block and brick: checksums, decoding, errors finite
@@ -178,13 +206,15 @@ class DenseStore {
     uint64_t blocks_decoded = 0;  // zstd frames decoded (cache misses), blocks and bricks
     uint64_t raw_checked = 0;     // raw blocks and bricks checksummed on first use
     uint64_t distinct = 0;        // different blocks and bricks asked for since the open
-    uint64_t boxes_computed = 0;  // bricks' finest errors computed (cache misses)
+    uint64_t boxes_computed = 0;  // bricks' finest boxes made (cache misses)
+    uint64_t finest_computed = 0;  // finest vertices' errors computed (lazy boxes)
   };
   Stats stats() const {
     return Stats{decoded_.load(std::memory_order_relaxed),
                  raw_checked_.load(std::memory_order_relaxed),
                  distinct_.load(std::memory_order_relaxed),
-                 boxes_.load(std::memory_order_relaxed)};
+                 boxes_.load(std::memory_order_relaxed),
+                 finest_computed_.load(std::memory_order_relaxed)};
   }
   const BlockCache* cache() const { return cache_.get(); }
 
@@ -282,6 +312,17 @@ class DenseStore {
     };
     std::vector<HeldBrick> held_bricks_;
     std::array<HeldBrick, 8> held_boxes_;
+    // The code at `slot` of a held finest box (for vertex g): a computed
+    // one, or one computed now from the field around the box.
+    Result<uint32_t> BoxCode(const HeldBrick& box, const std::array<int64_t, D>& g, int64_t slot);
+    // The field around the last few finest boxes this reader computed
+    // vertices of (GatherFinestWindow), by brick; replaced oldest first.
+    struct Window {
+      uint64_t brick = ~uint64_t{0};
+      std::vector<uint8_t> bytes;
+    };
+    std::array<Window, 16> windows_;
+    size_t next_window_ = 0;
     int last_box_ = -1;  // index of the held box used last (-1: none)
     std::array<int64_t, D> last_vertex_{};
     uint64_t last_position_ = ~uint64_t{0};
@@ -298,6 +339,20 @@ class DenseStore {
   Result<std::shared_ptr<const BlockCache::Block>> ComputeFinest(uint64_t b) const;
   template <int D>
   Result<std::shared_ptr<const BlockCache::Block>> ComputeFinestOf(uint64_t b) const;
+  // A lazy finest box (FinestCodes out of core): one buffer of the codes
+  // at their tiles' slots, then a bit per slot, set once its code is
+  // (release; read with acquire). Codes and bits are read and written as
+  // atomics: readers share the box.
+  Result<std::shared_ptr<const BlockCache::Block>> MakeLazyFinest(uint64_t b) const;
+  struct AtomicBytes {
+    uint8_t* bytes;
+    std::atomic_ref<uint8_t> operator[](int64_t i) const { return std::atomic_ref<uint8_t>(bytes[i]); }
+  };
+  AtomicBytes LazyBits(const BlockHandle& box, const FinestTiles& tiles) const {
+    return {const_cast<uint8_t*>(box.data) + error_size_ * tiles.slots};
+  }
+  uint32_t LazyCodeRef(const BlockHandle& box, int64_t slot) const;
+  void SetLazyCode(const BlockHandle& box, int64_t slot, uint32_t code) const;
   std::string Describe(uint64_t stored) const { return DescribeBlock(VirtualBlock(stored)); }
   // Counts a first request of block or brick `i` (blocks first, then bricks).
   void Touch(uint64_t i) const;
@@ -330,6 +385,7 @@ class DenseStore {
   mutable std::atomic<uint64_t> raw_checked_{0};
   mutable std::atomic<uint64_t> distinct_{0};
   mutable std::atomic<uint64_t> boxes_{0};
+  mutable std::atomic<uint64_t> finest_computed_{0};
 };
 
 // Coarse reads (storage/dense/dense_lattice.cc): the field at the points lo +

@@ -117,7 +117,7 @@ Result<uint32_t> DenseStore::Reader<D>::FinestCodeAt(const std::array<int64_t, D
   if (last_box_ >= 0) {
     const HeldBrick& last = held_boxes_[static_cast<size_t>(last_box_)];
     if (const int64_t slot = last.tiles.Slot(g); slot >= 0) {
-      return store_.StoredErrorAt(last.handle.data, static_cast<uint32_t>(slot));
+      return BoxCode(last, g, slot);
     }
   }
   std::array<int64_t, 4> g4{};
@@ -142,7 +142,27 @@ Result<uint32_t> DenseStore::Reader<D>::FinestCodeAt(const std::array<int64_t, D
   const int64_t slot = held.tiles.Slot(g);
   if (slot < 0) return 0u;  // past the box: no real point in its diamond
   last_box_ = index;
-  return store_.StoredErrorAt(held.handle.data, static_cast<uint32_t>(slot));
+  return BoxCode(held, g, slot);
+}
+
+template <int D>
+Result<uint32_t> DenseStore::Reader<D>::BoxCode(const HeldBrick& box, const std::array<int64_t, D>& g,
+                                                int64_t slot) {
+  if (!box.handle.lazy) return store_.StoredErrorAt(box.handle.data, static_cast<uint32_t>(slot));
+  uint32_t code = 0;
+  if (store_.LazyCode(box.handle, box.tiles, slot, &code)) return code;
+  Window* window = nullptr;
+  for (Window& w : windows_) {
+    if (w.brick == box.brick) window = &w;
+  }
+  if (window == nullptr) {
+    window = &windows_[next_window_];
+    next_window_ = (next_window_ + 1) % windows_.size();
+    window->brick = ~uint64_t{0};
+    SDB_RETURN_IF_ERROR(store_.GatherFinestWindow(box.brick, window->bytes));
+    window->brick = box.brick;
+  }
+  return store_.ComputeLazyCode(box.handle, box.tiles, g, slot, window->bytes.data());
 }
 
 template <int D>

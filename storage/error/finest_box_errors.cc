@@ -1,7 +1,5 @@
 #include "storage/error/finest_box_errors.h"
 
-#include <cassert>
-
 namespace simplexdb {
 namespace {
 
@@ -36,32 +34,13 @@ void FinestBoxErrors<D>::Compute(const std::array<int64_t, D>& first,
                                  const std::array<int64_t, D>& extent, int k,
                                  const std::array<int64_t, D>& dims, const double* window,
                                  double* out) const {
-  const int64_t side = int64_t{1} << k;
-  // Window index of grid point p.
-  const auto index = [&](const std::array<int64_t, D>& p) {
-    int64_t i = 0;
-    for (int a = 0; a < D; ++a) {
-      assert(p[a] - first[a] + 2 >= 0 && p[a] - first[a] + 2 < window_side_);
-      i += (p[a] - first[a] + 2) * strides_[a];
-    }
-    return i;
-  };
-  const auto field = [&](const std::array<int64_t, D>& p) { return window[index(p)]; };
-  std::array<int64_t, D> local{};
+  std::array<int64_t, D> g = first;
   for (uint64_t slot = 0;; ++slot) {
-    std::array<int64_t, D> g{};
-    bool finest = false, inside = true;
-    for (int a = 0; a < D; ++a) {
-      g[a] = first[a] + local[a];
-      finest = finest || (g[a] & 1) != 0;
-      inside = inside && g[a] <= side;
-    }
-    out[slot] = finest && inside ? FinestDiamondError<D>(stencils_, window + index(g), g, k, dims, field)
-                                 : 0.0;
+    out[slot] = ErrorAt(g, first, k, dims, window);
     int a = 0;
     for (; a < D; ++a) {
-      if (++local[a] < extent[a]) break;
-      local[a] = 0;
+      if (++g[a] < first[a] + extent[a]) break;
+      g[a] = first[a];
     }
     if (a == D) break;
   }

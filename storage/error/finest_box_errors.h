@@ -18,6 +18,7 @@
 #pragma once
 
 #include <array>
+#include <cassert>
 #include <cstdint>
 
 #include "storage/error/finest_diamonds.h"
@@ -73,7 +74,36 @@ class FinestBoxErrors {
   void Compute(const std::array<int64_t, D>& first, const std::array<int64_t, D>& extent, int k,
                const std::array<int64_t, D>& dims, const double* window, double* out) const;
 
+  // One vertex of Compute's: the error of g, a point of the box from
+  // `first`, or 0 (g not a finest vertex, or past the domain). `window`
+  // as Compute's, of any type V holding the field's values exactly (the
+  // store's voxel type: the same errors as from doubles).
+  template <class V>
+  double ErrorAt(const std::array<int64_t, D>& g, const std::array<int64_t, D>& first, int k,
+                 const std::array<int64_t, D>& dims, const V* window) const {
+    bool finest = false, inside = true;
+    for (int a = 0; a < D; ++a) {
+      finest = finest || (g[a] & 1) != 0;
+      inside = inside && g[a] <= (int64_t{1} << k);
+    }
+    if (!finest || !inside) return 0.0;
+    const auto field = [&](const std::array<int64_t, D>& p) {
+      return static_cast<double>(window[WindowIndex(p, first)]);
+    };
+    return FinestDiamondError<D>(stencils_, window + WindowIndex(g, first), g, k, dims, field);
+  }
+
  private:
+  // The window index of grid point p, for the box from `first`.
+  int64_t WindowIndex(const std::array<int64_t, D>& p, const std::array<int64_t, D>& first) const {
+    int64_t i = 0;
+    for (int a = 0; a < D; ++a) {
+      assert(p[a] - first[a] + 2 >= 0 && p[a] - first[a] + 2 < window_side_);
+      i += (p[a] - first[a] + 2) * strides_[a];
+    }
+    return i;
+  }
+
   int64_t window_side_;
   std::array<int64_t, D> strides_{};
   DiamondStencils<D> stencils_;
