@@ -316,13 +316,15 @@ class DenseStore {
     // one, or one computed now from the field around the box.
     Result<uint32_t> BoxCode(const HeldBrick& box, const std::array<int64_t, D>& g, int64_t slot);
     // The field around the last few finest boxes this reader computed
-    // vertices of (GatherFinestWindow), by brick; replaced oldest first.
+    // vertices of (GatherFinestWindow), by brick; the least recently used
+    // is replaced (a walk along a brick's face alternates between two).
     struct Window {
       uint64_t brick = ~uint64_t{0};
+      uint64_t used = 0;  // windows_tick_ when last used
       std::vector<uint8_t> bytes;
     };
     std::array<Window, 16> windows_;
-    size_t next_window_ = 0;
+    uint64_t windows_tick_ = 0;
     int last_box_ = -1;  // index of the held box used last (-1: none)
     std::array<int64_t, D> last_vertex_{};
     uint64_t last_position_ = ~uint64_t{0};

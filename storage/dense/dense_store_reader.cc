@@ -152,16 +152,18 @@ Result<uint32_t> DenseStore::Reader<D>::BoxCode(const HeldBrick& box, const std:
   uint32_t code = 0;
   if (store_.LazyCode(box.handle, box.tiles, slot, &code)) return code;
   Window* window = nullptr;
+  Window* oldest = &windows_[0];
   for (Window& w : windows_) {
     if (w.brick == box.brick) window = &w;
+    if (w.used < oldest->used) oldest = &w;
   }
   if (window == nullptr) {
-    window = &windows_[next_window_];
-    next_window_ = (next_window_ + 1) % windows_.size();
+    window = oldest;
     window->brick = ~uint64_t{0};
     SDB_RETURN_IF_ERROR(store_.GatherFinestWindow(box.brick, window->bytes));
     window->brick = box.brick;
   }
+  window->used = ++windows_tick_;
   return store_.ComputeLazyCode(box.handle, box.tiles, g, slot, window->bytes.data());
 }
 
