@@ -40,10 +40,11 @@ def generated(work, name, dims, dtype, seed):
     return store
 
 
-def shared(work, name, path, dims, dtype):
+def shared(work, name, path, dims=None, dtype=None):
     store = os.path.join(work, name + ".sdb")
     if not os.path.exists(store):
-        run(["import", os.path.join(SHARED, path), "--dims", dims, "--type", dtype, "-o", store, "--quiet"])
+        raw = ["--dims", dims, "--type", dtype] if dims else []  # NIfTI says them itself
+        run(["import", os.path.join(SHARED, path)] + raw + ["-o", store, "--quiet"])
     return store
 
 
@@ -69,6 +70,7 @@ def main():
         ("257^3 uint8, 0.5%", p257, ["--error", "0.5%"]),
         ("513^3 float32, 1%", p513, ["--error", "1%"]),
         ("513^3 float32, 0.25%", p513, ["--error", "0.25%"]),
+        ("HP 65^4 uint8, 1%", generated(a.work, "perlin65_4d_u8", "65,65,65,65", "uint8", 5), ["--error", "1%"]),
     ]
     if os.path.isdir(SHARED):
         for name, path, dims, dtype in [
@@ -79,6 +81,7 @@ def main():
             ("lidc2", "lidc2/LIDC2_256x256x133_uint8.raw", "256,256,133", "uint8"),
         ]:
             queries.append((name + ", 1%", shared(a.work, name, path, dims, dtype), ["--error", "1%"]))
+        queries.append(("fmri (HP), 1%", shared(a.work, "fmri", "fmri_example4d/example4d.nii"), ["--error", "1%"]))
     if a.large:
         p1025 = generated(a.work, "perlin1025_u8", "1025,1025,1025", "uint8", 5)
         queries.append(("1025^3 uint8, 1%", p1025, ["--error", "1%"]))

@@ -279,6 +279,7 @@ Result<ExtractResult> Extract(const AnyStore& store, const ExtractRequest& reque
     c.distinct_blocks = hs.distinct;
     c.finest_boxes_computed = hs.boxes_computed;
     c.finest_vertices_computed = hs.finest_computed;
+    c.bricks_decoded = hs.bricks_read;
     if (dense->cache() != nullptr) c.cache_bytes = dense->cache()->charge();
     out.dense = c;
   }
@@ -322,6 +323,7 @@ nlohmann::ordered_json ExtractStatsJson(const ExtractResult& r) {
   j["anonymous_memory_bytes"] = r.anonymous_memory_bytes;
   if (r.dense) {
     j["blocks_decoded"] = r.dense->blocks_decoded;
+    j["bricks_decoded"] = r.dense->bricks_decoded;  // of blocks_decoded
     j["distinct_blocks"] = r.dense->distinct_blocks;
     j["finest_boxes_computed"] = r.dense->finest_boxes_computed;
     j["finest_vertices_computed"] = r.dense->finest_vertices_computed;

@@ -81,11 +81,12 @@ struct ExtractResult {
   std::optional<double> given_time;          // request.time, as given
   std::optional<ConformityReport> conformity;  // request.check
   // A dense store's counters since it opened (DenseStore::Stats): blocks and
-  // bricks decoded or checked, distinct ones, bricks' finest boxes made and
-  // finest vertices' errors computed, and the decoded bytes its cache holds.
+  // bricks decoded or checked (and of those the bricks), distinct ones,
+  // bricks' finest boxes made and finest vertices' errors computed, and the
+  // decoded bytes its cache holds.
   struct DenseCounters {
     uint64_t blocks_decoded = 0, distinct_blocks = 0, finest_boxes_computed = 0,
-             finest_vertices_computed = 0;
+             finest_vertices_computed = 0, bricks_decoded = 0;
     std::optional<uint64_t> cache_bytes;
   };
   std::optional<DenseCounters> dense;

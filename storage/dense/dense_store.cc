@@ -390,6 +390,7 @@ Result<std::shared_ptr<const BlockCache::Block>> DenseStore::DecodeBrickAt(uint6
                                   place.extent, ThreadDecompressor(), *brick,
                                   path_ + ": " + DescribeBrick(b)));
   (coding == BrickCoding::kRaw ? raw_checked_ : decoded_).fetch_add(1, std::memory_order_relaxed);
+  bricks_read_.fetch_add(1, std::memory_order_relaxed);
   return std::shared_ptr<const BlockCache::Block>(std::move(brick));
 }
 

@@ -208,13 +208,15 @@ class DenseStore {
     uint64_t distinct = 0;        // different blocks and bricks asked for since the open
     uint64_t boxes_computed = 0;  // bricks' finest boxes made (cache misses)
     uint64_t finest_computed = 0;  // finest vertices' errors computed (lazy boxes)
+    uint64_t bricks_read = 0;      // of blocks_decoded and raw_checked, the bricks
   };
   Stats stats() const {
     return Stats{decoded_.load(std::memory_order_relaxed),
                  raw_checked_.load(std::memory_order_relaxed),
                  distinct_.load(std::memory_order_relaxed),
                  boxes_.load(std::memory_order_relaxed),
-                 finest_computed_.load(std::memory_order_relaxed)};
+                 finest_computed_.load(std::memory_order_relaxed),
+                 bricks_read_.load(std::memory_order_relaxed)};
   }
   const BlockCache* cache() const { return cache_.get(); }
 
@@ -388,6 +390,7 @@ class DenseStore {
   mutable std::atomic<uint64_t> distinct_{0};
   mutable std::atomic<uint64_t> boxes_{0};
   mutable std::atomic<uint64_t> finest_computed_{0};
+  mutable std::atomic<uint64_t> bricks_read_{0};
 };
 
 // Coarse reads (storage/dense/dense_lattice.cc): the field at the points lo +

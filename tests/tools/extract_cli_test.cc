@@ -197,6 +197,20 @@ TEST_F(ExtractCli, ReportsTheCacheWithinItsBudget) {
   EXPECT_GE(j["peak_memory_bytes"].get<uint64_t>(), j["cache_bytes"].get<uint64_t>());
   EXPECT_GE(j["anonymous_memory_bytes"].get<uint64_t>(), j["cache_bytes"].get<uint64_t>());
   EXPECT_LE(j["anonymous_memory_bytes"].get<uint64_t>(), j["peak_memory_bytes"].get<uint64_t>());
+
+  // With a cache that holds the store, the full-resolution mesh decodes
+  // each block and brick once, bricks among them (the field around the
+  // finest boxes), and computes finest errors for at most every grid point.
+  r = RunCli("extract " + store_ + " --error 0 --cache-mb 256");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto all = Json(r);
+  const auto info = Json(RunCli("info " + store_ + " --json"));
+  EXPECT_EQ(all["blocks_decoded"], all["distinct_blocks"]);
+  EXPECT_GT(all["bricks_decoded"].get<uint64_t>(), 0u);
+  EXPECT_LT(all["bricks_decoded"].get<uint64_t>(), all["blocks_decoded"].get<uint64_t>());
+  EXPECT_LE(all["bricks_decoded"].get<uint64_t>(), info["bricks"].get<uint64_t>());
+  EXPECT_GT(all["finest_vertices_computed"].get<uint64_t>(), 0u);
+  EXPECT_LE(all["finest_vertices_computed"].get<uint64_t>(), info["grid_points"].get<uint64_t>());
 }
 
 // A grid that is not 2^k + 1 on a side, with a physical spacing (the
