@@ -1,6 +1,6 @@
 // DenseStore's Reader (one thread's lookups) and Verify (storage/dense/
-// dense_store.h); the store's opening, blocks, bricks and finest boxes are in
-// dense_store.cc.
+// dense_store.h); the store's opening, blocks and bricks are in
+// dense_store.cc, its finest boxes in dense_finest.cc.
 #include <algorithm>
 #include <bit>
 #include <cmath>
