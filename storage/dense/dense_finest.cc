@@ -56,6 +56,14 @@ Result<std::shared_ptr<const BlockCache::Block>> DenseStore::MakeLazyFinest(uint
   }
 }
 
+size_t DenseStore::FinestWindowBytes() const {
+  if (header_.finest_stored()) return 0;
+  const int64_t w = header_.dimension == 3 ? finest3_->window_side() : finest4_->window_side();
+  size_t points = 1;
+  for (int a = 0; a < header_.dimension; ++a) points *= static_cast<size_t>(w);
+  return points * voxel_size_;
+}
+
 Status DenseStore::GatherFinestWindow(uint64_t b, std::vector<uint8_t>& window) const {
   static_assert(std::endian::native == std::endian::little, "bricks hold little-endian voxels");
   const int d = header_.dimension;

@@ -23,7 +23,9 @@
 // (hierarchy/hz_order.h SplitVertexCursor).
 //
 // Memory: decoded blocks, bricks and finest boxes live in the BlockCache (a
-// budget set by the caller) plus those a Reader holds; raw blocks, the
+// budget set by the caller) plus those a Reader holds, and each Reader
+// keeps the field around a few finest boxes (at most 16, within about 1 MiB
+// unless one alone is larger; FinestWindowBytes()); raw blocks, the
 // bitmap and the indexes are read from the mapping. Beyond that the store
 // keeps 8 bytes per 64 virtual blocks (the bitmap's rank directory), two
 // bytes per stored block and one per brick. With Options::in_memory every
@@ -133,6 +135,8 @@ class DenseStore {
   // grid 0) as the store's voxels, into `window`. Asks for each brick it
   // meets once.
   Status GatherFinestWindow(uint64_t b, std::vector<uint8_t>& window) const;
+  // The bytes of such a window (0 when the store keeps its finest errors).
+  size_t FinestWindowBytes() const;
 
   // Where a finest box's codes are: in tiles of 4^D points (4 per axis, x
   // fastest within), the tiles x fastest over the box. A walk's lookups
@@ -320,12 +324,14 @@ class DenseStore {
     // The field around the last few finest boxes this reader computed
     // vertices of (GatherFinestWindow), by brick; the least recently used
     // is replaced (a walk along a brick's face alternates between two).
+    // Up to 16 (an HT uint8 window is 10 KiB), within about 1 MiB (an HP
+    // float64 one is 300 KiB), at least 2.
     struct Window {
       uint64_t brick = ~uint64_t{0};
       uint64_t used = 0;  // windows_tick_ when last used
       std::vector<uint8_t> bytes;
     };
-    std::array<Window, 16> windows_;
+    std::vector<Window> windows_;
     uint64_t windows_tick_ = 0;
     int last_box_ = -1;  // index of the held box used last (-1: none)
     std::array<int64_t, D> last_vertex_{};
