@@ -58,9 +58,8 @@ Result<std::shared_ptr<const BlockCache::Block>> DenseStore::MakeLazyFinest(uint
 
 size_t DenseStore::FinestWindowBytes() const {
   if (header_.finest_stored()) return 0;
-  const int64_t w = header_.dimension == 3 ? finest3_->window_side() : finest4_->window_side();
   size_t points = 1;
-  for (int a = 0; a < header_.dimension; ++a) points *= static_cast<size_t>(w);
+  for (int a = 0; a < header_.dimension; ++a) points *= static_cast<size_t>(FinestWindowSide());
   return points * voxel_size_;
 }
 
@@ -68,19 +67,17 @@ Status DenseStore::GatherFinestWindow(uint64_t b, std::vector<uint8_t>& window) 
   static_assert(std::endian::native == std::endian::little, "bricks hold little-endian voxels");
   const int d = header_.dimension;
   const BrickGrid::Box box = grid_->FinestBox(b);
-  const int64_t w = d == 3 ? finest3_->window_side() : finest4_->window_side();
-  uint64_t window_points = 1;
+  const int64_t w = FinestWindowSide();
   std::array<int64_t, 4> lo{}, hi{};
   for (int a = 0; a < d; ++a) {
-    window_points *= static_cast<uint64_t>(w);
     // The window's real points.
     lo[a] = std::max<int64_t>(0, box.first[a] - 2);
     hi[a] = std::min<int64_t>(header_.dims[a] - 1, box.first[a] - 2 + w - 1);
   }
   try {
-    window.assign(window_points * voxel_size_, 0);
+    window.assign(FinestWindowBytes(), 0);
   } catch (const std::bad_alloc&) {
-    return NotEnoughMemory(path_ + ": the field around " + DescribeBrick(b), window_points * voxel_size_);
+    return NotEnoughMemory(path_ + ": the field around " + DescribeBrick(b), FinestWindowBytes());
   }
   // Brick by brick (lattice 0: every point), a row segment at a time,
   // voxels copied as they are.

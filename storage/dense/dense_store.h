@@ -362,6 +362,10 @@ class DenseStore {
     return {const_cast<uint8_t*>(box.data) + error_size_ * tiles.slots};
   }
   uint32_t LazyCodeRef(const BlockHandle& box, int64_t slot) const;
+  // FinestBoxErrors' window side, per axis. REQUIRES: !finest_stored().
+  int64_t FinestWindowSide() const {
+    return header_.dimension == 3 ? finest3_->window_side() : finest4_->window_side();
+  }
   void SetLazyCode(const BlockHandle& box, int64_t slot, uint32_t code) const;
   std::string Describe(uint64_t stored) const { return DescribeBlock(VirtualBlock(stored)); }
   // Counts a first request of block or brick `i` (blocks first, then bricks).
