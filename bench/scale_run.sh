@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The dense store's scale runs: a SIDE^3 Perlin volume (uint8) built into an
-# HT store within MEMORY_MB (`import --memory-mb`: the field and the diamond
-# table in memory when they fit, else the streamed build, a window of planes
-# at a time), then read two ways:
+# HT store within MEMORY_MB (`import --memory-mb`: the whole field in one
+# window when it fits, else the widest window of planes that does), then
+# read two ways:
 #   - a 1% query in level order with a 256 MiB cache (`extract --json`:
 #     seconds, splits per second, blocks decoded against distinct blocks);
 #   - a million random lookups with a 64 MiB cache
@@ -16,9 +16,9 @@
 #
 # ctest runs two (label "long", not in the default suite):
 #   ScaleBuild1025: 1025 4096 (1.08 billion points, 6.4 billion
-#     tetrahedra; the volume takes 1.1 GB of disk; the direct build);
+#     tetrahedra; the volume takes 1.1 GB of disk; one window);
 #   ScaleBuild2049: 2049 4096 (8.6 billion points, 52 billion tetrahedra;
-#     the volume takes 8.6 GB; the streamed build).
+#     the volume takes 8.6 GB; several windows).
 # The query holds its mesh in memory (a 1% mesh of 257^3 uint8 Perlin
 # noise: 6.9 M tetrahedra, 274 MiB peak).
 set -euo pipefail

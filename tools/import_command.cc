@@ -51,6 +51,8 @@ void PrintDenseBuild(const DenseBuildReport& built, const VolumeInfo& input, con
     j["file_bytes"] = h.file_size;
     j["stored_blocks"] = h.stored_blocks;
     j["error_method"] = built.method;
+    j["windows"] = built.windows;
+    j["window_planes"] = built.window_planes;
     if (input.scaled()) j["scaling"] = {{"slope", input.scale}, {"intercept", input.shift}};
     std::cout << j.dump() << "\n";
     return;
@@ -64,10 +66,9 @@ void PrintDenseBuild(const DenseBuildReport& built, const VolumeInfo& input, con
   }
   fmt::print("  built in {:.2f} s: {:.3g} grid points/s, peak memory {}\n", built.seconds,
              points_per_second, HumanBytes(peak));
-  if (std::string(built.method) == "engine") {
-    fmt::print("  errors per node through format 1 (a mask or missing values), all stored\n");
-  } else if (std::string(built.method) == "streamed") {
-    fmt::print("  the field read a window of planes at a time (larger than --memory-mb)\n");
+  if (built.windows > 1) {
+    fmt::print("  the field read in {} windows of {} planes (the whole field exceeds --memory-mb)\n",
+               built.windows, built.window_planes);
   }
   fmt::print("  {} on disk ({:.2f} bytes per grid point, {} error blocks, {} bricks)\n",
              HumanBytes(h.file_size), static_cast<double>(h.file_size) / built.grid_points,

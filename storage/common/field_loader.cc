@@ -27,6 +27,80 @@ Status MaskedReader::Read(uint64_t first, size_t count, double* out) {
   return Status::OK();
 }
 
+PlaneReader::PlaneReader(const VolumeInfo& input, const std::optional<VolumeInfo>& mask, int threads) {
+  for (int a = 0; a + 1 < input.dimension; ++a) plane_ *= input.dims[a];
+  const int workers = input.encoding == VolumeInfo::Encoding::kGzip ? 1 : std::max(1, threads);
+  for (int w = 0; w < workers; ++w) readers_.emplace_back(input, mask);
+  buffers_.resize(static_cast<size_t>(workers));
+}
+
+Status PlaneReader::Read(int64_t lo, int64_t hi, const char* phase,
+                         std::chrono::steady_clock::time_point start,
+                         const std::function<void(const BuildProgress&)>& progress,
+                         const PlaneSink& sink) {
+  if (lo >= hi) return Status::OK();
+  return RunParallel(static_cast<uint64_t>(hi - lo), static_cast<int>(readers_.size()), phase, start,
+                     progress, [&](int w, uint64_t i) -> Status {
+    const int64_t z = lo + static_cast<int64_t>(i);
+    std::vector<double>& values = buffers_[static_cast<size_t>(w)];
+    values.resize(plane_);
+    SDB_RETURN_IF_ERROR(
+        readers_[static_cast<size_t>(w)].Read(static_cast<uint64_t>(z) * plane_, plane_, values.data()));
+    return sink(w, z, values.data());
+  });
+}
+
+Result<FieldRange> ScanPlanes(const VolumeInfo& input, const std::optional<VolumeInfo>& mask,
+                              const LoadFieldOptions& options,
+                              const std::function<void(int64_t z, const double* values)>& sink) {
+  // What a plane finds is kept by plane, and the first failure's in file
+  // order is reported, as a one-thread read would.
+  struct PlaneResult {
+    Status status;
+    bool missing = false;
+    double min = std::numeric_limits<double>::infinity(), max = -min;
+  };
+  const int64_t planes = input.dims[input.dimension - 1];
+  std::vector<PlaneResult> found(static_cast<size_t>(planes));
+  PlaneReader reader(input, mask, options.threads);
+  const uint64_t n = reader.plane_points();
+  SDB_RETURN_IF_ERROR(reader.Read(0, planes, "field", options.start, options.progress,
+                                  [&](int, int64_t z, double* values) -> Status {
+    PlaneResult& result = found[static_cast<size_t>(z)];
+    result.status = CheckStorableValues(input, static_cast<uint64_t>(z) * n, values, n);
+    for (uint64_t i = 0; i < n && result.status.ok(); ++i) {
+      double& v = values[i];
+      if (std::isnan(v)) {
+        result.missing = true;
+        if (!IsFloatType(options.stored)) {
+          result.status = Status::InvalidArgument(
+              input.description + ": a missing value at voxel " + std::to_string(z * n + i) +
+              " in a field stored as integers");
+        }
+        continue;
+      }
+      if (options.stored == VoxelType::kF32) v = static_cast<float>(v);
+      result.min = std::min(result.min, v);
+      result.max = std::max(result.max, v);
+    }
+    if (result.status.ok()) sink(z, values);
+    return Status::OK();
+  }));
+  FieldRange range;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const PlaneResult& r : found) {
+    if (!r.status.ok()) return r.status;
+    range.missing = range.missing || r.missing;
+    lo = std::min(lo, r.min);
+    hi = std::max(hi, r.max);
+  }
+  if (lo <= hi) {
+    range.min = lo;
+    range.max = hi;
+  }
+  return range;
+}
+
 template <class V>
 Result<LoadedField<V>> LoadField(const VolumeInfo& input, const std::optional<VolumeInfo>& mask,
                                  const LoadFieldOptions& options) {

@@ -7,12 +7,16 @@
 //   MaskedReader r(input, mask);                 // one per worker
 //   Status s = r.Read(first, count, values);     // doubles, NaN where masked
 //
+//   PlaneReader p(input, mask, threads);         // planes of the last axis
+//   Status s = p.Read(lo, hi, "field", start, progress, sink);  // on every worker
+//
 //   LoadFieldOptions o{.stored = StoredVoxelType(input, masked), .threads = 4};
 //   Result<LoadedField<uint8_t>> f = LoadField<uint8_t>(input, mask, o);
+//   Result<FieldRange> r = ScanPlanes(input, mask, o, sink);  // no values kept
 //
 // Thread safety: a MaskedReader is one thread's (it keeps its readers and a
-// buffer); LoadField runs its own workers and calls `progress` from the
-// calling thread.
+// buffer), a PlaneReader one caller's; PlaneReader::Read and LoadField run
+// their own workers and call `progress` from the calling thread.
 // Lifetimes: `input` and `mask` are read during the calls only (a
 // MaskedReader keeps copies of their descriptions); a LoadedField owns its
 // values.
@@ -58,6 +62,33 @@ class MaskedReader {
   std::vector<double> mask_values_;
 };
 
+// Reads planes of the last axis of a volume (with `mask` applied) on
+// `threads` workers (one for a gzip-encoded input: each reader would
+// inflate everything before its planes), each with its own MaskedReader
+// kept from call to call, so a builder holding a window of planes reads
+// each plane once.
+class PlaneReader {
+ public:
+  PlaneReader(const VolumeInfo& input, const std::optional<VolumeInfo>& mask, int threads);
+
+  // Points per plane: the product of every axis's size but the last.
+  uint64_t plane_points() const { return plane_; }
+
+  // Calls sink(worker, z, values) for every plane z in [lo, hi), on the
+  // workers in any order, `values` the plane's plane_points() doubles
+  // (x fastest, NaN where missing), the sink's to change. `phase`,
+  // `start`, `progress` as RunParallel's.
+  // REQUIRES: 0 <= lo <= hi <= the last axis's size.
+  using PlaneSink = std::function<Status(int worker, int64_t z, double* values)>;
+  Status Read(int64_t lo, int64_t hi, const char* phase, std::chrono::steady_clock::time_point start,
+              const std::function<void(const BuildProgress&)>& progress, const PlaneSink& sink);
+
+ private:
+  uint64_t plane_ = 1;
+  std::vector<MaskedReader> readers_;
+  std::vector<std::vector<double>> buffers_;
+};
+
 struct LoadFieldOptions {
   // The voxel type the store keeps (StoredVoxelType): values are rounded to
   // float32 when it is kF32, so the errors are those of the stored values.
@@ -66,6 +97,24 @@ struct LoadFieldOptions {
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
   std::function<void(const BuildProgress&)> progress;  // phase "field"
 };
+
+// What a pass over a field finds: the range of the values present (both 0
+// when none is) and whether any is missing.
+struct FieldRange {
+  double min = 0, max = 0;
+  bool missing = false;
+};
+
+// Reads every plane of the last axis of `input` once (with `mask` applied,
+// PlaneReader on options.threads workers), checks every value as LoadField
+// does, and returns the field's range, each value rounded to float32 first
+// when options.stored is kF32. sink(z, values) sees each plane's values so
+// rounded (NaN where missing), on the workers, distinct planes at once.
+// Errors: LoadField's. Cost: one pass over the input; a plane of doubles
+// per worker (twice that with a mask).
+Result<FieldRange> ScanPlanes(const VolumeInfo& input, const std::optional<VolumeInfo>& mask,
+                              const LoadFieldOptions& options,
+                              const std::function<void(int64_t z, const double* values)>& sink);
 
 // The field of a volume, x fastest, as V (the stored type's C++ type: the
 // values are exact in it).

@@ -1,13 +1,11 @@
-// The dense builder's internals, shared by its two ways of holding the
-// field (storage/dense/dense_builder.h): the whole field in memory
-// (dense_builder.cc) or a window of planes at a time (dense_streamed_build.cc).
+// The dense builder's internals (storage/dense/dense_builder.h): its entry
+// and checks (dense_builder.cc) and its pipeline (dense_windowed_build.cc).
 // Not part of the installed headers.
 #pragma once
 
 #include <array>
 #include <chrono>
 #include <cstdint>
-#include <optional>
 #include <string>
 
 #include "storage/dense/dense_builder.h"
@@ -41,16 +39,17 @@ DenseHeader ParamsFor(int dimension, const VolumeInfo& input, const DenseBuildOp
 // The writer's options (no progress: the caller reports its own phases).
 DenseWriteOptions WriteOptionsFor(const DenseBuildOptions& options, int threads);
 
-// The streamed build (dense_streamed_build.cc), V the stored voxel type's C++
-// type, k the domain bits. StreamedBytes: the memory it takes, or nullopt
-// when the grid is too small to stream (every grid that does not fit in
-// memory is large enough). BuildStreamed: the store, reading the input
-// twice a window of planes at a time. REQUIRES: input.dimension == D.
+// The build (dense_windowed_build.cc), V the stored voxel type's C++ type,
+// k the domain bits: the field a window of planes at a time, the window as
+// wide as options.memory_bytes allows (the whole field when it fits), as
+// PlanWindows plans it (PlanDenseBuild); ResourceExhausted, with the need,
+// when even the narrowest does not fit.
+// REQUIRES: input.dimension == D; threads >= 1.
 template <int D, class V>
-std::optional<uint64_t> StreamedBytes(const VolumeInfo& input, const DenseBuildOptions& options, int k,
-                                      int threads);
+Result<DenseBuildPlan> PlanWindows(const VolumeInfo& input, const std::string& out,
+                                   const DenseBuildOptions& options, int k, int threads);
 template <int D, class V>
-Result<DenseBuildReport> BuildStreamed(const VolumeInfo& input, const std::string& out,
+Result<DenseBuildReport> BuildWindowed(const VolumeInfo& input, const std::string& out,
                                        const DenseBuildOptions& options, Clock::time_point start, int k,
                                        int threads);
 

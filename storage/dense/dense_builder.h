@@ -2,31 +2,42 @@
 // error of its diamond (the largest of the seed's errors over the nodes
 // whose split creates it: one cluster), and the field as bricks.
 //
-// BuildDenseStore reads the field into memory (or a window of it at a time)
-// and computes every diamond's error octave by octave on every core
-// (storage/error/diamond_errors.h), then writes the store, leaving the
-// finest octave's errors to the reader (it computes them from the field
-// the same way). A volume with missing values (NaN, or points a mask
-// removes) takes the same path with every diamond scanned and every
-// octave's errors stored, since the reader's stencils assume values
-// everywhere.
+// BuildDenseStore computes every diamond's error octave by octave on every
+// core (storage/error/diamond_errors.h) from a window of planes of the
+// field's last axis, then writes the store, leaving the finest octave's
+// errors to the reader (it computes them from the field the same way). A
+// volume with missing values (NaN, or points a mask removes) takes the
+// same path with every diamond scanned and every octave's errors stored,
+// since the reader's stencils assume values everywhere.
 //
-// Memory: the direct path holds the field as its stored voxels (a byte a
-// point for uint8, four for float32, scaled and masked volumes), a float per
-// even vertex (every coordinate even: an eighth of the grid in the HT, a
-// sixteenth in the HP; the finest octave's errors are reduced to each grid
-// brick's largest as they are computed, or computed again as the blocks
-// are written), a chunk of the input (and of the mask) per reader and the
-// writer's blocks per thread. When that exceeds memory_bytes (or
-// DenseBuildOptions::stream), the build streams: it reads the input twice, a
-// plane at a time, and holds a window of planes of the last axis (64 + 2 x
-// 32 in the HT, 32 + 2 x 8 in the HP), tables for one run of blocks per
-// local scale, every scanned diamond's maximum (and, with missing values,
-// where its simplices have values), every 8th point per axis and a double
-// per corner-lattice point (every 32nd in the HT, 8th in the HP) and a
-// plane of doubles per reader: the same store as the direct path's, its
-// blocks in another order. Each is checked against memory_bytes before
-// anything is allocated.
+// One pipeline, one window as wide as the memory bound allows
+// (storage/dense/dense_windowed_build.cc):
+//   - the whole field when it fits in memory_bytes (or the grid is too
+//     small to cut): the input read once, every block then every brick
+//     written at the end;
+//   - else the widest window of slabs of 2^j planes (with a halo of 32
+//     planes on each side in the HT, 8 in the HP) that fits, down to the
+//     narrowest (64 planes in the HT, 32 in the HP, with the default
+//     blocks): the input read twice, a first pass for the range, the
+//     checks and the corner lattice, and each slab's blocks and bricks
+//     written as soon as they are complete.
+// Any window gives the same blocks and bricks (in another order in the
+// file), and the same window the same bytes at any thread count.
+//
+// Memory, checked against memory_bytes before anything is allocated: the
+// window as the field's stored voxels (a byte a point for uint8, four for
+// float32, scaled and masked volumes), a float per vertex of the scales
+// whose diamonds stay near their vertex (scales 1-4 in the HT, 1-2 in the
+// HP: a seventh of the grid's points in the HT, for the window's planes
+// plus one block's reach), a float per coarser vertex of the domain (with
+// missing values, where their simplices have values), a double per point
+// of the corner lattice (every 32nd per axis in the HT, 8th in the HP) and
+// per grid brick, with several windows every 8th point per axis, and the
+// readers' buffers and the writer's blocks per thread. Not counted: what
+// the process holds besides (code, libraries, each worker's codec contexts
+// and scratch; measured building 513^3: 23 MiB and 2.7 MiB per worker). A
+// window narrower than the field is planned leaving 20 MiB and 4 MiB per
+// worker for it, and the narrowest is taken when it alone fits.
 //
 // Thread safety: may run in several threads at once for different outputs.
 // Lifetimes: the input (and mask) is read during the call only.
@@ -63,20 +74,37 @@ struct DenseBuildOptions {
   // Where the field is available: 0 (or NaN) marks a missing point
   // (storage/error/mask.h). Of the input's grid.
   std::optional<VolumeInfo> mask;
-  // Read the field a window of planes at a time even when it fits in
-  // memory_bytes (a grid too small to stream is built in memory).
+  // Take the narrowest window even when a wider one fits in memory_bytes
+  // (for tests; a grid too small to cut is built in one window).
   bool stream = false;
-  std::function<void(const BuildProgress&)> progress;  // "field", "errors", "diamonds", "blocks", "bricks"
+  // Phases "field" (a pass over the input), "errors", "blocks", "bricks"
+  // with one window; "field", then "slabs" with several.
+  std::function<void(const BuildProgress&)> progress;
 };
 
 struct DenseBuildReport {
   DenseHeader header;
   double seconds = 0;
   uint64_t grid_points = 0;  // real grid points
-  // How the errors were computed: "diamonds" (the field in memory, octave
-  // by octave) or "streamed" (the same a window of planes at a time).
+  // How the field was held: "diamonds" (one window, the whole field in
+  // memory) or "streamed" (several windows of window_planes planes).
   const char* method = "diamonds";
+  int windows = 1;
+  int64_t window_planes = 0;  // the window's planes of the last axis, halo included
 };
+
+// How BuildDenseStore would hold the field: its windows and their need.
+struct DenseBuildPlan {
+  int windows = 1;             // 1: the whole field
+  int64_t slab_planes = 0;     // planes of the last axis each window advances by
+  int64_t window_planes = 0;   // planes a window holds, halo included
+  uint64_t bytes = 0;          // the build's arrays (the bound's measure)
+};
+// The plan for `input` under options.memory_bytes, without reading it.
+// Errors: BuildDenseStore's before it reads (InvalidArgument,
+// ResourceExhausted with the need).
+Result<DenseBuildPlan> PlanDenseBuild(const VolumeInfo& input, const std::string& out_path,
+                                      const DenseBuildOptions& options);
 
 // Builds `out_path` from `input` (3D: HT, 4D: HP).
 Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,

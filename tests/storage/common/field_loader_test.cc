@@ -1,11 +1,16 @@
 // The field every builder reads (storage/common/field_loader.h) against the
 // volume's own values: as the store keeps them (float32 rounding), a mask's
 // points missing, the range over the values present, the same on one worker
-// and on several.
+// and on several; and the pass a plane at a time (ScanPlanes) against it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <mutex>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "storage/common/field_loader.h"
 #include "storage/volume/volume.h"
@@ -127,6 +132,66 @@ TEST(FieldLoader, MaskedReaderReadsRuns) {
       EXPECT_EQ(run[i], v.values[40 + i]) << i;
     }
   }
+}
+
+// ScanPlanes: every plane once, to the sink, with the values the store
+// keeps (float32 rounding, masked points NaN); the same range and
+// missingness as LoadField, on one worker and on several; the first value
+// in file order a store cannot hold.
+TEST(FieldLoader, ScanPlanesSeesEveryPlaneOnceAsLoadFieldReadsIt) {
+  TempDir dir;
+  TestVolume v = TestVolume::Random(4, {7, 6, 5, 9}, VoxelType::kF64, 5);
+  for (double& x : v.values) x = x / 3 + 1e-9;  // not floats
+  TestVolume mask = v;
+  for (size_t i = 0; i < mask.values.size(); ++i) mask.values[i] = i % 4 == 2 ? 0 : 1;
+  ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
+  ASSERT_TRUE(mask.WriteNrrd(dir / "m.nrrd").ok());
+  const VolumeInfo in = *OpenVolume(dir / "v.nrrd");
+  const uint64_t plane = 7 * 6 * 5;
+  for (const auto& masked : {std::optional<VolumeInfo>{}, std::optional<VolumeInfo>{*OpenVolume(dir / "m.nrrd")}}) {
+    for (const int threads : {1, 3}) {
+      SCOPED_TRACE(std::to_string(threads) + (masked ? " masked" : ""));
+      LoadFieldOptions o;
+      o.stored = VoxelType::kF32;
+      o.threads = threads;
+      std::vector<int> seen(9, 0);
+      std::vector<double> got(v.values.size(), -1);
+      std::mutex mu;
+      const auto range = ScanPlanes(in, masked, o, [&](int64_t z, const double* values) {
+        std::lock_guard<std::mutex> lock(mu);
+        ++seen[static_cast<size_t>(z)];
+        std::copy(values, values + plane, got.begin() + static_cast<ptrdiff_t>(z * plane));
+      });
+      ASSERT_TRUE(range.ok()) << range.status().message();
+      EXPECT_EQ(seen, std::vector<int>(9, 1));
+      for (size_t i = 0; i < v.values.size(); ++i) {
+        if (masked && i % 4 == 2) {
+          ASSERT_TRUE(std::isnan(got[i])) << i;
+        } else {
+          ASSERT_EQ(got[i], static_cast<double>(static_cast<float>(v.values[i]))) << i;
+        }
+      }
+      const auto loaded = LoadField<float>(in, masked, o);
+      ASSERT_TRUE(loaded.ok());
+      EXPECT_EQ(range->min, loaded->min);
+      EXPECT_EQ(range->max, loaded->max);
+      EXPECT_EQ(range->missing, loaded->missing);
+      EXPECT_EQ(range->missing, masked.has_value());
+    }
+  }
+  v.values[3 * plane + 11] = 1e39;  // plane 3
+  v.values[2 * plane + 40] = std::numeric_limits<double>::infinity();  // plane 2: first in file order
+  ASSERT_TRUE(v.WriteNrrd(dir / "bad.nrrd").ok());
+  LoadFieldOptions o;
+  o.stored = VoxelType::kF32;
+  o.threads = 2;
+  const auto bad = ScanPlanes(*OpenVolume(dir / "bad.nrrd"), std::nullopt, o, [](int64_t, const double*) {});
+  ASSERT_FALSE(bad.ok());
+  EXPECT_TRUE(bad.status().IsInvalidArgument()) << bad.status().ToString();
+  EXPECT_NE(bad.status().message().find("voxel (" + std::to_string(40 % 7) + ", " + std::to_string(40 / 7 % 6) +
+                                        ", " + std::to_string(40 / 42) + ", 2)"),
+            std::string::npos)
+      << bad.status().message();
 }
 
 }  // namespace

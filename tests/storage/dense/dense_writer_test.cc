@@ -1,6 +1,6 @@
 // The dense store's writer and its build paths: blocks and bricks written
 // in runs in any order, which virtual blocks hold which vertices, the
-// streamed build against the direct one (also with missing values and a
+// build in several windows against one (also with missing values and a
 // mask), and coarse reads from one lattice's bricks against the field.
 #include <gtest/gtest.h>
 
@@ -198,16 +198,16 @@ void ExpectSameContent(const DenseStore& a, const DenseStore& b) {
   }
 }
 
-// The streamed build (a window of planes at a time) makes the store the
-// direct build makes, block for block and brick for brick (so every node's
-// bound, every field value and the grid bricks' finest maxima), HT and HP,
+// Several windows of planes make the store that one window over the whole
+// field makes, block for block and brick for brick (so every node's bound,
+// every field value and the grid bricks' finest maxima), HT and HP,
 // integer and float voxels, non-cubic, several slabs and chunks; with
 // missing values (holes of NaN) and with a mask, whose stores keep every
-// octave. (The direct store's answers are checked against brute force in
-// dense_store_test.cc.)
+// octave. (The one-window store's answers are checked against brute force
+// in dense_store_test.cc.)
 template <int D>
-void ExpectStreamedBuildMatchesDirect(const TestVolume& v, const std::string& name, int block_bits,
-                                      const TestVolume* mask = nullptr) {
+void ExpectWindowsMatchTheWholeField(const TestVolume& v, const std::string& name, int block_bits,
+                                     const TestVolume* mask = nullptr) {
   SCOPED_TRACE(name);
   TempDir dir;
   const std::string nrrd = dir / (name + ".nrrd");
@@ -218,50 +218,110 @@ void ExpectStreamedBuildMatchesDirect(const TestVolume& v, const std::string& na
     ASSERT_TRUE(mask->WriteNrrd(dir / "mask.nrrd").ok());
     options.mask = *OpenVolume(dir / "mask.nrrd");
   }
-  const auto direct = BuildDenseStore(*OpenVolume(nrrd), dir / "direct.sdb", options);
-  ASSERT_TRUE(direct.ok()) << direct.status().message();
-  ASSERT_STREQ(direct->method, "diamonds");
+  const auto whole = BuildDenseStore(*OpenVolume(nrrd), dir / "whole.sdb", options);
+  ASSERT_TRUE(whole.ok()) << whole.status().message();
+  ASSERT_EQ(whole->windows, 1);
   options.stream = true;
-  const auto streamed = BuildDenseStore(*OpenVolume(nrrd), dir / "streamed.sdb", options);
-  ASSERT_TRUE(streamed.ok()) << streamed.status().message();
-  ASSERT_STREQ(streamed->method, "streamed");
-  auto a = DenseStore::Open(dir / "direct.sdb");
-  auto b = DenseStore::Open(dir / "streamed.sdb");
+  const auto windows = BuildDenseStore(*OpenVolume(nrrd), dir / "windows.sdb", options);
+  ASSERT_TRUE(windows.ok()) << windows.status().message();
+  ASSERT_GT(windows->windows, 1);
+  auto a = DenseStore::Open(dir / "whole.sdb");
+  auto b = DenseStore::Open(dir / "windows.sdb");
   ASSERT_TRUE(a.ok() && b.ok());
   ASSERT_TRUE((*b)->Verify().ok());
   ExpectSameContent(**a, **b);
 }
 
 // HT slabs are 64 planes with a halo of 32, HP slabs 32 with a halo of 8
-// (dense_streamed_build.cc). At domain side 128 (HT) and 32 (HP) the default
+// (dense_windowed_build.cc). At domain side 128 (HT) and 32 (HP) the default
 // cases cross slabs: 2 and 3 HT slabs (the second with local chunks of 128
 // and 256 planes spanning them), 2 HP slabs (the second holds the last
 // plane only). The long run (`ctest -L long`) adds a side of 256 (HT, a
 // third scanned scale) and of 64 (HP, a second slab of 8 real planes).
-TEST(DenseWriter, StreamedBuildMatchesDirect) {
-  ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {65, 40, 77, 1}, VoxelType::kU8, 51), "ht_u8", 6);
-  ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {70, 66, 129, 1}, VoxelType::kF32, 52), "ht_f32", 9);
-  ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {33, 17, 20, 9}, VoxelType::kI16, 53), "hp_i16", 6);
-  ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {9, 12, 10, 33}, VoxelType::kF32, 54), "hp_long_t", 6);
+TEST(DenseWriter, WindowsMatchTheWholeField) {
+  ExpectWindowsMatchTheWholeField<3>(TestVolume::Random(3, {65, 40, 77, 1}, VoxelType::kU8, 51), "ht_u8", 6);
+  ExpectWindowsMatchTheWholeField<3>(TestVolume::Random(3, {70, 66, 129, 1}, VoxelType::kF32, 52), "ht_f32", 9);
+  ExpectWindowsMatchTheWholeField<4>(TestVolume::Random(4, {20, 17, 9, 33}, VoxelType::kI16, 53), "hp_i16", 6);
+  ExpectWindowsMatchTheWholeField<4>(TestVolume::Random(4, {9, 12, 10, 33}, VoxelType::kF32, 54), "hp_long_t", 6);
   if (testing::LongRun()) {
-    ExpectStreamedBuildMatchesDirect<3>(TestVolume::Random(3, {70, 66, 150, 1}, VoxelType::kF32, 52),
-                                        "ht_f32_256", 9);
-    ExpectStreamedBuildMatchesDirect<4>(TestVolume::Random(4, {9, 12, 10, 40}, VoxelType::kF32, 54),
-                                        "hp_long_t_64", 6);
+    ExpectWindowsMatchTheWholeField<3>(TestVolume::Random(3, {70, 66, 150, 1}, VoxelType::kF32, 52),
+                                       "ht_f32_256", 9);
+    ExpectWindowsMatchTheWholeField<4>(TestVolume::Random(4, {9, 12, 10, 40}, VoxelType::kF32, 54),
+                                       "hp_long_t_64", 6);
   }
 }
 
-TEST(DenseWriter, StreamedBuildMatchesDirectWithMissingValues) {
+// The window is the widest the memory bound allows: the whole field when
+// it fits, more and narrower windows as the bound shrinks (planned beside
+// what the process holds besides, 28 MiB at two workers), down to the
+// narrowest (the one `stream` takes), then a refusal that names both needs
+// and leaves nothing behind. The plan is the build's, and every window
+// gives the same store.
+TEST(DenseWriter, TheWindowNarrowsWithTheMemoryBound) {
+  TempDir dir;
+  // Long along the last axis, and float64, so that a window fits beside
+  // the process where the whole field does not.
+  const TestVolume v = TestVolume::Random(3, {64, 64, 1024, 1}, VoxelType::kF64, 58);
+  ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
+  const VolumeInfo in = *OpenVolume(dir / "v.nrrd");
+  DenseBuildOptions options;
+  options.threads = 2;
+  options.stream = true;
+  const auto narrowest = BuildDenseStore(in, dir / "narrowest.sdb", options);
+  ASSERT_TRUE(narrowest.ok()) << narrowest.status().message();
+  options.stream = false;
+  const auto whole = BuildDenseStore(in, dir / "whole.sdb", options);
+  ASSERT_TRUE(whole.ok()) << whole.status().message();
+  ASSERT_EQ(whole->windows, 1);
+  ASSERT_GT(narrowest->windows, 2);
+  const auto reference = *DenseStore::Open(dir / "whole.sdb");
+  // The plans from 64 MiB down in steps of 256 KiB; a build at each width.
+  std::set<int> built;
+  int last = 1;
+  bool refused = false;
+  for (size_t bytes = size_t{64} << 20; bytes > (size_t{256} << 10); bytes -= size_t{256} << 10) {
+    SCOPED_TRACE(bytes);
+    options.memory_bytes = bytes;
+    const auto plan = PlanDenseBuild(in, dir / "refused.sdb", options);
+    if (!plan.ok()) {
+      refused = true;
+      EXPECT_TRUE(plan.status().IsResourceExhausted()) << plan.status().ToString();
+      EXPECT_EQ(last, narrowest->windows) << "refused before the narrowest window";
+      const std::string out = dir / "refused.sdb";
+      const auto build = BuildDenseStore(in, out, options);
+      ASSERT_FALSE(build.ok());
+      EXPECT_EQ(build.status().message(), plan.status().message());
+      EXPECT_NE(build.status().message().find("the narrowest"), std::string_view::npos) << build.status().message();
+      EXPECT_NE(build.status().message().find("(--memory-mb)"), std::string_view::npos) << build.status().message();
+      EXPECT_FALSE(std::filesystem::exists(out));
+      break;
+    }
+    EXPECT_LE(plan->bytes, bytes);
+    EXPECT_GE(plan->windows, last) << "a smaller bound took a wider window";
+    last = plan->windows;
+    if (!built.insert(last).second) continue;
+    const std::string out = dir / ("w" + std::to_string(last) + ".sdb");
+    const auto build = BuildDenseStore(in, out, options);
+    ASSERT_TRUE(build.ok()) << build.status().message();
+    EXPECT_EQ(build->windows, plan->windows);
+    EXPECT_EQ(build->window_planes, plan->window_planes);
+    ExpectSameContent(*reference, **DenseStore::Open(out));
+  }
+  EXPECT_TRUE(refused) << "no bound down to 256 KiB refused the build";
+  EXPECT_GE(built.size(), 4u) << "the window took fewer than four widths";
+}
+
+TEST(DenseWriter, WindowsMatchTheWholeFieldWithMissingValues) {
   TestVolume ht = TestVolume::Random(3, {70, 66, 129, 1}, VoxelType::kF32, 55);
   testing::PunchHoles(ht, 55, 12, 101);
-  ExpectStreamedBuildMatchesDirect<3>(ht, "ht_holes", 9);
-  TestVolume hp = TestVolume::Random(4, {33, 17, 20, 9}, VoxelType::kF32, 56);
+  ExpectWindowsMatchTheWholeField<3>(ht, "ht_holes", 9);
+  TestVolume hp = TestVolume::Random(4, {20, 17, 9, 33}, VoxelType::kF32, 56);
   testing::PunchHoles(hp, 56, 4, 37);
-  ExpectStreamedBuildMatchesDirect<4>(hp, "hp_holes", 6);
+  ExpectWindowsMatchTheWholeField<4>(hp, "hp_holes", 6);
   const TestVolume u8 = TestVolume::Random(3, {65, 40, 77, 1}, VoxelType::kU8, 57);
   TestVolume mask = u8;
   for (double& x : mask.values) x = x < 30 ? 0 : 1;
-  ExpectStreamedBuildMatchesDirect<3>(u8, "ht_mask", 6, &mask);
+  ExpectWindowsMatchTheWholeField<3>(u8, "ht_mask", 6, &mask);
 }
 
 // Coarse reads from one lattice's bricks against the reader's Field, point
