@@ -50,45 +50,42 @@ Status PlaneReader::Read(int64_t lo, int64_t hi, const char* phase,
   });
 }
 
-Result<FieldRange> ScanPlanes(const VolumeInfo& input, const std::optional<VolumeInfo>& mask,
-                              const LoadFieldOptions& options,
-                              const std::function<void(int64_t z, const double* values)>& sink) {
-  // What a plane finds is kept by plane, and the first failure's in file
-  // order is reported, as a one-thread read would.
-  struct PlaneResult {
-    Status status;
-    bool missing = false;
-    double min = std::numeric_limits<double>::infinity(), max = -min;
-  };
-  const int64_t planes = input.dims[input.dimension - 1];
-  std::vector<PlaneResult> found(static_cast<size_t>(planes));
-  PlaneReader reader(input, mask, options.threads);
-  const uint64_t n = reader.plane_points();
-  SDB_RETURN_IF_ERROR(reader.Read(0, planes, "field", options.start, options.progress,
-                                  [&](int, int64_t z, double* values) -> Status {
-    PlaneResult& result = found[static_cast<size_t>(z)];
-    result.status = CheckStorableValues(input, static_cast<uint64_t>(z) * n, values, n);
-    for (uint64_t i = 0; i < n && result.status.ok(); ++i) {
+namespace {
+
+// What a part of the field (a chunk, a plane) finds. Parts are kept apart
+// and merged in file order, so that the first failure reported is the
+// first in file order, as a one-thread read would find it.
+struct PartResult {
+  Status status;
+  bool missing = false;
+  double min = std::numeric_limits<double>::infinity(), max = -min;
+
+  // Checks values[0, count), voxels first.. of `input`, as a store keeps
+  // them: each storable, rounded to float32 in place when `stored` is
+  // kF32, NaN missing (refused for a field stored as integers).
+  void Scan(const VolumeInfo& input, VoxelType stored, uint64_t first, double* values, size_t count) {
+    status = CheckStorableValues(input, first, values, count);
+    for (size_t i = 0; i < count && status.ok(); ++i) {
       double& v = values[i];
       if (std::isnan(v)) {
-        result.missing = true;
-        if (!IsFloatType(options.stored)) {
-          result.status = Status::InvalidArgument(
-              input.description + ": a missing value at voxel " + std::to_string(z * n + i) +
-              " in a field stored as integers");
+        missing = true;
+        if (!IsFloatType(stored)) {
+          status = Status::InvalidArgument(input.description + ": a missing value at voxel " +
+                                           std::to_string(first + i) + " in a field stored as integers");
         }
         continue;
       }
-      if (options.stored == VoxelType::kF32) v = static_cast<float>(v);
-      result.min = std::min(result.min, v);
-      result.max = std::max(result.max, v);
+      if (stored == VoxelType::kF32) v = static_cast<float>(v);
+      min = std::min(min, v);
+      max = std::max(max, v);
     }
-    if (result.status.ok()) sink(z, values);
-    return Status::OK();
-  }));
+  }
+};
+
+Result<FieldRange> Merge(const std::vector<PartResult>& parts) {
   FieldRange range;
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (const PlaneResult& r : found) {
+  for (const PartResult& r : parts) {
     if (!r.status.ok()) return r.status;
     range.missing = range.missing || r.missing;
     lo = std::min(lo, r.min);
@@ -101,6 +98,25 @@ Result<FieldRange> ScanPlanes(const VolumeInfo& input, const std::optional<Volum
   return range;
 }
 
+}  // namespace
+
+Result<FieldRange> ScanPlanes(const VolumeInfo& input, const std::optional<VolumeInfo>& mask,
+                              const LoadFieldOptions& options,
+                              const std::function<void(int64_t z, const double* values)>& sink) {
+  const int64_t planes = input.dims[input.dimension - 1];
+  std::vector<PartResult> found(static_cast<size_t>(planes));
+  PlaneReader reader(input, mask, options.threads);
+  const uint64_t n = reader.plane_points();
+  SDB_RETURN_IF_ERROR(reader.Read(0, planes, "field", options.start, options.progress,
+                                  [&](int, int64_t z, double* values) -> Status {
+    PartResult& result = found[static_cast<size_t>(z)];
+    result.Scan(input, options.stored, static_cast<uint64_t>(z) * n, values, n);
+    if (result.status.ok()) sink(z, values);
+    return Status::OK();
+  }));
+  return Merge(found);
+}
+
 template <class V>
 Result<LoadedField<V>> LoadField(const VolumeInfo& input, const std::optional<VolumeInfo>& mask,
                                  const LoadFieldOptions& options) {
@@ -111,16 +127,10 @@ Result<LoadedField<V>> LoadField(const VolumeInfo& input, const std::optional<Vo
   field.values = BigArray<V>(n);
   // Read in chunks by every worker, each with its own reader (a gzip file
   // is read by one: each reader would inflate everything before its
-  // chunks). What a chunk finds is kept by chunk, and the first chunk's in
-  // file order is reported, as a one-thread read would.
+  // chunks).
   constexpr uint64_t kChunk = uint64_t{1} << 20;
   const uint64_t chunks = (n + kChunk - 1) / kChunk;
-  struct ChunkResult {
-    Status status;
-    bool missing = false;
-    double min = std::numeric_limits<double>::infinity(), max = -min;
-  };
-  std::vector<ChunkResult> found(chunks);
+  std::vector<PartResult> found(chunks);
   const int readers =
       input.encoding == VolumeInfo::Encoding::kGzip ? 1 : std::max(1, options.threads);
   std::vector<MaskedReader> reader;
@@ -140,44 +150,23 @@ Result<LoadedField<V>> LoadField(const VolumeInfo& input, const std::optional<Vo
       values = buffer.data();
     }
     SDB_RETURN_IF_ERROR(reader[static_cast<size_t>(worker)].Read(first, count, values));
-    ChunkResult& result = found[c];
-    result.status = CheckStorableValues(input, first, values, count);
+    PartResult& result = found[c];
+    result.Scan(input, options.stored, first, values, count);
     if (!result.status.ok()) return Status::OK();
-    V* to = field.values.data() + first;
-    for (size_t i = 0; i < count; ++i) {
-      double v = values[i];
-      if (std::isnan(v)) {
-        result.missing = true;
-        if constexpr (std::is_floating_point_v<V>) {
-          to[i] = std::numeric_limits<V>::quiet_NaN();
-        } else {
-          result.status = Status::InvalidArgument(
-              input.description + ": a missing value at voxel " + std::to_string(first + i) +
-              " in a field stored as integers");
-          return Status::OK();
-        }
-        continue;
-      }
-      if (options.stored == VoxelType::kF32) v = static_cast<float>(v);
-      to[i] = static_cast<V>(v);  // exact: V is the stored type
-      result.min = std::min(result.min, v);
-      result.max = std::max(result.max, v);
+    if constexpr (!std::is_same_v<V, double>) {
+      // Exact: V is the stored type; NaN only where V is a float (Scan
+      // refuses it in a field stored as integers).
+      V* to = field.values.data() + first;
+      for (size_t i = 0; i < count; ++i) to[i] = static_cast<V>(values[i]);
     }
     return Status::OK();
   };
   SDB_RETURN_IF_ERROR(
       RunParallel(chunks, readers, "field", options.start, options.progress, read_chunk));
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (const ChunkResult& c : found) {
-    if (!c.status.ok()) return c.status;
-    field.missing = field.missing || c.missing;
-    lo = std::min(lo, c.min);
-    hi = std::max(hi, c.max);
-  }
-  if (lo <= hi) {
-    field.min = lo;
-    field.max = hi;
-  }
+  SDB_ASSIGN_OR_RETURN(const FieldRange range, Merge(found));
+  field.min = range.min;
+  field.max = range.max;
+  field.missing = range.missing;
   return field;
 }
 
