@@ -317,11 +317,7 @@ class WindowedBuild {
   // One window: the whole field read once (as the store keeps it), its
   // range and whether values are missing, and the corner lattice from it.
   Status LoadWholeField() {
-    LoadFieldOptions load;
-    load.stored = stored_;
-    load.threads = threads_;
-    load.start = start_;
-    load.progress = options_.progress;
+    const LoadFieldOptions load{.stored = stored_, .threads = threads_, .start = start_, .progress = options_.progress};
     SDB_ASSIGN_OR_RETURN(LoadedField<V> loaded, LoadField<V>(input_, options_.mask, load));
     window_ = std::move(loaded.values);
     window_first_ = 0;
@@ -340,11 +336,7 @@ class WindowedBuild {
   // range, the checks and the corner lattice.
   Status ReadRangeAndCorners() {
     corners_.Allocate();
-    LoadFieldOptions scan;
-    scan.stored = stored_;
-    scan.threads = threads_;
-    scan.start = start_;
-    scan.progress = options_.progress;
+    const LoadFieldOptions scan{.stored = stored_, .threads = threads_, .start = start_, .progress = options_.progress};
     SDB_ASSIGN_OR_RETURN(const FieldRange range,
                          ScanPlanes(input_, options_.mask, scan, [&](int64_t z, const double* values) {
                            if (corners_.HasPlane(z)) corners_.SetPlane(z, values, stride_);

@@ -343,11 +343,7 @@ class Builder {
   // The whole field, as doubles holding the stored values (storage/common/
   // field_loader.h, on every worker); missing values are refused.
   Status ReadField() {
-    LoadFieldOptions load;
-    load.stored = type_;
-    load.threads = threads_;
-    load.start = start_;
-    load.progress = options_.progress;
+    const LoadFieldOptions load{.stored = type_, .threads = threads_, .start = start_, .progress = options_.progress};
     SDB_ASSIGN_OR_RETURN(LoadedField<double> loaded, LoadField<double>(input_, std::nullopt, load));
     if (loaded.missing) {
       return Status::NotSupported(input_.description +
