@@ -289,8 +289,8 @@ TEST(DenseStore, SameBytesAtAnyThreadCount) {
       {"ht_streamed", TestVolume::Random(3, {70, 66, 67, 1}, VoxelType::kU16, 47), true},
       {"ht_missing", holed, false},
       {"ht_missing_streamed", holed, true},
-      {"hp_streamed", TestVolume::Random(4, {19, 17, 18, 33}, VoxelType::kU8, 50), true},
-      {"hp", TestVolume::Random(4, {19, 17, 18, 33}, VoxelType::kU8, 50), false},
+      {"hp_streamed", TestVolume::Random(4, {12, 11, 10, 26}, VoxelType::kU8, 50), true},
+      {"hp", TestVolume::Random(4, {12, 11, 10, 26}, VoxelType::kU8, 50), false},
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.name);

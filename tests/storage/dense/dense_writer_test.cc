@@ -267,18 +267,19 @@ TEST(DenseWriter, TheWindowNarrowsWithTheMemoryBound) {
   DenseBuildOptions options;
   options.threads = 2;
   options.stream = true;
-  const auto narrowest = BuildDenseStore(in, dir / "narrowest.sdb", options);
+  const auto narrowest = PlanDenseBuild(in, dir / "refused.sdb", options);
   ASSERT_TRUE(narrowest.ok()) << narrowest.status().message();
+  ASSERT_GT(narrowest->windows, 2);
   options.stream = false;
   const auto whole = BuildDenseStore(in, dir / "whole.sdb", options);
   ASSERT_TRUE(whole.ok()) << whole.status().message();
   ASSERT_EQ(whole->windows, 1);
-  ASSERT_GT(narrowest->windows, 2);
-  const auto reference = *DenseStore::Open(dir / "whole.sdb");
-  // The plans from 64 MiB down in steps of 256 KiB; a build at each width.
-  std::set<int> built;
+  // The plans from 64 MiB down in steps of 256 KiB; a build at the first
+  // width between the whole field and the narrowest (the content of
+  // several windows against one: WindowsMatchTheWholeField).
+  std::set<int> widths;
   int last = 1;
-  bool refused = false;
+  bool refused = false, built = false;
   for (size_t bytes = size_t{64} << 20; bytes > (size_t{256} << 10); bytes -= size_t{256} << 10) {
     SCOPED_TRACE(bytes);
     options.memory_bytes = bytes;
@@ -287,28 +288,29 @@ TEST(DenseWriter, TheWindowNarrowsWithTheMemoryBound) {
       refused = true;
       EXPECT_TRUE(plan.status().IsResourceExhausted()) << plan.status().ToString();
       EXPECT_EQ(last, narrowest->windows) << "refused before the narrowest window";
-      const std::string out = dir / "refused.sdb";
-      const auto build = BuildDenseStore(in, out, options);
+      const auto build = BuildDenseStore(in, dir / "refused.sdb", options);
       ASSERT_FALSE(build.ok());
       EXPECT_EQ(build.status().message(), plan.status().message());
       EXPECT_NE(build.status().message().find("the narrowest"), std::string_view::npos) << build.status().message();
       EXPECT_NE(build.status().message().find("(--memory-mb)"), std::string_view::npos) << build.status().message();
-      EXPECT_FALSE(std::filesystem::exists(out));
+      EXPECT_FALSE(std::filesystem::exists(dir / "refused.sdb"));
       break;
     }
     EXPECT_LE(plan->bytes, bytes);
     EXPECT_GE(plan->windows, last) << "a smaller bound took a wider window";
     last = plan->windows;
-    if (!built.insert(last).second) continue;
-    const std::string out = dir / ("w" + std::to_string(last) + ".sdb");
-    const auto build = BuildDenseStore(in, out, options);
+    widths.insert(last);
+    if (built || last == 1 || last == narrowest->windows) continue;
+    built = true;
+    const auto build = BuildDenseStore(in, dir / "between.sdb", options);
     ASSERT_TRUE(build.ok()) << build.status().message();
     EXPECT_EQ(build->windows, plan->windows);
     EXPECT_EQ(build->window_planes, plan->window_planes);
-    ExpectSameContent(*reference, **DenseStore::Open(out));
+    ExpectSameContent(**DenseStore::Open(dir / "whole.sdb"), **DenseStore::Open(dir / "between.sdb"));
   }
   EXPECT_TRUE(refused) << "no bound down to 256 KiB refused the build";
-  EXPECT_GE(built.size(), 4u) << "the window took fewer than four widths";
+  EXPECT_TRUE(built) << "no bound took a width between the whole field and the narrowest";
+  EXPECT_GE(widths.size(), 4u) << "the window took fewer than four widths";
 }
 
 TEST(DenseWriter, WindowsMatchTheWholeFieldWithMissingValues) {
