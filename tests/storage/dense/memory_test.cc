@@ -11,6 +11,7 @@
 #include "storage/volume/nrrd_writer.h"
 #include "storage/volume/volume.h"
 #include "tests/storage/store_test_util.h"
+#include "tests/util/sanitizer.h"
 
 namespace simplexdb {
 namespace {
@@ -60,9 +61,9 @@ std::string BuildStore(const TempDir& dir, const std::string& name, int dimensio
 }
 
 TEST(StoreMemory, AnonymousMemoryStaysWithinTheCacheBudgetWhateverTheStoreSize) {
-#if defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "AddressSanitizer keeps freed memory in quarantine: RSS measures it, not us";
-#endif
+  if (testing::UnderAddressSanitizer()) {
+    GTEST_SKIP() << "AddressSanitizer keeps freed memory in quarantine: RSS measures it, not us";
+  }
   const TempDir dir;
   // HT and HP stores many times the budget once decoded: error blocks,
   // field bricks and the finest octave's errors computed per brick share
