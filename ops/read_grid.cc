@@ -115,7 +115,9 @@ void RoundToVoxelType(VoxelType type, std::span<double> values) {
   });
 }
 
-Result<std::vector<double>> ReadGridBox(const AnyStore& store, const ExportBox& box) {
+namespace {
+
+Result<std::vector<double>> ReadGridBoxOf(const AnyStore& store, const ExportBox& box) {
   if (store.dense() != nullptr) return ReadGridBox(*store.dense(), box);
   const SourceInfo& info = store.info();
   SDB_RETURN_IF_ERROR(CheckBox(box, info.dimension, info.dims, info.path));
@@ -123,6 +125,16 @@ Result<std::vector<double>> ReadGridBox(const AnyStore& store, const ExportBox& 
                        info.dimension == 3 ? ReadSparse<3>(*store.sparse(), box)
                                            : ReadSparse<4>(*store.sparse(), box));
   RoundToVoxelType(store.sparse()->header().voxel_type, values);
+  return values;
+}
+
+}  // namespace
+
+Result<std::vector<double>> ReadGridBox(const AnyStore& store, const ExportBox& box) {
+  // Nothing read from a file changed under the store is an answer.
+  SDB_RETURN_IF_ERROR(store.CheckUnchanged());
+  Result<std::vector<double>> values = ReadGridBoxOf(store, box);
+  SDB_RETURN_IF_ERROR(store.CheckUnchanged());
   return values;
 }
 

@@ -2,8 +2,10 @@
 
 namespace simplexdb {
 
-Result<VerifyReport> VerifyStore(const AnyStore& store,
-                                 const std::function<void(uint64_t, uint64_t)>& progress) {
+namespace {
+
+Result<VerifyReport> VerifyOf(const AnyStore& store,
+                              const std::function<void(uint64_t, uint64_t)>& progress) {
   VerifyReport report;
   report.kind = store.kind();
   if (const DenseStore* dense = store.dense(); dense != nullptr) {
@@ -17,6 +19,17 @@ Result<VerifyReport> VerifyStore(const AnyStore& store,
   SDB_RETURN_IF_ERROR(sparse.Verify(progress));
   report.blocks = sparse.header().blocks;
   report.kept = sparse.header().kept;
+  return report;
+}
+
+}  // namespace
+
+Result<VerifyReport> VerifyStore(const AnyStore& store,
+                                 const std::function<void(uint64_t, uint64_t)>& progress) {
+  // A file changed under the store is reported as such, not as damage.
+  SDB_RETURN_IF_ERROR(store.CheckUnchanged());
+  Result<VerifyReport> report = VerifyOf(store, progress);
+  SDB_RETURN_IF_ERROR(store.CheckUnchanged());
   return report;
 }
 

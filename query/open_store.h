@@ -91,13 +91,34 @@ class AnyStore {
   const DenseStore* dense() const { return dense_.get(); }
   const SparseStore* sparse() const { return sparse_.get(); }
 
+  // OK while the store's file is as it was opened (DenseStore::
+  // CheckUnchanged, SparseStore::CheckUnchanged): a file truncated or
+  // written in place since is IOError naming it ("open it again"). Every
+  // operation that reads the store asks before it starts and after it ends,
+  // so that nothing read from a changed file becomes an answer. One fstat.
+  Status CheckUnchanged() const {
+    return dense_ ? dense_->CheckUnchanged() : sparse_->CheckUnchanged();
+  }
+
   // Makes a source of this store's kind and dimension and calls
   // `visitor.template operator()<D>(source)` with it: a generic lambda
   // `[&]<int D, class Source>(Source& source) { ... }` is the usual form.
   // The visitor returns Status or void (taken as OK) for every source type.
-  // Returns the visitor's status.
+  // Returns the visitor's status, or CheckUnchanged's when the file
+  // changed before or during the visit.
   template <class Visitor>
   Status Visit(Visitor&& visitor) const {
+    SDB_RETURN_IF_ERROR(CheckUnchanged());
+    const Status visited = VisitSource(visitor);
+    SDB_RETURN_IF_ERROR(CheckUnchanged());
+    return visited;
+  }
+
+ private:
+  AnyStore() = default;
+
+  template <class Visitor>
+  Status VisitSource(Visitor& visitor) const {
     if (dense_) {
       if (dense_->dimension() == 3) {
         DenseSource<3> source(*dense_);
@@ -113,9 +134,6 @@ class AnyStore {
     SparseSource<4> source(*sparse_);
     return Call<4>(visitor, source);
   }
-
- private:
-  AnyStore() = default;
 
   template <int D, class Visitor, class Source>
   static Status Call(Visitor& visitor, Source& source) {

@@ -262,9 +262,20 @@ void DenseStore::Touch(uint64_t i) const {
   }
 }
 
+Result<std::span<const uint8_t>> DenseStore::StoredBytes(const DenseIndexEntry& e,
+                                                         const std::string& what) const {
+  // Checked at open; checked again, as the file may have changed since.
+  const std::span<const uint8_t> file = file_->bytes();
+  if (e.offset > file.size() || e.stored_size > file.size() - e.offset) {
+    SDB_RETURN_IF_ERROR(file_->CheckUnchanged());
+    return Status::Corruption(path_ + ": " + what + ": its bytes lie past the end of the file");
+  }
+  return file.subspan(e.offset, e.stored_size);
+}
+
 Result<std::shared_ptr<const BlockCache::Block>> DenseStore::DecodeBlock(uint64_t i) const {
   const DenseIndexEntry e = entry(i);
-  const std::span<const uint8_t> stored = file_->bytes().subspan(e.offset, e.stored_size);
+  SDB_ASSIGN_OR_RETURN(const std::span<const uint8_t> stored, StoredBytes(e, Describe(i)));
   if (Checksum(stored) != e.checksum) {
     return Status::Corruption(path_ + ": " + Describe(i) + ": checksum mismatch");
   }
@@ -292,7 +303,8 @@ Result<DenseStore::BlockHandle> DenseStore::Block(uint64_t i) const {
   if (!resident_.empty()) return BlockHandle{resident_[i]->data(), nullptr};
   const DenseIndexEntry e = entry(i);
   if (e.encoding == static_cast<uint8_t>(BlockEncoding::kRaw)) {
-    const uint8_t* data = file_->bytes().data() + e.offset;
+    SDB_ASSIGN_OR_RETURN(const std::span<const uint8_t> raw, StoredBytes(e, Describe(i)));
+    const uint8_t* data = raw.data();
     uint8_t state = raw_state_[i].load(std::memory_order_acquire);
     if (state == 0) {
       state = Checksum(std::span<const uint8_t>(data, e.stored_size)) == e.checksum ? 1 : 2;
@@ -360,7 +372,7 @@ Status DenseStore::LoadAll(int threads) {
 
 Result<std::shared_ptr<const BlockCache::Block>> DenseStore::DecodeBrickAt(uint64_t b) const {
   const DenseIndexEntry e = brick_entry(b);
-  const std::span<const uint8_t> stored = file_->bytes().subspan(e.offset, e.stored_size);
+  SDB_ASSIGN_OR_RETURN(const std::span<const uint8_t> stored, StoredBytes(e, DescribeBrick(b)));
   if (Checksum(stored) != e.checksum) {
     return Status::Corruption(path_ + ": " + DescribeBrick(b) + ": checksum mismatch");
   }

@@ -41,6 +41,14 @@
 // blocks do not fit); lookups return Corruption naming the block or brick
 // when it fails its checksum or does not decode, ResourceExhausted "not
 // enough memory for ..." when a decoded one does not fit.
+//
+// A file changed under an open store: the mapping is guarded
+// (storage/io/mapping_guard.h), so a read past the end of a file truncated
+// since the open reads zeros instead of raising SIGBUS; CheckUnchanged
+// reports that, and any truncation or write in place, as IOError, and every
+// operation asks it before and after reading (AnyStore::Visit, ops/). A
+// file replaced by renaming another over it is not a change: the store
+// reads the file it opened.
 #pragma once
 
 #include <array>
@@ -50,6 +58,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -193,6 +202,12 @@ class DenseStore {
   uint32_t ComputeLazyCode(const BlockHandle& box, const FinestTiles& tiles,
                            const std::array<int64_t, N>& g, int64_t slot, const uint8_t* window) const;
   double VoxelAt(const uint8_t* brick, size_t slot) const;
+
+  // OK while the file is as it was opened (MappedFile::CheckUnchanged:
+  // IOError naming it once it was truncated or written, or a read of it
+  // faulted). Every operation over the store asks before and after it
+  // reads (query/open_store.h, ops/).
+  Status CheckUnchanged() const { return file_->CheckUnchanged(); }
 
   // Reads every stored block and brick: checksums, decoding, errors finite
   // and within the recorded maxima, field values within the brick's and the
@@ -344,6 +359,9 @@ class DenseStore {
   DenseStore() = default;
   Status ValidateBitmapAndIndexes();
   Status LoadAll(int threads);
+  // An entry's stored bytes in the mapping; Corruption (or the file's
+  // change) when they lie past its end.
+  Result<std::span<const uint8_t>> StoredBytes(const DenseIndexEntry& e, const std::string& what) const;
   Result<std::shared_ptr<const BlockCache::Block>> DecodeBlock(uint64_t stored) const;
   Result<std::shared_ptr<const BlockCache::Block>> DecodeBrickAt(uint64_t b) const;
   Result<std::shared_ptr<const BlockCache::Block>> ComputeFinest(uint64_t b) const;

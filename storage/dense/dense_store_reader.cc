@@ -19,7 +19,8 @@ Status DenseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progres
   // Entry `e`'s stored bytes match its checksum (read from the file even
   // when the block or brick is cached or resident).
   const auto stored_ok = [this](const DenseIndexEntry& e) {
-    return Checksum(file_->bytes().subspan(e.offset, e.stored_size)) == e.checksum;
+    const Result<std::span<const uint8_t>> bytes = StoredBytes(e, "an entry");
+    return bytes.ok() && Checksum(*bytes) == e.checksum;
   };
   const auto corrupt = [this](const std::string& what, const std::string& why) {
     return Status::Corruption(path_ + ": " + what + ": " + why);

@@ -1,4 +1,5 @@
 #include "storage/io/file.h"
+#include "storage/io/mapping_guard.h"
 
 #include <dirent.h>
 #include <fcntl.h>
@@ -30,8 +31,7 @@ Status StatusFromErrno(int err, const std::string& path, const std::string& acti
     case ENOMEM:
     case EMFILE:
     case ENFILE: return Status::ResourceExhausted(msg);
-    case EISDIR:
-    case ENAMETOOLONG: return Status::InvalidArgument(msg);
+    case EISDIR: return Status::InvalidArgument(msg);
     default: return Status::IOError(msg);  // EACCES, EPERM, EROFS, EIO, ...
   }
 }
@@ -136,6 +136,10 @@ namespace {
 
 // The folder `final_path` is to be created in exists.
 Status CheckOutputFolder(const std::string& final_path) {
+  if (final_path.empty()) return Status::InvalidArgument("the output path is empty: name a file to write");
+  if (final_path.find('\0') != std::string::npos) {
+    return Status::InvalidArgument("the output path holds a NUL byte, which no file name can");
+  }
   struct stat st;
   if (stat(DirectoryOf(final_path).c_str(), &st) != 0) {
     return StatusFromErrno(errno, final_path, "create");
@@ -349,21 +353,55 @@ Status MapWhole(const std::string& path, boost::interprocess::mode_t mode,
 
 }  // namespace
 
-MappedFile::~MappedFile() = default;
+MappedFile::~MappedFile() {
+  MappingGuard::Unregister(guard_);
+  region_.reset();
+  mapping_.reset();
+  if (fd_ >= 0) close(fd_);
+}
+
+int64_t ModifiedNs(const struct stat& st) {
+  return static_cast<int64_t>(st.st_mtim.tv_sec) * 1000000000 + st.st_mtim.tv_nsec;
+}
 
 Result<std::unique_ptr<MappedFile>> MappedFile::Open(const std::string& path) {
+  std::unique_ptr<MappedFile> f(new MappedFile());
+  f->path_ = path;
+  f->fd_ = open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);  // a FIFO is refused, not waited on
+  if (f->fd_ < 0) return StatusFromErrno(errno, path, "open");
   struct stat st;
-  if (stat(path.c_str(), &st) != 0) return StatusFromErrno(errno, path, "open");
+  if (fstat(f->fd_, &st) != 0) return StatusFromErrno(errno, path, "stat");
   if (const char* kind = KindOfNonRegularFile(st.st_mode)) {
     return Status::InvalidArgument(path + ": cannot read: is " + kind + " (expected a regular file)");
   }
-  std::unique_ptr<MappedFile> f(new MappedFile());
-  f->path_ = path;
+  f->size_ = static_cast<uint64_t>(st.st_size);
+  f->mtime_ns_ = ModifiedNs(st);
   if (st.st_size == 0) return f;  // nothing to map; readers see zero bytes
   SDB_RETURN_IF_ERROR(MapWhole(path, boost::interprocess::read_only, f->mapping_, f->region_));
   f->bytes_ = std::span<const uint8_t>(static_cast<const uint8_t*>(f->region_->get_address()),
                                        f->region_->get_size());
+  f->guard_ = MappingGuard::Register(f->bytes_.data(), f->bytes_.size());
+  // The name mapped is the file described: not replaced in between.
+  struct stat now;
+  if (stat(path.c_str(), &now) != 0) return StatusFromErrno(errno, path, "stat");
+  if (now.st_ino != st.st_ino || now.st_dev != st.st_dev || f->bytes_.size() != f->size_) {
+    return Status::IOError(path + ": the file was replaced while it was being opened: open it again");
+  }
   return f;
+}
+
+Status MappedFile::CheckUnchanged() const {
+  const auto changed = [&](const std::string& what) {
+    return Status::IOError(path_ + ": the file changed after it was opened (" + what + "): open it again");
+  };
+  if (MappingGuard::Faulted(guard_)) return changed("a read went past its end");
+  struct stat st;
+  if (fd_ < 0 || fstat(fd_, &st) != 0) return StatusFromErrno(errno, path_, "stat");
+  if (static_cast<uint64_t>(st.st_size) != size_) {
+    return changed(std::to_string(st.st_size) + " bytes now, " + std::to_string(size_) + " then");
+  }
+  if (ModifiedNs(st) != mtime_ns_) return changed("written since");
+  return Status::OK();
 }
 
 WritableScratchMapping::WritableScratchMapping(std::string path) : path_(std::move(path)) {}

@@ -15,8 +15,10 @@
 //   ENOSPC, EDQUOT, EFBIG,       ResourceExhausted  a disk, quota, file-size,
 //   ENOMEM, EMFILE, ENFILE                          memory or descriptor budget
 //                                                   is full: free some, retry
-//   EISDIR, ENAMETOOLONG         InvalidArgument    the name given cannot be
+//   EISDIR                       InvalidArgument    the name given cannot be
 //                                                   this file at all
+//   ENAMETOOLONG                 IOError            the system's limit on a
+//                                                   name (as Python's OSError)
 //   EACCES, EPERM, EROFS, EIO    IOError            the name is fine and the
 //   and every other errno                           system refused the read or
 //                                                   write (permissions, a
@@ -49,6 +51,7 @@
 // belongs to one thread. MappedFile is immutable.
 #pragma once
 
+#include <sys/stat.h>
 #include <sys/types.h>
 
 #include <atomic>
@@ -220,12 +223,20 @@ class TemporaryFile {
   bool committed_ = false;
 };
 
+class MappingGuard;
+
+// A file's modification time from fstat, in nanoseconds: the mark the
+// readers of mapped files compare to see that it was written since.
+int64_t ModifiedNs(const struct stat& st);
+
 class MappedFile {
  public:
   // Maps `path` read-only. Many processes may map the same file. Errors:
   // the table above for a file that cannot be found or opened;
   // InvalidArgument when `path` is not a regular file; IOError when the
-  // mapping fails. An empty file maps to zero bytes.
+  // mapping fails. An empty file maps to zero bytes. The mapping is
+  // guarded (storage/io/mapping_guard.h): a read past the end of a file
+  // truncated under it reads zeros and marks it instead of raising SIGBUS.
   static Result<std::unique_ptr<MappedFile>> Open(const std::string& path);
   ~MappedFile();
 
@@ -233,12 +244,24 @@ class MappedFile {
   std::span<const uint8_t> bytes() const { return bytes_; }
   const std::string& path() const { return path_; }
 
+  // OK while the file is as it was mapped: the same size and modification
+  // time, and no read of the mapping has faulted. Else IOError "<path>:
+  // the file changed after it was opened (<what>): open it again". Readers
+  // ask before an operation (a truncated or rewritten file is refused
+  // before anything is read) and after it (what was read while it changed
+  // is not an answer). Cost: one fstat.
+  Status CheckUnchanged() const;
+
  private:
   MappedFile() = default;
   std::string path_;
   std::unique_ptr<boost::interprocess::file_mapping> mapping_;
   std::unique_ptr<boost::interprocess::mapped_region> region_;
   std::span<const uint8_t> bytes_;
+  int fd_ = -1;                // the mapped file, for fstat
+  uint64_t size_ = 0;          // its size when mapped
+  int64_t mtime_ns_ = 0;       // and its modification time
+  MappingGuard* guard_ = nullptr;
 };
 
 // A new file of a given size mapped read-write, for scratch data larger than

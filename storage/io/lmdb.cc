@@ -11,6 +11,7 @@
 
 #include "storage/io/file.h"
 #include "storage/io/lmdb_check.h"
+#include "storage/io/mapping_guard.h"
 #include "storage/io/read_only_file.h"
 #include "util/little_endian.h"
 
@@ -161,10 +162,72 @@ Result<std::unique_ptr<Env>> Env::Open(const std::string& path, const Options& o
     }
     SDB_RETURN_IF_ERROR(checked);
   }
+  env->check_pages_ = options.check_pages;
+  struct stat st {};
+  if (existing && fstat(file.fd, &st) == 0) {
+    env->checked_mtime_ns_ = ModifiedNs(st);
+    env->checked_bytes_ = static_cast<uint64_t>(st.st_size);
+  }
+  env->GuardMap();
   return env;
 }
 
-Env::~Env() { mdb_env_close(env_); }
+Env::~Env() {
+  MappingGuard::Unregister(guard_);
+  mdb_env_close(env_);
+}
+
+void Env::GuardMap() {
+  // LMDB does not say where its map is (MDB_envinfo's address is the one a
+  // fixed map asked for): the guard finds it by the file.
+  MDB_envinfo info;
+  int fd = -1;
+  if (mdb_env_info(env_, &info) != MDB_SUCCESS || mdb_env_get_fd(env_, &fd) != MDB_SUCCESS) return;
+  if (guard_ != nullptr && info.me_mapsize == guarded_bytes_) return;
+  MappingGuard::Unregister(guard_);
+  guard_ = MappingGuard::RegisterMappingOf(fd);
+  guarded_bytes_ = info.me_mapsize;
+}
+
+Status Env::CheckUnchanged() {
+  const auto changed = [&](const std::string& what) {
+    return Status::IOError(name_ + ": the file changed after it was opened (" + what + "): open it again");
+  };
+  int fd = -1;
+  struct stat st {};
+  if (mdb_env_get_fd(env_, &fd) != MDB_SUCCESS || fstat(fd, &st) != 0) {
+    return StatusFromErrno(errno, name_, "stat");
+  }
+  std::lock_guard<std::mutex> lock(check_mu_);
+  // LMDB's writers only grow the file.
+  if (static_cast<uint64_t>(st.st_size) < checked_bytes_) {
+    return changed(std::to_string(st.st_size) + " bytes now, " + std::to_string(checked_bytes_) + " then");
+  }
+  MDB_envinfo info;
+  MDB_stat stat_info;
+  mdb_env_info(env_, &info);  // reads the meta pages from the map
+  mdb_env_stat(env_, &stat_info);
+  if (MappingGuard::Faulted(guard_)) return changed("a read went past its end");
+  const uint64_t needed = (static_cast<uint64_t>(info.me_last_pgno) + 1) * stat_info.ms_psize;
+  if (static_cast<uint64_t>(st.st_size) < needed) {
+    return changed(std::to_string(st.st_size) + " bytes, its pages need " + std::to_string(needed));
+  }
+  if (ModifiedNs(st) == checked_mtime_ns_) return Status::OK();
+  // Written since: by LMDB (another process's update) or by anything else.
+  SDB_RETURN_IF_ERROR(CheckMetas(fd, name_).status());
+  if (check_pages_) {
+    Status checked;
+    for (int attempt = 0; attempt < 8; ++attempt) {
+      SDB_ASSIGN_OR_RETURN(Txn txn, Txn::Begin(*this, /*read_only=*/true));
+      checked = CheckPages(fd, name_, mdb_txn_id(txn.get()));
+      if (checked.code() != Status::Code::kNotFound) break;
+    }
+    SDB_RETURN_IF_ERROR(checked);
+  }
+  checked_mtime_ns_ = ModifiedNs(st);
+  checked_bytes_ = static_cast<uint64_t>(st.st_size);
+  return Status::OK();
+}
 
 size_t Env::page_bytes() const {
   MDB_stat stat_info;
@@ -180,7 +243,9 @@ uint64_t Env::map_bytes() const {
 
 Status Env::SetMapBytes(uint64_t bytes) {
   const int rc = mdb_env_set_mapsize(env_, bytes);
-  return rc == MDB_SUCCESS ? Status::OK() : FromCode(rc, "grow the map");
+  if (rc != MDB_SUCCESS) return FromCode(rc, "grow the map");
+  GuardMap();
+  return Status::OK();
 }
 
 Status Env::Sync() {
@@ -194,6 +259,7 @@ Result<Txn> Txn::Begin(Env& env, bool read_only) {
   if (rc == MDB_MAP_RESIZED) {
     // Another process grew the map: adopt its size and try again.
     rc = mdb_env_set_mapsize(env.get(), 0);
+    if (rc == MDB_SUCCESS) env.GuardMap();
     if (rc == MDB_SUCCESS) rc = mdb_txn_begin(env.get(), nullptr, read_only ? MDB_RDONLY : 0, &txn);
   }
   if (rc != MDB_SUCCESS) return env.FromCode(rc, "begin a transaction");

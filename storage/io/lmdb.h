@@ -35,12 +35,17 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "util/status.h"
+
+namespace simplexdb {
+class MappingGuard;
+}  // namespace simplexdb
 
 namespace simplexdb::lmdb {
 
@@ -128,12 +133,32 @@ class Env {
     return lmdb::FromCode(rc, name_, action);
   }
 
+  // For a reader of a file that other programs may change: OK while the
+  // file is as LMDB left it. A read of the map that faulted (the file
+  // shrank under it: storage/io/mapping_guard.h) or a file shorter than its
+  // pages is IOError "<name>: the file changed after it was opened (...):
+  // open it again". A file written since the last check (LMDB's own
+  // writers do that, in place) is checked again as at open (its meta pages
+  // and every page of its current snapshot): Corruption names the damage
+  // of a file written by anything else. Cost: one fstat, and a walk of the
+  // pages after a write.
+  Status CheckUnchanged();
+
  private:
+  friend class Txn;  // adopts a map grown elsewhere, then GuardMap
   Env(MDB_env* env, std::string path, std::string name)
       : env_(env), path_(std::move(path)), name_(std::move(name)) {}
+  // Guards the map as it is now (after the open, and after it moved).
+  void GuardMap();
   MDB_env* env_;
   std::string path_;
   std::string name_;
+  MappingGuard* guard_ = nullptr;
+  uint64_t guarded_bytes_ = 0;    // the map's size when guarded
+  bool check_pages_ = true;
+  std::mutex check_mu_;
+  int64_t checked_mtime_ns_ = 0;   // the file's modification time when last checked
+  uint64_t checked_bytes_ = 0;     // and its size
 };
 
 class Txn {

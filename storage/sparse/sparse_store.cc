@@ -511,4 +511,6 @@ Status SparseStore::Verify(const std::function<void(uint64_t, uint64_t)>& progre
 template class SparseStore::Reader<3>;
 template class SparseStore::Reader<4>;
 
+Status SparseStore::CheckUnchanged() const { return env_->CheckUnchanged(); }
+
 }  // namespace simplexdb

@@ -73,6 +73,12 @@ class SparseStore {
   // were walked by Open. The first failure, naming the block.
   Status Verify(const std::function<void(uint64_t, uint64_t)>& progress = {}) const;
 
+  // OK while the file is as LMDB left it (lmdb::Env::CheckUnchanged:
+  // IOError naming it once it was cut short or a read of it faulted,
+  // Corruption when something other than LMDB wrote it). Every operation
+  // over the store asks before and after it reads (query/open_store.h).
+  Status CheckUnchanged() const;
+
   struct Stats {
     uint64_t blocks_decoded = 0;  // entries decoded (cache misses)
     uint64_t blocks_rebuilt = 0;  // blocks without an entry met

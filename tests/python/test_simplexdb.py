@@ -4,6 +4,7 @@ Run by ctest (label python) with Debian's /usr/bin/python3 -m pytest;
 SIMPLEXDB_CLI names the `simplexdb` tool of the same build and PYTHONPATH
 holds the built package.
 """
+import builtins
 import json
 import threading
 
@@ -131,6 +132,46 @@ def test_bad_arguments_raise_with_the_message(stores):
         store.extract("1%", time=2)  # an HT has no time
     with pytest.raises(OSError, match="nowhere.sdb"):
         simplexdb.open(stores / "nowhere.sdb")
+
+
+@pytest.mark.parametrize("name,in_memory", [("ht.sdb", False), ("ht.sdb", True), ("ht.lmdb", False)])
+@pytest.mark.parametrize("keep", [0.5, 0.0])
+@pytest.mark.parametrize("operation", ["extract", "export", "field_at"])
+def test_a_store_truncated_while_open_raises_and_the_interpreter_lives(stores, tmp_path, name, in_memory, keep,
+                                                                     operation):
+    # Issue 46: a long-lived reader (a notebook, a ParaView session) whose
+    # store is cut short under it gets an OSError, never a SIGBUS.
+    import os
+    import shutil
+    path = tmp_path / name
+    shutil.copyfile(stores / name, path)
+    store = simplexdb.open(path, cache_mb=1, in_memory=in_memory)
+    run_it = {
+        "extract": lambda: store.extract("2%"),
+        "export": lambda: store.export(),
+        "field_at": lambda: store.field_at(np.array([[1.0, 2.0, 3.0]]), units="grid"),
+    }[operation]
+    run_it()
+    os.truncate(path, int(os.path.getsize(path) * keep))
+    with pytest.raises(OSError, match="changed after it was opened.*open it again"):
+        run_it()
+
+
+def test_a_store_written_in_place_while_open_raises(stores, tmp_path):
+    import os
+    import shutil
+    import time
+    for name in ["ht.sdb", "ht.lmdb"]:
+        path = tmp_path / name
+        shutil.copyfile(stores / name, path)
+        store = simplexdb.open(path)
+        store.extract("2%")
+        time.sleep(0.02)  # the file system's clock is coarse
+        with builtins.open(path, "r+b") as f:
+            f.seek(os.path.getsize(path) // 2 & ~4095)
+            f.write(b"\x5a" * 8192)
+        with pytest.raises(OSError, match=str(path)):
+            store.extract("1%")
 
 
 def test_a_damaged_store_raises(stores):
