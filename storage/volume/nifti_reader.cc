@@ -11,6 +11,8 @@
 #include <optional>
 #include <string_view>
 
+#include <fmt/format.h>
+
 #include "storage/io/read_only_file.h"
 #include "storage/volume/volume_info_internal.h"
 
@@ -109,47 +111,91 @@ double NiftiTimeToSeconds(int units) {
   }
 }
 
-// Sets info.origin (x, y, z) from the sform or the qform (sform first, as
-// nibabel and ITK do), negates info.spacing of the axes it flips, and sets
-// info.dropped when it is not axis-aligned (NearestAxisAlignment). NIfTI-1
-// section "3 methods": method 3 (sform_code > 0), method 2 (qform_code > 0),
-// method 1 (neither: origin 0, every axis forwards).
-void NiftiPlacement(const NiftiFields& f, double to_mm, VolumeInfo& info) {
-  std::array<std::array<double, 3>, 3> m{};  // rotation (times scales, sform)
+// NIfTI-1's transform codes: 0 unknown, 1 scanner, 2 aligned, 3 Talairach,
+// 4 MNI 152 (nifti1.h, NIFTI_XFORM_*). Another is not a transform this
+// reader knows how to take.
+constexpr int16_t kNiftiLastXform = 4;
+
+// Places the grid by NIfTI-1's "3 methods" (nifti1.h), sform first as
+// nibabel and ITK do:
+//   method 3 (sform_code 1-4): grid point (i, j, k) is at srow x (i, j, k,
+//     1): each axis's spacing is the length of its column, the origin the
+//     translation;
+//   method 2 (qform_code 1-4): the rotation of the quaternion (b, c, d), a
+//     = sqrt(1 - b^2 - c^2 - d^2), with qfac = pixdim[0] (-1 flips z);
+//     spacing pixdim[1..3], origin (qoffset_x, y, z);
+//   method 1 (neither): spacing pixdim[1..3], origin 0, every axis forwards.
+// Axes the transform flips get a negative spacing; a transform that is not
+// axis-aligned keeps its nearest axis-aligned form and says so in
+// info.dropped (NearestAxisAlignment), as does a code NIfTI-1 does not
+// define (then the next method is used). `info.spacing` holds pixdim, in
+// millimetres (to_mm applied), when called. InvalidArgument for a qform
+// whose quaternion is not finite or longer than 1 (a = sqrt of a negative
+// number: no rotation), and for a sform that is not finite.
+Status NiftiPlacement(const std::string& path, const NiftiFields& f, double to_mm, VolumeInfo& info) {
+  std::array<std::array<double, 3>, 3> m{};  // the matrix: sform, or the qform's rotation
   std::array<double, 3> t{};
-  std::string method;
-  if (f.I16(kNiftiSformCode) > 0) {
+  std::string method, notes;
+  const int16_t sform = f.I16(kNiftiSformCode), qform = f.I16(kNiftiQformCode);
+  const auto unknown = [&](const char* name, int16_t code) {
+    if (code < 0 || code > kNiftiLastXform) {
+      notes += std::string(notes.empty() ? "" : "; ") + name + " " + std::to_string(code) +
+               " is not a NIfTI-1 transform code (0-4): not used";
+    }
+  };
+  unknown("sform_code", sform);
+  unknown("qform_code", qform);
+  if (sform > 0 && sform <= kNiftiLastXform) {
     method = "sform";
     for (size_t r = 0; r < 3; ++r) {
       for (size_t c = 0; c < 3; ++c) m[r][c] = f.F32(kNiftiSrow + 16 * r + 4 * c);
       t[r] = f.F32(kNiftiSrow + 16 * r + 12);
     }
-  } else if (f.I16(kNiftiQformCode) > 0) {
+    for (size_t c = 0; c < 3; ++c) {
+      const double length = std::hypot(m[0][c], m[1][c], m[2][c]);
+      if (!std::isfinite(length) || !std::isfinite(t[c])) {
+        return Status::InvalidArgument(path + ": the sform (srow_x, srow_y, srow_z) holds a number that is "
+                                              "not finite");
+      }
+      // Method 3: the column's length is the axis's spacing.
+      if (length > 0) info.spacing[c] = length * to_mm;
+    }
+  } else if (qform > 0 && qform <= kNiftiLastXform) {
     method = "qform";
-    // The quaternion (a, b, c, d), a = sqrt(1 - b^2 - c^2 - d^2), and qfac
-    // = pixdim[0] (-1 flips z); nifti1.h, "METHOD 2".
     const double b = f.F32(kNiftiQuatern), c = f.F32(kNiftiQuatern + 4),
                  d = f.F32(kNiftiQuatern + 8);
-    const double a = std::sqrt(std::max(0.0, 1 - (b * b + c * c + d * d)));
+    const double norm2 = b * b + c * c + d * d;
+    // float32 rounding of a unit quaternion with a = 0 may pass 1 a little.
+    constexpr double kSlack = 1e-6;
+    if (!std::isfinite(norm2) || norm2 > 1 + kSlack) {
+      return Status::InvalidArgument(fmt::format(
+          "{}: the qform's quaternion (b, c, d) = ({}, {}, {}) is {}: NIfTI-1's method 2 needs b^2 + c^2 + "
+          "d^2 <= 1 (a = sqrt(1 - that)); fix the header, or set qform_code 0",
+          path, b, c, d, std::isfinite(norm2) ? "longer than 1" : "not finite"));
+    }
+    const double a = std::sqrt(std::max(0.0, 1 - norm2));
     const double qfac = f.F32(kNiftiPixdim) < 0 ? -1 : 1;
     m = {{{a * a + b * b - c * c - d * d, 2 * (b * c - a * d), 2 * (b * d + a * c)},
           {2 * (b * c + a * d), a * a + c * c - b * b - d * d, 2 * (c * d - a * b)},
           {2 * (b * d - a * c), 2 * (c * d + a * b), a * a + d * d - c * c - b * b}}};
     for (auto& row : m) row[2] *= qfac;
     for (size_t r = 0; r < 3; ++r) t[r] = f.F32(kNiftiQuatern + 12 + 4 * r);
-  } else {
-    return;
   }
-  for (size_t r = 0; r < 3; ++r) {
-    if (std::isfinite(t[r])) info.origin[r] = t[r] * to_mm;
+  if (!method.empty()) {
+    for (size_t r = 0; r < 3; ++r) {
+      if (std::isfinite(t[r])) info.origin[r] = t[r] * to_mm;
+    }
+    std::array<std::array<double, 3>, 3> axes{};  // the matrix's columns
+    for (size_t r = 0; r < 3; ++r) {
+      for (size_t c = 0; c < 3; ++c) axes[c][r] = m[r][c];
+    }
+    const volume_internal::AxisAlignment alignment = volume_internal::NearestAxisAlignment(axes);
+    for (size_t c = 0; c < 3; ++c) info.spacing[c] *= alignment.sign[c];
+    const std::string dropped = volume_internal::DescribeDroppedOrientation("the NIfTI " + method, alignment);
+    notes = dropped + (!dropped.empty() && !notes.empty() ? "; " : "") + notes;
   }
-  std::array<std::array<double, 3>, 3> axes{};  // the matrix's columns
-  for (size_t r = 0; r < 3; ++r) {
-    for (size_t c = 0; c < 3; ++c) axes[c][r] = m[r][c];
-  }
-  const volume_internal::AxisAlignment alignment = volume_internal::NearestAxisAlignment(axes);
-  for (size_t c = 0; c < 3; ++c) info.spacing[c] *= alignment.sign[c];
-  info.dropped = volume_internal::DescribeDroppedOrientation("the NIfTI " + method, alignment);
+  info.dropped = notes;
+  return Status::OK();
 }
 
 }  // namespace
@@ -251,7 +297,7 @@ Result<VolumeInfo> OpenNifti(const std::string& path) {
     const float toffset = f.F32(kNiftiToffset);
     if (std::isfinite(toffset)) info.origin[3] = static_cast<double>(toffset) * to_s;
   }
-  NiftiPlacement(f, to_mm, info);
+  SDB_RETURN_IF_ERROR(NiftiPlacement(path, f, to_mm, info));
 
   info.type = *dt->type;
   const int16_t bitpix = f.I16(kNiftiBitpix);

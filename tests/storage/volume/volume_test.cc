@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <cmath>
 #include <limits>
 #include <random>
 #include <string>
@@ -1074,12 +1075,69 @@ TEST(Nifti, QformOffsetAndWhatIsDroppedOtherwise) {
   EXPECT_EQ(info->dropped, "");
 }
 
+// Issue 46: NIfTI-1's method 3 takes each axis's spacing from the sform's
+// column (pixdim 1 here, ignored); codes it does not define are not used,
+// with a note; a quaternion that is no rotation is refused.
+TEST(Nifti, PlacementFollowsTheStandardsMethods) {
+  TempDir dir;
+  NiftiSpec spec;
+  spec.xyzt_units = 2;  // mm
+  spec.sform_code = 2;
+  spec.srow = {2, 0, 0, 5, 0, 3, 0, 6, 0, 0, 4, 7};
+  WriteFile(dir / "s.nii", MakeNifti(spec, std::string(16, '\0')));
+  auto info = OpenNifti(dir / "s.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->spacing, (std::array<double, 4>{2, 3, 4, 1}));
+  EXPECT_EQ(info->origin, (std::array<double, 4>{5, 6, 7, 0}));
+  EXPECT_EQ(info->dropped, "");
+  // A column that is not along its axis: its length is still the spacing.
+  spec.srow = {0.8660254f, -0.5f, 0, 0, 0.5f, 0.8660254f, 0, 0, 0, 0, 1, 0};  // 30 degrees about z
+  WriteFile(dir / "turned.nii", MakeNifti(spec, std::string(16, '\0')));
+  info = OpenNifti(dir / "turned.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_NEAR(std::fabs(info->spacing[0]), 1, 1e-6);
+  EXPECT_NE(info->dropped.find("turns the grid"), std::string::npos) << info->dropped;
+  // sform_code 99: not a NIfTI-1 code, so method 2 (the qform) places it.
+  spec.sform_code = 99;
+  spec.qform_code = 1;
+  spec.pixdim = {1, 1.5f, 1.5f, 1.5f, 1, 1, 1, 1};
+  spec.quatern = {0, 0, 0, 1, 2, 3};
+  WriteFile(dir / "odd.nii", MakeNifti(spec, std::string(16, '\0')));
+  info = OpenNifti(dir / "odd.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->spacing, (std::array<double, 4>{1.5, 1.5, 1.5, 1}));
+  EXPECT_EQ(info->origin, (std::array<double, 4>{1, 2, 3, 0}));
+  EXPECT_NE(info->dropped.find("sform_code 99 is not a NIfTI-1 transform code (0-4): not used"),
+            std::string::npos)
+      << info->dropped;
+  // qform_code 99 alone: method 1, with the note.
+  spec.sform_code = 0;
+  spec.qform_code = 99;
+  WriteFile(dir / "odd_q.nii", MakeNifti(spec, std::string(16, '\0')));
+  info = OpenNifti(dir / "odd_q.nii");
+  ASSERT_TRUE(info.ok()) << info.status().ToString();
+  EXPECT_EQ(info->origin, (std::array<double, 4>{0, 0, 0, 0}));
+  EXPECT_NE(info->dropped.find("qform_code 99"), std::string::npos) << info->dropped;
+  // A quaternion longer than 1, or not finite: refused, naming it.
+  spec.qform_code = 1;
+  for (const float b : {0.9f, std::numeric_limits<float>::quiet_NaN()}) {
+    spec.quatern = {b, 0.9f, 0, 0, 0, 0};
+    WriteFile(dir / "bad.nii", MakeNifti(spec, std::string(16, '\0')));
+    const auto bad = OpenNifti(dir / "bad.nii");
+    ASSERT_FALSE(bad.ok()) << b;
+    EXPECT_TRUE(bad.status().IsInvalidArgument()) << bad.status().ToString();
+    EXPECT_NE(bad.status().message().find("qform's quaternion"), std::string_view::npos) << bad.status().message();
+    EXPECT_NE(bad.status().message().find(dir / "bad.nii"), std::string_view::npos) << bad.status().message();
+  }
+}
+
 TEST(SharedData, FmriSpacingIsTheReadmeVoxelSizeAndTr) {
   SKIP_WITHOUT_SHARED_DATA();
   auto info = OpenNifti(kSharedData + "/fmri_example4d/example4d.nii");
   ASSERT_TRUE(info.ok()) << info.status().ToString();
-  EXPECT_DOUBLE_EQ(info->spacing[0], -2);  // the sform flips x
-  EXPECT_DOUBLE_EQ(info->spacing[1], 2);
+  // Method 3: the sform's columns' lengths (float32 entries: within 1e-6).
+  EXPECT_NEAR(info->spacing[0], -2, 1e-6);  // the sform flips x
+  EXPECT_NEAR(info->spacing[1], 2, 1e-6);
   EXPECT_NEAR(info->spacing[2], 2.2, 1e-5);
   // The TR is 2000 ms, but the header's xyzt_units is 10 (mm, seconds) with
   // pixdim[4] 2000: kept as the header says, not guessed at.
