@@ -1,6 +1,8 @@
-// Amounts in field units as both front ends take them: "7.3" (absolute) or
-// "1%" (of the field's range): `--error`, `--tolerance`. The one parser, so
-// `simplexdb` and the Python package read the same text the same way.
+// Numbers and amounts as both front ends take them as text: a decimal
+// number ("7.3", "-2", "1e-3"), and an amount in field units, "7.3"
+// (absolute) or "1%" (of the field's range): `--error`, `--tolerance`.
+// The one parser, so `simplexdb` and the Python package read the same text
+// the same way.
 //
 // Thread safety: pure functions. Lifetimes: values.
 // Errors: InvalidArgument naming the option as the command line spells it
@@ -15,7 +17,13 @@
 
 namespace simplexdb {
 
-// "7.3" -> {7.3, false}; "1%" -> {1, true}. The number must be finite and
+// A finite decimal number: an optional sign, digits with an optional point,
+// an optional exponent; nothing else around it (no space, no hexadecimal
+// "0x10", no "inf" or "nan", no digit groups). InvalidArgument "<option>:
+// '<text>' is not a decimal number" otherwise.
+Result<double> ParseDecimal(std::string_view text, std::string_view option);
+
+// "7.3" -> {7.3, false}; "1%" -> {1, true}. The number is ParseDecimal's,
 // >= 0.
 Result<Amount> ParseAmount(std::string_view text, std::string_view option);
 

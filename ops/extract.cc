@@ -106,6 +106,15 @@ Result<Resolved> Resolve(const SourceInfo& info, const ExtractRequest& r) {
           "numbers",
           box.size()));
     }
+    // Each axis low to high in the units given (a flipped axis is turned
+    // around below, in grid units).
+    for (size_t k = 0; k < box.size() / 2; ++k) {
+      const size_t lo = k < 3 ? k : 6, hi = k < 3 ? k + 3 : 7;
+      if (!std::isfinite(box[lo]) || !std::isfinite(box[hi]) || box[lo] > box[hi]) {
+        return Status::InvalidArgument(fmt::format("--box {}: {} from {} to {}: expected finite bounds, low <= high ({})",
+                                                   fmt::join(box, ","), "xyzt"[k], box[lo], box[hi], units.name()));
+      }
+    }
     for (size_t i = 0; i < box.size(); ++i) box[i] = units.ToGrid(i < 6 ? static_cast<int>(i % 3) : 3, box[i]);
     // A flipped axis (negative spacing) runs the other way in grid units.
     for (size_t k = 0; k < 3 && units.physical; ++k) {
@@ -126,13 +135,28 @@ Result<Resolved> Resolve(const SourceInfo& info, const ExtractRequest& r) {
   if (!(r.time_limit >= 0)) {
     return Status::InvalidArgument(fmt::format("--time-limit {}: expected seconds >= 0", r.time_limit));
   }
+  // Only the priority order can stop early; elsewhere they would be ignored.
+  if (out.algorithm != Algorithm::kPriority && (r.budget != 0 || r.time_limit != 0)) {
+    return Status::InvalidArgument(fmt::format(
+        "{}: only --algorithm priority stops at a budget or a time limit (this is {}, which runs to the end)",
+        r.budget != 0 ? fmt::format("--budget {}", r.budget) : fmt::format("--time-limit {}", r.time_limit),
+        AlgorithmName(out.algorithm)));
+  }
   if (!r.slices.empty()) {
     if (info.dimension != 4) {
       return Status::InvalidArgument("--slices: a series of HP time slices; the HT has no time");
     }
+    const double last = static_cast<double>(info.dims[3]) - 1;
     for (const double t : r.slices) {
       if (!std::isfinite(t)) return Status::InvalidArgument(fmt::format("--slices: {} is not a time", t));
-      out.slices.push_back(units.ToGrid(3, t));
+      const double grid = units.ToGrid(3, t);
+      // A slice outside the store's times would cut the padding past them.
+      if (!(grid >= 0 && grid <= last)) {
+        const auto [first_time, last_time] = std::minmax(units.FromGrid(3, 0), units.FromGrid(3, last));
+        return Status::InvalidArgument(fmt::format("--slices: {} is outside the store's times, {} to {} ({})", t,
+                                                   first_time, last_time, units.name()));
+      }
+      out.slices.push_back(grid);
     }
   }
   return out;

@@ -97,7 +97,8 @@ struct ExtractResult {
 // The request's checks against the store `info` describes, nothing read:
 // --units, --error, --box (count, bounds, missing the grid), --iso (outside
 // the field's range), --time (an HT's, outside the store's times),
-// --algorithm, --from without incremental, --slices (an HT's). O(1).
+// --algorithm, --from without incremental, --budget and --time-limit but
+// with priority, --slices (an HT's, outside the store's times). O(1).
 Status CheckExtract(const SourceInfo& info, const ExtractRequest& request);
 
 // Called with each time slice of request.slices in order: its index, then

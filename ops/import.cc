@@ -34,6 +34,17 @@ Status CheckPlacement(const VolumeInfo& input, const std::vector<double>& v, boo
 
 }  // namespace
 
+VolumeInfo PlacedInput(const VolumeInfo& input, const ImportOptions& options) {
+  VolumeInfo placed = input;
+  for (size_t a = 0; options.spacing && a < options.spacing->size(); ++a) {
+    placed.spacing[a] = (*options.spacing)[a];
+  }
+  for (size_t a = 0; options.origin && a < options.origin->size(); ++a) {
+    placed.origin[a] = (*options.origin)[a];
+  }
+  return placed;
+}
+
 Status CheckImport(const VolumeInfo& input, const ImportOptions& options) {
   const std::string expected = input.dimension == 3 ? "ht" : "hp";
   if (!options.hierarchy.empty()) {
@@ -66,18 +77,19 @@ Status CheckImport(const VolumeInfo& input, const ImportOptions& options) {
   }
   if (options.spacing) SDB_RETURN_IF_ERROR(CheckPlacement(input, *options.spacing, true));
   if (options.origin) SDB_RETURN_IF_ERROR(CheckPlacement(input, *options.origin, false));
+  // Every grid point has a finite place: the last one of each axis too.
+  const VolumeInfo placed = PlacedInput(input, options);
+  for (int a = 0; a < placed.dimension; ++a) {
+    const double last = placed.origin[a] + static_cast<double>(placed.dims[a] - 1) * placed.spacing[a];
+    if (!std::isfinite(last)) {
+      return Status::InvalidArgument(fmt::format(
+          "{}: grid point {} of axis {} would lie at {} (origin {}, spacing {}): the grid's extent must be a "
+          "finite number; give a smaller spacing or origin",
+          options.spacing ? "--spacing" : (options.origin ? "--origin" : input.description), placed.dims[a] - 1,
+          a, last, placed.origin[a], placed.spacing[a]));
+    }
+  }
   return Status::OK();
-}
-
-VolumeInfo PlacedInput(const VolumeInfo& input, const ImportOptions& options) {
-  VolumeInfo placed = input;
-  for (size_t a = 0; options.spacing && a < options.spacing->size(); ++a) {
-    placed.spacing[a] = (*options.spacing)[a];
-  }
-  for (size_t a = 0; options.origin && a < options.origin->size(); ++a) {
-    placed.origin[a] = (*options.origin)[a];
-  }
-  return placed;
 }
 
 Result<ImportReport> ImportVolume(const VolumeInfo& input, const std::string& output,

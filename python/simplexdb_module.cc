@@ -428,7 +428,12 @@ PYBIND11_MODULE(_simplexdb, m) {
           py::gil_scoped_release unlocked;
           return AnyStore::Open(path, options);
         }();
-        if (!store.ok()) Raise(store.status());
+        // Whatever keeps a file from opening as a store (missing, not a
+        // store, damaged, of another format) is the file's: OSError.
+        if (!store.ok()) {
+          PyErr_SetString(PyExc_OSError, std::string(store.status().message()).c_str());
+          throw py::error_already_set();
+        }
         return std::make_shared<AnyStore>(std::move(store).value());
       },
       py::arg("path"), py::arg("cache_mb"), py::arg("in_memory"));

@@ -77,14 +77,13 @@ std::vector<double> ParseNumberList(std::string_view text, const char* option, s
     const size_t comma = text.find(',', start);
     const std::string item(text.substr(start, comma == std::string_view::npos ? std::string_view::npos
                                                                               : comma - start));
-    char* end = nullptr;
-    const double v = std::strtod(item.c_str(), &end);
-    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(v)) {
-      throw CommandError(fmt::format("{}: '{}' is not a comma-separated list of numbers", option,
+    const Result<double> v = ParseDecimal(item, option);
+    if (!v.ok()) {
+      throw CommandError(fmt::format("{}: '{}' is not a comma-separated list of decimal numbers", option,
                                      text),
                          2);
     }
-    out.push_back(v);
+    out.push_back(*v);
     if (comma == std::string_view::npos) break;
     start = comma + 1;
   }
@@ -94,6 +93,15 @@ std::vector<double> ParseNumberList(std::string_view text, const char* option, s
                        2);
   }
   return out;
+}
+
+const CLI::Validator& DecimalNumber() {
+  static const CLI::Validator check(
+      [](std::string& text) -> std::string {
+        return ParseDecimal(text, "").ok() ? std::string() : "'" + text + "' is not a decimal number";
+      },
+      "DECIMAL");
+  return check;
 }
 
 Amount ParseAmountOption(std::string_view text, const char* option) {

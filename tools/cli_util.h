@@ -116,6 +116,11 @@ std::string CheckOutput(const std::string& path, const std::vector<std::string>&
 // Adds --force, bound to `force`, with the one help text for it.
 void AddForceOption(CLI::App* cmd, bool* force);
 
+// A check for CLI11 options that hold numbers: the text must be a decimal
+// number as ParseDecimal reads it (ops/amount.h). CLI11 itself reads
+// numbers with strtod, which takes "0x10" for 16 and "inf" for infinity.
+const CLI::Validator& DecimalNumber();
+
 // Adds the required "-o,--output", bound to `output` and described by
 // `help` (what the command writes there), and --force (AddForceOption):
 // every command that writes a file takes both.

@@ -132,9 +132,9 @@ void RegisterExtractCommand(CLI::App& app) {
                   "Hold only simplices meeting this closed box to the threshold: x0,y0,z0,x1,y1,z1[,t0,t1] "
                   "in grid coordinates, or physical ones with --units physical (an exact test)");
   cmd->add_option("--iso", args->request.iso,
-                  "Hold only simplices that may contain this isovalue (vertex range widened by their error)");
+                  "Hold only simplices that may contain this isovalue (vertex range widened by their error)")->check(DecimalNumber());
   cmd->add_option("--time", args->request.time, "HP: hold only pentatopes meeting the time slice t = T (grid units, or\n"
-                  "physical with --units physical)");
+                  "physical with --units physical)")->check(DecimalNumber());
   cmd->add_option("--units", args->request.units,
                   "grid (default: point i of an axis is at i) or physical (the store's origin + i x spacing,\n"
                   "`simplexdb info` shows them): the units of --box, --time and --slices. Meshes are\n"
@@ -144,7 +144,7 @@ void RegisterExtractCommand(CLI::App& app) {
                   "depth-first mesh, candidates taken level by level in the store's order: each\n"
                   "block of a format-2 store read about once, for a cache far smaller than the store)");
   cmd->add_option("--budget", args->request.budget, "priority: stop before the mesh would pass this many simplices");
-  cmd->add_option("--time-limit", args->request.time_limit, "priority: stop after this many seconds");
+  cmd->add_option("--time-limit", args->request.time_limit, "priority: stop after this many seconds")->check(DecimalNumber());
   cmd->add_option("--from", args->from, "incremental: the previous mesh, as leaf codes (--format codes)");
   cmd->add_option("--format", args->format,
                   "codes (leaf codes, one per line), vtu (VTK unstructured grid: the HT's tetrahedra, or the\n"

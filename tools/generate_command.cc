@@ -229,8 +229,8 @@ void RegisterGenerateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "random seed")->capture_default_str();
   cmd->add_option("--octaves", a->octaves, "Perlin octaves")->capture_default_str();
-  cmd->add_option("--frequency", a->frequency, "periods across the domain")->capture_default_str();
-  cmd->add_option("--constant", a->constant, "the value of --field constant")->capture_default_str();
+  cmd->add_option("--frequency", a->frequency, "periods across the domain")->capture_default_str()->check(DecimalNumber());
+  cmd->add_option("--constant", a->constant, "the value of --field constant")->capture_default_str()->check(DecimalNumber());
   AddThreadsOption(cmd, &a->threads);
   AddQuietFlag(cmd, &a->quiet);
 }

@@ -42,6 +42,39 @@ from . import _simplexdb
 __all__ = ["open", "Store", "Mesh"]
 
 
+def _path(value, what):
+    """A file name as text: a str, bytes or os.PathLike (decoded as the
+    file system does); ValueError for anything else and for a NUL byte,
+    which no file name holds."""
+    try:
+        path = _os.fsdecode(value)
+    except TypeError:
+        raise ValueError(f"{what}: expected a file name (str, bytes or a path), not {value!r}") from None
+    if "\0" in path:
+        raise ValueError(f"{what}: {path!r} holds a NUL byte, which no file name can")
+    return path
+
+
+def _text(value, what):
+    """A string option (an algorithm's name, a source's description)."""
+    if not isinstance(value, str):
+        raise ValueError(f"{what}: expected a string, not {value!r}")
+    return value
+
+
+def _whole(value, what, lo, hi):
+    """A whole number in [lo, hi] (an int, or a float or numpy integer
+    holding one): what the C++ side's type holds; its value the library
+    checks, with the command's words."""
+    try:
+        ok = int(value) == value and lo <= int(value) <= hi
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
+        raise ValueError(f"{what}: expected a whole number from {lo} to {hi}, not {value!r}")
+    return int(value)
+
+
 def _amount(value, what):
     """7.3 (field units) or "1%" (of the field range), as the C++ side reads
     it (ops/amount.h): text is passed as text, anything else as a float."""
@@ -108,7 +141,7 @@ class Mesh:
         ValueError for another extension; OSError when writing fails (then
         nothing is left under the name being written)."""
         self._require_tetrahedra("save")
-        _simplexdb.save_mesh(_os.fspath(path), self.points, self.cells, self.field, self.error, self.level,
+        _simplexdb.save_mesh(_path(path, "path"), self.points, self.cells, self.field, self.error, self.level,
                              self.cell_codes, 0.0 if self.time is None else self.time)
 
     def to_pyvista(self):
@@ -180,8 +213,16 @@ class Store:
         `mesh=False` skips the tetrahedra (codes and statistics only)."""
         if box is not None:
             box = [float(x) for x in box]
-        if budget is not None and (int(budget) != budget or budget < 1):
-            raise ValueError(f"budget: expected a whole number of simplices >= 1, not {budget!r}")
+        if budget is not None:
+            try:
+                ok = int(budget) == budget and 1 <= int(budget) < 2**64
+            except (TypeError, ValueError, OverflowError):
+                ok = False
+            if not ok:
+                raise ValueError(f"budget: expected a whole number of simplices >= 1, not {budget!r}")
+            budget = int(budget)
+        algorithm = _text(algorithm, "algorithm")
+        units = _text(units, "units")
         if previous is not None and not isinstance(previous, Mesh):
             raise ValueError(f"previous: expected a Mesh this store's extract returned, not {previous!r}")
         result = _simplexdb.extract(self._core, _amount(error, "error"), box, None if iso is None else float(iso),
@@ -220,7 +261,7 @@ class Store:
                 raise ValueError(f"time: expected a whole time step, not {time!r}")
             time = float(time)
         if out is not None:
-            return _simplexdb.export_file(self._core, _os.fspath(out), roi, int(step), time, bool(force))
+            return _simplexdb.export_file(self._core, _path(out, "out"), roi, int(step), time, bool(force))
         values = _simplexdb.export(self._core, roi, int(step), time)
         # Every value is one the voxel type holds (rounded and clamped in C++).
         return values.astype(np.dtype(_simplexdb.voxel_type(self._core)))
@@ -265,8 +306,14 @@ class Store:
 def open(path, cache_mb=256, in_memory=False):  # noqa: A001 (the package's verb, as io.open)
     """Opens the store at `path` (dense or sparse, HT or HP). `cache_mb`
     bounds the decoded blocks kept; `in_memory` decodes a dense store whole
-    at open (in-core queries)."""
-    return Store(_simplexdb.open(_os.fspath(path), float(cache_mb), bool(in_memory)))
+    at open (in-core queries). OSError, with the reason, for a file that is
+    missing, unreadable, not a store, damaged or of another format."""
+    path = _path(path, "path")
+    try:
+        cache_mb = float(cache_mb)
+    except (TypeError, ValueError):
+        raise ValueError(f"cache_mb: expected a size in MiB >= 0, not {cache_mb!r}") from None
+    return Store(_simplexdb.open(path, cache_mb, bool(in_memory)))
 
 
 _DTYPES = {"uint8", "int8", "uint16", "int16", "float32", "float64"}
@@ -275,15 +322,19 @@ _DTYPES = {"uint8", "int8", "uint16", "int16", "float32", "float64"}
 def _array_layout(a):
     """(contiguous array, dims x first): x is the axis adjacent in memory —
     the last of a C-order array (shape (Z, Y, X) or (T, Z, Y, X)), the first
-    of a Fortran-order one (shape (X, Y, Z) or (X, Y, Z, T)). Other layouts
-    (strided or flipped views) are copied in the order their strides are
-    nearer to."""
+    of a Fortran-order one (shape (X, Y, Z) or (X, Y, Z, T)), as numpy's
+    flags say. Other layouts (strided, flipped or broadcast views) are
+    copied: in Fortran order when the strides of the axes that move in
+    memory (not 0, not of length 1) grow from the first axis to the last,
+    else in C order, numpy's own (a broadcast view with no such order is a
+    C-order array of its shape)."""
     import numpy as np
     if a.flags.c_contiguous:
         return a, [int(n) for n in reversed(a.shape)]
     if a.flags.f_contiguous:
         return a, [int(n) for n in a.shape]
-    if abs(a.strides[0]) < abs(a.strides[-1]):
+    moving = [abs(s) for s, n in zip(a.strides, a.shape) if s != 0 and n > 1]
+    if len(moving) > 1 and all(x < y for x, y in zip(moving, moving[1:])):
         return np.asfortranarray(a), [int(n) for n in a.shape]
     return np.ascontiguousarray(a), [int(n) for n in reversed(a.shape)]
 
@@ -320,7 +371,11 @@ def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compre
         the same bytes run after run only with threads=1.
     The GIL is released during the build."""
     import numpy as np
-    out = _os.fspath(out)
+    out = _path(out, "out")
+    if source is not None:
+        source = _text(source, "source")
+    threads = _whole(threads, "threads", -2**31, 2**31 - 1)  # the library checks the count
+    offset = _whole(offset, "offset", 0, 2**63 - 1)
     if hierarchy is not None and hierarchy not in ("ht", "hp"):
         raise ValueError(f"hierarchy: expected 'ht', 'hp' or None, not {hierarchy!r}")
 
@@ -335,7 +390,7 @@ def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compre
     common = (out, hierarchy or "", str(quantization), str(compression), numbers(spacing, "spacing"),
               numbers(origin, "origin"), bool(sparse), _amount(tolerance, "tolerance"), bool(progress), source)
     if isinstance(array_or_path, (str, bytes, _os.PathLike)):
-        path = _os.fsdecode(array_or_path)
+        path = _path(array_or_path, "array_or_path")
         if (dims is None) != (dtype is None):
             raise ValueError("a raw file needs both dims (X, Y, Z[, T]) and dtype")
         type_name, endian = "", "little"
@@ -345,10 +400,13 @@ def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compre
                 raise ValueError(f"dtype: {t} is not a voxel type SimplexDB reads: expected one of "
                                  f"{', '.join(sorted(_DTYPES))}")
             type_name, endian = t.name, "big" if t.byteorder == ">" else "little"
-            dims = [int(d) for d in dims]
+            try:
+                dims = [_whole(d, "dims", 1, 2**32 - 1) for d in dims]
+            except TypeError:
+                raise ValueError(f"dims: expected X, Y, Z[, T], not {dims!r}") from None
             if len(dims) not in (3, 4):
                 raise ValueError(f"dims: expected X, Y, Z[, T], not {dims!r}")
-        _simplexdb.import_volume(path, *common, dims, type_name, endian, int(offset), int(threads))
+        _simplexdb.import_volume(path, *common, dims, type_name, endian, offset, threads)
         return open(out)
     if dims is not None or dtype is not None or offset:
         raise ValueError("dims, dtype and offset describe a raw file; an array describes itself")
@@ -362,7 +420,7 @@ def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compre
     a, grid = _array_layout(a)
     endian = "big" if a.dtype.byteorder == ">" or (a.dtype.byteorder == "=" and _sys.byteorder == "big") \
         else "little"
-    _simplexdb.import_volume(a, *common, grid, a.dtype.name, endian, 0, int(threads))
+    _simplexdb.import_volume(a, *common, grid, a.dtype.name, endian, 0, threads)
     return open(out)
 
 
@@ -375,8 +433,8 @@ def convert(store, out, to, tolerance=0, compression="zstd", memory_mb=1024, thr
     `memory_mb` bounds the field read into memory (a double a grid point);
     `threads` the builder's (0: one per core; a dense store's bytes repeat
     run after run only with 1). The GIL is released during the conversion."""
-    out = _os.fspath(out)
-    _simplexdb.convert(_os.fspath(store), out, str(to), _amount(tolerance, "tolerance"), str(compression),
+    out = _path(out, "out")
+    _simplexdb.convert(_path(store, "store"), out, str(to), _amount(tolerance, "tolerance"), str(compression),
                        float(memory_mb), int(threads), bool(progress))
     return open(out)
 

@@ -114,7 +114,9 @@ Result<FieldRange> ScanPlanes(const VolumeInfo& input, const std::optional<Volum
     if (result.status.ok()) sink(z, values);
     return Status::OK();
   }));
-  return Merge(found);
+  SDB_ASSIGN_OR_RETURN(const FieldRange range, Merge(found));
+  SDB_RETURN_IF_ERROR(CheckFieldRange(input, range.min, range.max));
+  return range;
 }
 
 template <class V>
@@ -164,6 +166,7 @@ Result<LoadedField<V>> LoadField(const VolumeInfo& input, const std::optional<Vo
   SDB_RETURN_IF_ERROR(
       RunParallel(chunks, readers, "field", options.start, options.progress, read_chunk));
   SDB_ASSIGN_OR_RETURN(const FieldRange range, Merge(found));
+  SDB_RETURN_IF_ERROR(CheckFieldRange(input, range.min, range.max));
   field.min = range.min;
   field.max = range.max;
   field.missing = range.missing;

@@ -23,7 +23,8 @@
 // Errors: those of opening and reading the volume and the mask
 // (storage/volume/volume.h: NotFound, IOError, Corruption), and
 // CheckStorableValues's InvalidArgument for the first value in file order a
-// store cannot hold (an infinity, beyond float32's range). LoadField throws
+// store cannot hold (an infinity, beyond float32's range), CheckFieldRange's
+// for values whose range is beyond float32's. LoadField throws
 // std::bad_alloc when the field does not fit in memory (builders catch it
 // and report their need).
 #pragma once

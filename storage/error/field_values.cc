@@ -35,4 +35,13 @@ Status CheckStorableValues(const VolumeInfo& volume, uint64_t first, const doubl
   return Status::OK();
 }
 
+Status CheckFieldRange(const VolumeInfo& volume, double min, double max) {
+  const double range = max - min;
+  if (range <= std::numeric_limits<float>::max()) return Status::OK();
+  return Status::InvalidArgument(fmt::format(
+      "{}: the values run from {:.6g} to {:.6g}, a range of {:.6g}, beyond float32's (+-{:.6g}), in which a "
+      "store keeps its errors; scale the values down (a NRRD or NIfTI scaling, or coarser units)",
+      volume.description, min, max, range, std::numeric_limits<float>::max()));
+}
+
 }  // namespace simplexdb

@@ -32,4 +32,13 @@ namespace simplexdb {
 Status CheckStorableValues(const VolumeInfo& volume, uint64_t first, const double* values,
                            size_t count);
 
+// OK when the field's range, max - min (of storable values), is itself
+// within float32's range: errors are bounded by the range and stored as
+// float32 (or in steps of it), so a field spanning more (3e38 and -3e38)
+// would have errors no store can hold. Otherwise InvalidArgument: "<file>:
+// the values run from MIN to MAX, a range of R, beyond float32's (+-3.40282e+38),
+// in which a store keeps its errors; scale the values down (a NRRD or NIfTI
+// scaling, or fewer units)". Every builder asks before it writes anything.
+Status CheckFieldRange(const VolumeInfo& volume, double min, double max);
+
 }  // namespace simplexdb

@@ -85,6 +85,26 @@ def test_big_endian_and_strided_arrays(tmp_path):
     assert (tmp_path / "strided.sdb").read_bytes() == cli.read_bytes()
 
 
+def test_views_keep_their_orientation(tmp_path):
+    # Issue 46: a broadcast view (zero strides) imported transposed. Every
+    # view reads back as the array it is, axis for axis.
+    a = voxels("uint8", (5, 6, 7))
+    views = {
+        "broadcast x": np.broadcast_to(np.arange(7, dtype=np.uint8), (5, 6, 7)),
+        "broadcast z": np.broadcast_to(np.arange(5, dtype=np.uint8)[:, None, None], (5, 6, 7)),
+        "flipped": a[::-1, :, ::-1],
+        "fortran strided": np.asfortranarray(voxels("uint8", (7, 12, 5)))[:, ::2, :],
+        "transposed view": np.ascontiguousarray(a.transpose(2, 1, 0)).transpose(2, 1, 0)[:, :, :],
+    }
+    for name, view in views.items():
+        store = simplexdb.import_volume(view, tmp_path / (name.replace(" ", "_") + ".sdb"), progress=False)
+        exported = store.export()
+        c_order = not view.flags.f_contiguous and not name.startswith("fortran")
+        expected = view if c_order else np.asarray(view).T
+        assert exported.shape == expected.shape, name
+        np.testing.assert_array_equal(exported, expected, err_msg=name)
+
+
 @pytest.mark.parametrize("hierarchy", ["ht", "hp"])
 def test_sparse_import_matches_the_cli(tmp_path, hierarchy):
     a = voxels("uint8", SHAPES[hierarchy])

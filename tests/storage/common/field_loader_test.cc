@@ -194,5 +194,28 @@ TEST(FieldLoader, ScanPlanesSeesEveryPlaneOnceAsLoadFieldReadsIt) {
       << bad.status().message();
 }
 
+// Values each storable whose range is not (3e38 and -3e38): refused by both
+// passes before a store is written, saying what to do.
+TEST(FieldLoader, ARangeBeyondFloat32IsRefused) {
+  TempDir dir;
+  TestVolume v = TestVolume::Random(3, {6, 5, 4, 1}, VoxelType::kF32, 6);
+  v.values[3] = 3e38;
+  v.values[70] = -3e38;
+  ASSERT_TRUE(v.WriteNrrd(dir / "v.nrrd").ok());
+  const VolumeInfo in = *OpenVolume(dir / "v.nrrd");
+  LoadFieldOptions o;
+  o.stored = VoxelType::kF32;
+  const auto loaded = LoadField<float>(in, std::nullopt, o);
+  const auto scanned = ScanPlanes(in, std::nullopt, o, [](int64_t, const double*) {});
+  for (const Status& s : {loaded.status(), scanned.status()}) {
+    EXPECT_TRUE(s.IsInvalidArgument()) << s.ToString();
+    EXPECT_NE(s.message().find("a range of 6e+38, beyond float32's"), std::string_view::npos) << s.message();
+    EXPECT_NE(s.message().find("scale the values down"), std::string_view::npos) << s.message();
+  }
+  v.values[70] = -4e37;  // a range of 3.4e38: within float32's
+  ASSERT_TRUE(v.WriteNrrd(dir / "w.nrrd").ok());
+  EXPECT_TRUE(LoadField<float>(*OpenVolume(dir / "w.nrrd"), std::nullopt, o).ok());
+}
+
 }  // namespace
 }  // namespace simplexdb
