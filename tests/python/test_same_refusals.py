@@ -144,3 +144,43 @@ def test_files_that_are_not_stores_and_names_the_system_refuses_are_os_errors(st
         simplexdb.open(stores / "ht.sdb").extract("5%").save(long_name)
     code, message = refused("extract", stores / "ht.sdb", "--error", "5%", "-o", "")
     assert "the output path is empty" in message, message
+
+
+def test_random_requests_get_the_same_answer_from_both_front_ends(stores, tmp_path):
+    # A property: for requests drawn at random (a fixed seed) from good and
+    # bad values, `simplexdb extract` and Store.extract either both accept
+    # (the same number of simplices) or both refuse with the same message.
+    import json
+    import random
+    rng = random.Random(46)
+    errors = ["5%", "0", "2.5", "-1", "1e400", "x", "7%%", "50%"]
+    times = [None, 0, 1, 0.5, 2, -0.25, 1e9]
+    isos = [None, 10, 128, 1e6, -5]
+    budgets = [None, 1, 100]
+    algorithms = ["depth-first", "priority", "level-order", "saturated", "nope"]
+    for i in range(40):
+        store = rng.choice(["ht.sdb", "hp.sdb"])
+        error, time, iso = rng.choice(errors), rng.choice(times), rng.choice(isos)
+        budget, algorithm = rng.choice(budgets), rng.choice(algorithms)
+        if store == "hp.sdb" and time is None:
+            time = 0
+        args, kwargs = ["--error", error], dict(error=error)
+        for flag, name, value in [("--time", "time", time), ("--iso", "iso", iso), ("--budget", "budget", budget)]:
+            if value is not None:
+                args += [flag, str(value)]
+                kwargs[name] = value
+        args += ["--algorithm", algorithm]
+        kwargs["algorithm"] = algorithm
+        done = subprocess.run([CLI, "extract", str(stores / store), *args, "--format", "json", "-o",
+                               str(tmp_path / f"{i}.json")], capture_output=True, text=True)
+        try:
+            mesh = simplexdb.open(stores / store).extract(**kwargs, mesh=False)
+            py = ("ok", len(mesh.codes))
+        except ValueError as e:
+            py = ("refused", str(e))
+        if done.returncode == 0:
+            cli = ("ok", json.loads((tmp_path / f"{i}.json").read_text())["simplices"])
+        else:
+            lines = [line[len("simplexdb: "):] for line in done.stderr.splitlines() if line.startswith("simplexdb: ")]
+            cli = ("refused", lines[-1] if lines else done.stderr.splitlines()[0])
+        assert py == cli, f"{store} {args}"
