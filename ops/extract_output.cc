@@ -1,5 +1,6 @@
 #include "ops/extract_output.h"
 
+#include <cctype>
 #include <utility>
 #include <vector>
 
@@ -12,20 +13,23 @@
 namespace simplexdb {
 namespace {
 
-bool EndsWith(const std::string& s, std::string_view suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
 std::string Folderless(const std::string& path) {
   const size_t slash = path.find_last_of('/');
   return slash == std::string::npos ? path : path.substr(slash + 1);
 }
 
-// The format an output file's extension names, or "" for another one.
-std::string FormatOfExtension(const std::string& output) {
+// An output file's extension, lower case ("" for none).
+std::string ExtensionOf(const std::string& output) {
   const size_t slash = output.find_last_of('/'), dot = output.find_last_of('.');
   if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-  const std::string ext = output.substr(dot + 1);
+  std::string ext = output.substr(dot + 1);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+// The format an output file's extension names, or "" for another one.
+std::string FormatOfExtension(const std::string& output) {
+  const std::string ext = ExtensionOf(output);
   if (ext == "vtu" || ext == "pvd" || ext == "json") return ext;
   if (ext == "codes" || ext == "txt") return "codes";
   return "";
@@ -43,6 +47,14 @@ Status WriteLeafCodes(const std::vector<uint64_t>& keys, const std::string& path
 
 Result<std::string> ResolveExtractFormat(const std::string& format, const std::string& path) {
   const std::string implied = path == "-" ? "" : FormatOfExtension(path);
+  if (format.empty() && path != "-" && implied.empty()) {
+    // Writing statistics into mesh.vtk would look like success.
+    const std::string ext = ExtensionOf(path);
+    return Status::InvalidArgument(fmt::format(
+        "{}: {}: name the file .vtu (the mesh, for ParaView), .pvd (HP time slices), .json (the "
+        "statistics) or .codes (the leaf codes), or give --format",
+        path, ext.empty() ? "no extension names what to write" : "the extension ." + ext + " is no format extract writes"));
+  }
   const std::string chosen = format.empty() ? (implied.empty() ? "json" : implied) : format;
   if (!format.empty() && !implied.empty() && implied != format) {
     return Status::InvalidArgument(
@@ -88,7 +100,7 @@ Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest&
                                     const std::string& format, const std::string& path) {
   SDB_RETURN_IF_ERROR(CheckExtractOutput(store.info(), request, format, path));
   // OUTPUT.pvd and one OUTPUT_<i>.vtu per time beside it.
-  const std::string stem = EndsWith(path, ".pvd") && path.size() > 4 ? path.substr(0, path.size() - 4) : path;
+  const std::string stem = ExtensionOf(path) == "pvd" ? path.substr(0, path.size() - 4) : path;
   std::vector<PvdDataSet> pvd;
   const SliceSink write_slice = [&](size_t i, ExtractSlice&& slice) -> Status {
     const std::string file = fmt::format("{}_{}.vtu", stem, i);
@@ -112,8 +124,9 @@ Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest&
 }
 
 Status WriteMeshFile(const TetMeshData& mesh, const std::string& path, double time) {
-  if (EndsWith(path, ".vtu")) return WriteVtu(mesh, path);
-  if (!EndsWith(path, ".pvd")) {
+  const std::string ext = ExtensionOf(path);
+  if (ext == "vtu") return WriteVtu(mesh, path);
+  if (ext != "pvd") {
     return Status::InvalidArgument(path + ": a mesh is saved as .vtu (an unstructured grid) or .pvd (a "
                                           "ParaView collection of one .vtu), named by the extension");
   }

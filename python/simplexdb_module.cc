@@ -19,11 +19,13 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "ops/amount.h"
@@ -48,8 +50,42 @@ namespace py = pybind11;
 namespace simplexdb {
 namespace {
 
+// The library's messages name an option as the command line spells it
+// (ops/ checks both front ends' requests); Python names its argument.
+std::string PythonWords(std::string message) {
+  static const std::pair<std::string_view, std::string_view> kNames[] = {
+      {"--time-limit", "time_limit"}, {"--time", "time"},       {"--error", "error"},
+      {"--box", "box"},               {"--iso", "iso"},         {"--units", "units"},
+      {"--algorithm", "algorithm"},   {"--budget", "budget"},   {"--from", "previous"},
+      {"--spacing", "spacing"},       {"--origin", "origin"},   {"--hierarchy", "hierarchy"},
+      {"--quantization", "quantization"}, {"--compression", "compression"}, {"--tolerance", "tolerance"},
+      {"--threads", "threads"},       {"--dims", "dims"},       {"--type", "dtype"},
+      {"--offset", "offset"},         {"--sparse", "sparse=True"}, {"--roi", "roi"},
+      {"--step", "step"},             {"--memory-mb", "memory_mb"}, {"--to", "to"},
+      {"--force", "force=True"},      {"--slices", "slices"},   {"--zstd-level", "zstd_level"},
+  };
+  const auto word = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_'; };
+  std::string out;
+  for (size_t i = 0; i < message.size();) {
+    bool replaced = false;
+    if (message.compare(i, 2, "--") == 0 && (i == 0 || !word(message[i - 1]))) {
+      for (const auto& [cli, py] : kNames) {
+        const size_t end = i + cli.size();
+        if (message.compare(i, cli.size(), cli) == 0 && (end == message.size() || !word(message[end]))) {
+          out += py;
+          i = end;
+          replaced = true;
+          break;
+        }
+      }
+    }
+    if (!replaced) out += message[i++];
+  }
+  return out;
+}
+
 [[noreturn]] void Raise(const Status& s) {
-  const std::string message(s.message());
+  const std::string message = PythonWords(std::string(s.message()));
   if (s.IsInvalidArgument() || s.IsNotSupported()) throw py::value_error(message);
   if (s.IsNotFound() || s.IsIOError() || s.IsCorruption() || s.IsResourceExhausted()) {
     PyErr_SetString(PyExc_OSError, message.c_str());
@@ -86,26 +122,42 @@ Amount AmountOf(const py::object& value, const char* option) {
   return Amount{value.cast<double>(), false};
 }
 
-// Progress on stderr as the command draws it (when `enabled`); clears the
-// line when it goes out of scope.
+// Progress as the command draws it, on Python's sys.stderr (so that
+// contextlib.redirect_stderr takes it) and only when that is a terminal
+// (a notebook or a redirected stderr gets no escape codes, as a script
+// running the command gets none); clears the line when it goes out of
+// scope. Constructed with the GIL held; the callback takes it to write.
 class ProgressPrinter {
  public:
-  ProgressPrinter(bool enabled, std::string output) : enabled_(enabled), output_(std::move(output)) {}
+  ProgressPrinter(bool enabled, std::string output) : output_(std::move(output)) {
+    if (!enabled) return;
+    py::object err = py::module_::import("sys").attr("stderr");
+    if (err.is_none() || !py::hasattr(err, "isatty") || !err.attr("isatty")().cast<bool>()) return;
+    stderr_ = std::move(err);
+  }
   ~ProgressPrinter() {
-    if (drawn_) std::fprintf(stderr, "\r\033[K");
+    if (drawn_) Write("\r\033[K");
   }
   std::function<void(const BuildProgress&)> callback() {
-    if (!enabled_) return {};
+    if (!stderr_) return {};
     return [this](const BuildProgress& p) {
-      std::fprintf(stderr, "\r\033[K%s", DescribeProgress(output_, p).c_str());
-      std::fflush(stderr);
+      Write("\r\033[K" + DescribeProgress(output_, p));
       drawn_ = true;
     };
   }
 
  private:
-  bool enabled_;
+  void Write(const std::string& text) {
+    py::gil_scoped_acquire held;
+    try {
+      stderr_.attr("write")(text);
+      stderr_.attr("flush")();
+    } catch (const py::error_already_set&) {
+      // A stream that refuses to write is no reason to stop a build.
+    }
+  }
   std::string output_;
+  py::object stderr_;  // null: no progress
   bool drawn_ = false;
 };
 

@@ -119,7 +119,16 @@ void RunConformity(const ConformityArgs& a) {
 // `simplexdb extract --help`.
 constexpr const char* kExtractHelp = R"(Extract the mesh that meets LOD criteria from a store (selective refinement, seed 3.6 / 4.6).
 A simplex is split when its error exceeds --error and every other criterion given applies to it;
-the result is the minimal conforming mesh (depth-first and priority agree).)";
+the result is the minimal conforming mesh (depth-first and priority agree).
+The bound: on every tetrahedron (pentatope) of the result that meets the criteria, the field at
+every grid point inside it differs from the linear interpolation of its vertices' values by at
+most --error (the stored errors are rounded up, never down).
+The output's extension names what is written: .vtu the mesh (ParaView; an HP's at --time),
+.pvd a series of HP time slices (--slices), .json the statistics, .codes the leaf codes.
+Examples:
+  simplexdb extract tooth.sdb --error 3% -o tooth.vtu
+  simplexdb extract tooth.sdb --error 1% --box 20,20,40,80,70,120 --units physical -o zoom.vtu
+  simplexdb extract fmri.sdb --error 5% --slices 0,1 -o fmri.pvd)";
 
 }  // namespace
 

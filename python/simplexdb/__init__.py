@@ -391,6 +391,10 @@ def import_volume(array_or_path, out, hierarchy=None, quantization="u16", compre
               numbers(origin, "origin"), bool(sparse), _amount(tolerance, "tolerance"), bool(progress), source)
     if isinstance(array_or_path, (str, bytes, _os.PathLike)):
         path = _path(array_or_path, "array_or_path")
+        if dims is None and dtype is None and not path.lower().endswith((".nrrd", ".nhdr", ".nii")):
+            raise ValueError(f"{path}: not a .nrrd, .nhdr or .nii file; a raw file needs dims=(X, Y, Z[, T]) "
+                             f"and dtype= (a numpy dtype: 'uint8', or '>u2' for big-endian), and offset= for a "
+                             f"header to skip")
         if (dims is None) != (dtype is None):
             raise ValueError("a raw file needs both dims (X, Y, Z[, T]) and dtype")
         type_name, endian = "", "little"

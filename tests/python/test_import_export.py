@@ -248,10 +248,27 @@ def test_codes_are_the_cli_objects():
         simplexdb.codes("quad", ["0:"])
 
 
-def test_progress_goes_to_stderr(tmp_path, capfd):
-    simplexdb.import_volume(voxels("uint8", SHAPES["ht"]), tmp_path / "a.sdb")
-    assert str(tmp_path / "a.sdb") + ": " in capfd.readouterr().err
-    simplexdb.import_volume(voxels("uint8", SHAPES["ht"]), tmp_path / "b.sdb", progress=False)
+def test_progress_goes_to_a_terminal_stderr_only(tmp_path, capfd):
+    # Issue 40: the progress line goes through sys.stderr (redirect_stderr
+    # takes it), with its escape codes only when that is a terminal, as the
+    # command's; a file, a pipe or a notebook's stream gets nothing.
+    import contextlib
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    terminal, plain = Terminal(), io.StringIO()
+    with contextlib.redirect_stderr(terminal):
+        simplexdb.import_volume(voxels("uint8", SHAPES["ht"]), tmp_path / "a.sdb")
+    assert str(tmp_path / "a.sdb") + ": " in terminal.getvalue()
+    assert terminal.getvalue().endswith("\r\033[K")  # the line cleared at the end
+    with contextlib.redirect_stderr(plain):
+        simplexdb.import_volume(voxels("uint8", SHAPES["ht"]), tmp_path / "b.sdb")
+    assert plain.getvalue() == ""
+    simplexdb.import_volume(voxels("uint8", SHAPES["ht"]), tmp_path / "c.sdb")  # pytest's stderr: no terminal
+    simplexdb.import_volume(voxels("uint8", SHAPES["ht"]), tmp_path / "d.sdb", progress=False)
     assert capfd.readouterr().err == ""
 
 

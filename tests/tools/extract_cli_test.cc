@@ -160,10 +160,23 @@ TEST_F(ExtractCli, FormatFromTheOutputsExtension) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--format json contradicts"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(other));
-  // An extension that names no format: --format, else json.
-  r = RunCli("extract " + store_ + " --error 3% -o " + dir_.path() + "/stats.out");
+  // An extension that names no format (issue 40: mesh.vtk held JSON), or
+  // none: refused, naming what would be written, unless --format says.
+  for (const char* name : {"/mesh.vtk", "/stats.out", "/mesh"}) {
+    SCOPED_TRACE(name);
+    const std::string out = dir_.path() + name;
+    r = RunCli("extract " + store_ + " --error 3% -o " + out);
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("name the file .vtu (the mesh, for ParaView)"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
+  r = RunCli("extract " + store_ + " --error 3% --format json -o " + dir_.path() + "/stats.out");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(nlohmann::json::parse(ReadWholeFile(dir_.path() + "/stats.out")).contains("simplices"));
+  // The extension in any case.
+  r = RunCli("extract " + store_ + " --error 3% -o " + dir_.path() + "/upper.VTU");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(ReadWholeFile(dir_.path() + "/upper.VTU").rfind("<?xml", 0), 0u);
 }
 
 // Criteria that meet nothing of the grid (33^3 here, field 0..255 at most)
