@@ -318,10 +318,13 @@ nlohmann::ordered_json ExtractStatsJson(const ExtractResult& r) {
   SetJsonBytes(j, "store", info.path);
   j["hierarchy"] = d == 3 ? "ht" : "hp";
   j["algorithm"] = AlgorithmName(r.algorithm);
-  j["threshold"] = r.threshold;
+  // The threshold as a person would write it (3% of 255 is 7.65, not
+  // 7.6499999999999995): 15 significant digits, the exact one refines.
+  j["threshold"] = std::stod(fmt::format("{:.15g}", r.threshold));
   j["simplices"] = stats.simplices;
-  j["full_resolution_simplices"] =
-      static_cast<double>(d == 3 ? SimplexCode<3>::kRoots : SimplexCode<4>::kRoots) * std::ldexp(1.0, info.leaf_level());
+  // A count: roots x 2^levels, at most 6 x 2^54 (HT) or 24 x 2^52 (HP).
+  j["full_resolution_simplices"] = static_cast<uint64_t>(d == 3 ? SimplexCode<3>::kRoots : SimplexCode<4>::kRoots)
+                                   << info.leaf_level();
   j["splits"] = stats.splits;
   j["merges"] = stats.merges;
   j["cluster_computations"] = stats.cluster_computations;

@@ -9,9 +9,10 @@
 # verified, the HP converted to the sparse (LMDB) store, the CT field
 # exported back at half resolution, and meshes extracted from the CT store
 # at two error thresholds (selective refinement) and written as .vtu, and
-# from both HP stores. Last, the Python package is installed under
-# /usr/local (where Debian's python3 finds it) and its example run on the
-# CT scan. Everything it writes goes to out/demo/ (emptied at the start,
+# from both HP stores. Last, the tool is installed as
+# /usr/local/bin/simplexdb (on PATH) and the Python package under
+# /usr/local (where Debian's python3 finds it), and its example is run on
+# the CT scan. Everything it writes goes to out/demo/ (emptied at the start,
 # kept at the end: open the .vtu files in ParaView).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -80,8 +81,11 @@ echo "== Export the HT store's field back out: the whole grid at every 2nd point
 
 echo
 echo "== Extract meshes from the HT store (selective refinement): 3% and 10% of the field range"
+# Named fine and coarse, not by their numbers: ParaView shows files that
+# differ by a number as one time series.
 for e in 3% 10%; do
-  "$simplexdb" extract "$work/ht.sdb" --error "$e" --check --format vtu -o "$work/ht_$e.vtu" |
+  name=$([[ $e == 3% ]] && echo fine || echo coarse)
+  "$simplexdb" extract "$work/ht.sdb" --error "$e" --check --format vtu -o "$work/ht_$name.vtu" |
     python3 -c 'import json, sys; j = json.load(sys.stdin); n = j["simplices"]; f = j["full_resolution_simplices"]; print("  error {:>3}: {:>9,} tetrahedra of {:,.0f} ({:.2f}%), {:,} splits, {:,} cluster computations, {:.3f} s, conforming: {}".format(sys.argv[1], n, f, 100 * n / f, j["splits"], j["cluster_computations"], j["seconds"], j["conforming"]))' "$e"
 done
 ls -l "$work"/ht_*.vtu | awk '{print "  wrote " $NF " (" $5 " bytes; open it in ParaView)"}'
@@ -100,9 +104,11 @@ else
 fi
 
 echo
-echo "== Python: the package installed where Debian's python3 finds it (/usr/local), then used"
+echo "== The tool on PATH and the Python package where Debian's python3 finds it (/usr/local)"
 sudo=()
 if [[ $(id -u) -ne 0 ]]; then sudo=(sudo); fi
+"${sudo[@]}" cmake --install build/release --component tool --prefix /usr/local |
+  sed -n 's#^-- \(Installing\|Up-to-date\): \(.*/bin/simplexdb\)$#  installed \2#p'
 "${sudo[@]}" cmake --install build/release --component python --prefix /usr/local |
   sed -n 's#^-- \(Installing\|Up-to-date\): \(.*/simplexdb\)/__init__.py$#  installed \2#p'
 if [[ -f "$data/tooth/tooth_103x94x161_uint8.raw" ]]; then
@@ -116,5 +122,6 @@ fi
 echo
 echo "Everything above is in $work (kept until the next run): the stores,"
 echo "the exported field, the meshes and the Python example's PNGs. To look at"
-echo "a mesh: paraview \"$work/ht_3%.vtu\" (color by 'field' or 'error';"
-echo "Debian: apt-get install paraview). From Python: import simplexdb (README)."
+echo "a mesh: paraview \"$work/ht_fine.vtu\" (color by 'field' or 'error';"
+echo "Debian: apt-get install paraview). Your own volume: simplexdb import, then"
+echo "simplexdb extract (README, 'Your own volume'); from Python: import simplexdb."

@@ -70,9 +70,10 @@ void PrintDenseBuild(const DenseBuildReport& built, const VolumeInfo& input, con
     fmt::print("  the field read in {} windows of {} planes (the whole field exceeds --memory-mb)\n",
                built.windows, built.window_planes);
   }
-  fmt::print("  {} on disk ({:.2f} bytes per grid point, {} error blocks, {} bricks)\n",
+  fmt::print("  {} on disk ({:.2f} bytes per grid point, {} error blocks of the {} written (those of zeros "
+             "not kept), {} bricks)\n",
              HumanBytes(h.file_size), static_cast<double>(h.file_size) / built.grid_points,
-             h.stored_blocks, h.bricks);
+             h.stored_blocks, built.candidate_blocks, h.bricks);
 }
 
 void PrintSparseBuild(const SparseBuildReport& r, const std::string& output, bool as_json, bool quiet) {

@@ -146,15 +146,16 @@ class Mesh:
 
     def to_pyvista(self):
         """The tetrahedra as a pyvista.UnstructuredGrid: pyvista.wrap of
-        to_vtk(). Needs PyVista (pip install pyvista; Debian has no package
-        of it): ImportError saying so without it."""
+        to_vtk(). Needs PyVista, which Debian does not package (install it
+        in a virtual environment): ImportError saying so without it."""
         self._require_tetrahedra("to_pyvista")
         try:
             import pyvista
         except ImportError as e:
-            raise ImportError("Mesh.to_pyvista needs PyVista, which is not installed: pip install pyvista "
-                              "(Debian has no package of it); Mesh.to_vtk() gives the same grid as VTK's "
-                              "vtkUnstructuredGrid") from e
+            raise ImportError("Mesh.to_pyvista needs PyVista, which is not installed and which Debian does not "
+                              "package (its pip refuses to install into the system's Python): in a virtual "
+                              "environment, python3 -m venv --system-site-packages env && env/bin/pip install "
+                              "pyvista; or Mesh.to_vtk(), the same grid as VTK's vtkUnstructuredGrid") from e
         return pyvista.wrap(self.to_vtk())
 
     def to_vtk(self):

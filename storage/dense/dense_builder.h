@@ -91,6 +91,9 @@ struct DenseBuildReport {
   const char* method = "diamonds";
   int windows = 1;
   int64_t window_planes = 0;  // the window's planes of the last axis, halo included
+  // The error blocks that may hold errors, by geometry (the "blocks"
+  // progress counts them); those holding only zeros are not stored.
+  uint64_t candidate_blocks = 0;
 };
 
 // How BuildDenseStore would hold the field: its windows and their need.

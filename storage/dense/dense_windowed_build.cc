@@ -209,6 +209,7 @@ class WindowedBuild {
     report.seconds = std::chrono::duration<double>(Clock::now() - start_).count();
     report.method = OneWindow() ? "diamonds" : "streamed";
     report.windows = static_cast<int>(slabs_);
+    report.candidate_blocks = writer_->candidate_blocks().size();
     report.window_planes = window_planes_;
     return report;
   }

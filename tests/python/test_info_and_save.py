@@ -143,5 +143,5 @@ def test_to_pyvista_wraps_the_vtk_grid(stores, monkeypatch):
 def test_to_pyvista_without_pyvista_says_how_to_install_it(stores, monkeypatch):
     monkeypatch.setitem(sys.modules, "pyvista", None)  # `import pyvista` raises ImportError
     mesh = simplexdb.open(stores / "ht.sdb").extract("4%")
-    with pytest.raises(ImportError, match="pip install pyvista"):
+    with pytest.raises(ImportError, match="virtual environment.*pip install pyvista"):
         mesh.to_pyvista()
