@@ -180,7 +180,7 @@ constexpr const char* kImportHelp = R"(Build a store from a volume (dense; or sp
 files describe themselves; raw files need --dims and --type. A 3D volume
 builds a Hierarchy of Tetrahedra, a 4D one (or several 3D volumes, a time
 series) a Hierarchy of Pentatopes. Any grid size: the domain is the
-smallest cube of side 2^k + 1 points covering it (see README: padding).
+smallest cube of side 2^k + 1 points covering it (docs/features.md: padding).
 NIfTI scl_slope/scl_inter are applied (a scaled integer volume is stored as
 float32). NaN marks a missing value; Inf or a value beyond float32's range
 (+-3.4e38) is an error naming the voxel, and nothing is written.
