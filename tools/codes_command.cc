@@ -234,7 +234,8 @@ vertical; four children (null at level 27 on the icosahedron, 28 on the
 others); an empty cluster. A line that is not a code gets
 {"code","error"} (and "code_hex", its bytes in hex, when the
 line is not UTF-8; a line over 256 bytes is cut there) and the exit
-status is 1.)";
+status is 1.
+Example: echo 2:10011 | simplexdb codes --hierarchy ht)";
 
 // `simplexdb inspect --help`.
 constexpr const char* kInspectHelp = R"(Explain location codes for people: shape, vertices, split edge,

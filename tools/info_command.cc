@@ -130,11 +130,14 @@ void RegisterInfoCommands(CLI::App& app) {
   const Command commands[] = {
       {"info",
        "Describe a store: kind, grid, levels, value ranges, quantization, sizes on\n"
-       "disk against logical, compression ratio.",
+       "disk against logical, compression ratio.\n"
+       "Examples: simplexdb info tooth.sdb\n"
+       "          simplexdb info tooth.sdb --json",
        "--json", "as one JSON object", RunInfo},
       {"verify",
        "Check every checksum and invariant of a store; exit 0 only if all hold,\n"
-       "otherwise 1 with the first bad block named.",
+       "otherwise 1 with the first bad block named.\n"
+       "Example: simplexdb verify tooth.sdb",
        "-q,--quiet", "no progress or summary", RunVerify},
   };
   struct Args {

@@ -175,5 +175,22 @@ TEST(OutputRefusalHelp, ForceIsExplained) {
   }
 }
 
+// Issue 40: every command's --help shows it used, and extract's says what
+// its bound guarantees.
+TEST(CommandHelp, EveryCommandHasAnExample) {
+  for (const char* command : {"import", "extract", "export", "convert", "update", "info", "verify", "codes",
+                              "inspect", "generate", "to4d"}) {
+    SCOPED_TRACE(command);
+    const testing::CommandResult r = RunCli(std::string(command) + " --help");
+    EXPECT_EQ(r.exit_code, 0);
+    EXPECT_NE(r.out.find("Example"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(std::string("simplexdb ") + command), std::string::npos) << r.out;
+  }
+  const testing::CommandResult r = RunCli("extract --help");
+  EXPECT_NE(r.out.find("differs from the linear interpolation of its vertices' values by at\nmost --error"),
+            std::string::npos)
+      << r.out;
+}
+
 }  // namespace
 }  // namespace simplexdb
