@@ -46,6 +46,7 @@ Status WriteLeafCodes(const std::vector<uint64_t>& keys, const std::string& path
 }  // namespace
 
 Result<std::string> ResolveExtractFormat(const std::string& format, const std::string& path) {
+  if (path.empty()) return Status::InvalidArgument("the output path is empty: name a file to write");
   const std::string implied = path == "-" ? "" : FormatOfExtension(path);
   if (format.empty() && path != "-" && implied.empty()) {
     // Writing statistics into mesh.vtk would look like success.
