@@ -14,6 +14,8 @@
 // queued when it was split.
 //
 //   kDepthFirst   SPLIT_CLUSTER / CHECK_SPLIT (3.6.1) with a LIFO work list.
+//                 Over a source that names regions (out of core, a small
+//                 cache) a region at a time, walked ahead on another core.
 //   kPriority     3.6.2: the failing leaf with the largest error first;
 //                 interruptible by a simplex budget (a split whose closure
 //                 would pass it is not made) or a time limit, leaving the
@@ -71,6 +73,7 @@
 #include <cstdint>
 #include <optional>
 #include <queue>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -81,6 +84,8 @@
 #include "query/criteria.h"
 #include "query/mesh.h"
 #include "query/source.h"
+#include "query/vertex_values.h"
+#include "query/work_list.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -115,50 +120,6 @@ struct QueryStats {
   bool interrupted = false;           // kPriority stopped at its budget or time
 };
 
-// The field at the vertices of simplices, for criteria that need it and for
-// output: one Field() lookup per vertex (every store's source has a value
-// at every grid point: query/source.h).
-template <int D, ReadSource<D> Source>
-class VertexValues {
- public:
-  using Code = SimplexCode<D>;
-  using Values = std::array<double, D + 1>;
-
-  explicit VertexValues(Source& source) : source_(source) {}
-
-  // The value at the midpoint of `code`'s split edge (`v`: its vertices).
-  Result<double> Midpoint(Code code, const SimplexVertices<D>& v) {
-    return At(code, SplitMidpoint<D>(code, v), -1);
-  }
-
-  // The values at the vertices `v` of the root `top`.
-  Status RootValues(int top, const SimplexVertices<D>& v, Values& out) {
-    return Get(Code::Root(top), v, out);
-  }
-
-  // The values at the vertices `v` of `code`.
-  Status Get(Code code, const SimplexVertices<D>& v, Values& out) {
-    for (int i = 0; i <= D; ++i) {
-      SDB_ASSIGN_OR_RETURN(out[i], At(code, v[i], i));
-    }
-    return Status::OK();
-  }
-
- private:
-  // The value at `code`'s vertex `p` (number `vertex`; -1: the midpoint of
-  // its split edge). A source of a program's own may have none there.
-  Result<double> At(Code code, const Point<D>& p, int vertex) {
-    SDB_ASSIGN_OR_RETURN(const std::optional<double> f,
-                         source_.Field(LatticeToGrid<D>(p, source_.info().domain_bits)));
-    if (f) return *f;
-    return Status::Corruption(source_.info().path + ": no field value at " +
-                              (vertex < 0 ? "the midpoint of its split edge" : "vertex " + std::to_string(vertex + 1)) +
-                              " of simplex " + code.ToString());
-  }
-
-  Source& source_;
-};
-
 template <int D, ReadSource<D> Source>
 class Refiner {
  public:
@@ -181,6 +142,12 @@ class Refiner {
     switch (options.algorithm) {
       case Algorithm::kDepthFirst:
         mesh.split_set().clear();
+        if constexpr (RegionReadSource<Source, D>) {
+          if (source_.regions()) {
+            status = DepthFirstByRegion(Roots());
+            break;
+          }
+        }
         status = DepthFirst(Roots());
         break;
       case Algorithm::kPriority:
@@ -312,27 +279,60 @@ class Refiner {
     return Status::OK();
   }
 
-  // `sorted`: `batch` in increasing order of key >> shift (entries equal
-  // there in any order): a counting sort when those span a range not much
-  // larger than the batch (a level's blocks), a comparison sort otherwise.
-  static void GroupByKey(const std::vector<std::pair<uint64_t, Code>>& batch, int shift,
-                         std::vector<std::pair<uint64_t, Code>>& sorted) {
-    sorted.resize(batch.size());
-    if (batch.empty()) return;
-    uint64_t lo = batch[0].first >> shift, hi = lo;
-    for (const auto& e : batch) lo = std::min(lo, e.first >> shift), hi = std::max(hi, e.first >> shift);
-    const uint64_t range = hi - lo + 1;
-    if (range > 4 * batch.size() + 4096) {
-      sorted = batch;
-      std::sort(sorted.begin(), sorted.end(), [shift](const auto& a, const auto& b) {
-        return (a.first >> shift) < (b.first >> shift);
+  // DepthFirst's walk a region at a time, for a source that names regions
+  // (RegionReadSource: out of core, the grid brick a node of the last octave
+  // reads around). The work list is the same multiset of candidates taken
+  // in another order, so the mesh is the same (see the top of this file): a
+  // candidate of the region being walked, or of none, goes on its LIFO list;
+  // one of another region waits on that region's list. When the list is
+  // empty the walk takes up the next waiting region in Morton order after
+  // the one it left (from the first after the last), so it sweeps the store
+  // once, coming back to a region only for the few candidates that forced
+  // splits queue behind the sweep. A plain depth-first walk returns to a
+  // brick many times as its subtrees cross it: with a small cache each
+  // return decodes the brick again.
+  Status DepthFirstByRegion(std::vector<Code> roots) {
+    SplitSet<D>& split = mesh_->split_set();
+    SplitSet<D> visited;
+    RegionWorkList<Code> work(std::move(roots));
+    // `r`: the children's region if the source knew it (ChildrenRegion).
+    const auto push_children_of = [&](Code m, uint64_t r) {
+      if (r != kPerChild) {
+        work.Push(m.child(1), r);
+        work.Push(m.child(0), r);
+      } else {
+        work.Push(m.child(1), source_.Region(m.child(1)));
+        work.Push(m.child(0), source_.Region(m.child(0)));  // taken next, mostly: the source keeps its vertex
+      }
+    };
+    const auto push_children = [&](Code m) { push_children_of(m, source_.ChildrenRegion(m)); };
+    Code c;
+    while (true) {
+      if (!work.Pop(c)) {
+        if (!work.NextRegion()) break;
+        // A source that can work ahead walks the region after this one
+        // while the walk is here.
+        if constexpr (requires(std::span<const Code> s) { source_.Ahead(0, s, criteria_.threshold); }) {
+          if (const auto after = work.After(); after.has_value()) {
+            source_.Ahead(after->first, after->second, criteria_.threshold);
+          }
+        }
+        continue;
+      }
+      visited.insert(c);
+      if (split.contains(c)) {  // split for conformity while it waited
+        push_children(c);
+        continue;
+      }
+      SDB_ASSIGN_OR_RETURN(const bool fails, Fails(c));
+      if (!fails) continue;
+      const uint64_t region_below = source_.ChildrenRegion(c);  // while the source holds c's vertex
+      SplitClosure(c, [&](Code m) {
+        if (m != c && visited.contains(m)) push_children(m);
       });
-      return;
+      push_children_of(c, region_below);
     }
-    std::vector<uint32_t> start(range + 1, 0);
-    for (const auto& e : batch) ++start[(e.first >> shift) - lo + 1];
-    for (uint64_t i = 1; i <= range; ++i) start[i] += start[i - 1];
-    for (const auto& e : batch) sorted[start[(e.first >> shift) - lo]++] = e;
+    return Status::OK();
   }
 
   // The work list by level: the lowest level with candidates first, its

@@ -39,11 +39,15 @@
 #include <array>
 #include <concepts>
 #include <cstdint>
+#include <memory>
 #include <optional>
+#include <span>
 #include <string>
+#include <thread>
 #include <type_traits>
 
 #include "hierarchy/simplex_code.h"
+#include "storage/dense/dense_prefetch.h"
 #include "storage/dense/dense_store.h"
 #include "storage/sparse/sparse_store.h"
 #include "util/status.h"
@@ -176,6 +180,23 @@ concept OrderedReadSource =
       { s.ErrorForThresholdAt(code, order, t) } -> std::same_as<Result<double>>;
     };
 
+// A source that names, for the nodes whose reads cost to come back to out of
+// core, the region of the store they read: Region(code) (kAnyRegion for
+// nodes whose reads are cheap anywhere), and ChildrenRegion(parent) the
+// region of both children of `parent` when they share one it knows cheaply
+// (kPerChild: ask Region for each); regions() is false when the source names none (a
+// store in memory). The depth-first refinement then finishes a region's
+// nodes before it takes up the next region's (query/refine.h). Any answer
+// gives the same mesh: regions order the walk, nothing else.
+inline constexpr uint64_t kAnyRegion = ~uint64_t{0};
+inline constexpr uint64_t kPerChild = kAnyRegion - 1;
+template <class S, int D>
+concept RegionReadSource = ReadSource<S, D> && requires(S& s, const S& cs, SimplexCode<D> code) {
+  { s.Region(code) } -> std::same_as<uint64_t>;
+  { s.ChildrenRegion(code) } -> std::same_as<uint64_t>;
+  { cs.regions() } -> std::same_as<bool>;
+};
+
 // What the stores' sources share: the store's reader, its SourceInfo, the
 // lookup counters, the error bound and the field (a value at every grid
 // point).
@@ -238,8 +259,26 @@ class DenseSource : public StoreSource<D, DenseStore::Reader<D>> {
     return reader_.ErrorBoundForThreshold(code, threshold);
   }
 
+  // RegionReadSource: out of core, the grid brick of the split vertex of a
+  // node of the last octave (DenseStore::Reader::Region).
+  bool regions() const { return reader_.has_regions(); }
+  uint64_t Region(SimplexCode<D> code) { return reader_.Region(code); }
+  uint64_t ChildrenRegion(SimplexCode<D> parent) { return reader_.ChildrenRegion(parent); }
+  // The region a walk takes up next and its waiting nodes (the first to be
+  // taken first): walked ahead on another thread
+  // (storage/dense/dense_prefetch.h), started at the first call; none when
+  // the machine has one core.
+  void Ahead(uint64_t region, std::span<const SimplexCode<D>> codes, double threshold) {
+    if (prefetcher_ == nullptr) {
+      if (std::thread::hardware_concurrency() < 2) return;
+      prefetcher_ = std::make_unique<RegionPrefetcher<D>>(reader_.store());
+    }
+    prefetcher_->Ahead(region, codes, threshold);
+  }
+
  private:
   int block_bits_;
+  std::unique_ptr<RegionPrefetcher<D>> prefetcher_;
 };
 
 // A sparse store of format 2's source (storage/sparse/sparse_store.h):
@@ -260,5 +299,6 @@ class SparseSource : public StoreSource<D, SparseStore::Reader<D>> {
 };
 
 static_assert(ThresholdReadSource<DenseSource<3>, 3> && ThresholdReadSource<DenseSource<4>, 4>);
+static_assert(RegionReadSource<DenseSource<3>, 3> && RegionReadSource<DenseSource<4>, 4>);
 
 }  // namespace simplexdb

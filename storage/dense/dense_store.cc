@@ -82,6 +82,7 @@ Result<std::unique_ptr<DenseStore>> DenseStore::Open(const std::string& path, co
   }
   if (options.in_memory) {
     SDB_RETURN_IF_ERROR(s->LoadAll(options.threads));
+    s->in_memory_ = true;
     // Whatever else is computed (Verify's boxes) is kept.
     s->cache_ = std::make_shared<BlockCache>(std::numeric_limits<size_t>::max() / 4, 1);
   } else if (options.cache) {

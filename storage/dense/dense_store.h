@@ -51,6 +51,7 @@
 // reads the file it opened.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <bit>
@@ -238,6 +239,21 @@ class DenseStore {
                  bricks_read_.load(std::memory_order_relaxed)};
   }
   const BlockCache* cache() const { return cache_.get(); }
+  // Opened with Options::in_memory (every block and brick decoded).
+  bool in_memory() const { return in_memory_; }
+  // Whether a walk a region at a time (Reader::Region, query/refine.h)
+  // pays for its cost per node (15-30 ns against about 80 of a node's
+  // lookup and split, for its bookkeeping) with the decodes it saves: out
+  // of core, with a cache of at most a sixteenth of the decoded store in
+  // the HT (bench/README.md: it gained at 2% and 4% and lost at 8% and
+  // more) and smaller than the decoded store in the HP (81 bricks around a
+  // finest box instead of 27: it gained at 4% and 31%).
+  bool RegionWalkPays(int dimension) const {
+    if (in_memory_ || cache_ == nullptr) return false;
+    const uint64_t decoded =
+        header_.stored_blocks * block_bytes() + header_.bricks * grid_->brick_voxels() * voxel_size_;
+    return cache_->capacity() < (dimension == 3 ? decoded / 16 : decoded);
+  }
 
   // Lookups for one thread.
   template <int D>
@@ -258,9 +274,8 @@ class DenseStore {
       if (code.level() >= order_.levels()) return 0.0;
       if (code.level() >= finest_level_) {  // the finest octave, not stored: by vertex
         bool skipped = false;
-        SDB_ASSIGN_OR_RETURN(
-            const uint32_t c,
-            FinestCodeAt(LatticeToGrid<D>(cursor_.Of(code), order_.domain_bits()), &threshold, &skipped));
+        SDB_ASSIGN_OR_RETURN(const uint32_t c, FinestCodeAt(code.key() == vertex_key_ ? vertex_ : VertexOf(code),
+                                                            &threshold, &skipped));
         return store_.quantizer().Decode(c);
       }
       return ErrorBoundForThresholdAt(code, Position(code), threshold);
@@ -275,6 +290,47 @@ class DenseStore {
     // The field at grid point p of the domain; points outside the real grid
     // take the value of the nearest real point.
     Result<double> Field(const std::array<int64_t, D>& p);
+
+    // For a walk that keeps its reads local (query/refine.h): the region of
+    // the store a node's error reads, for the nodes of the last octave,
+    // whose finest boxes and the field around them are too many to keep in
+    // a small cache: the Morton index of the grid brick holding the node's
+    // split vertex (the nodes of a region read one finest box and one window
+    // of the field). Only the last octave: grouping the octave above too
+    // decoded more (31,720 frames against 20,431 on a 257^3 uint8 1% query
+    // at 1 MiB). kAnyRegion for the coarser nodes (their few blocks stay
+    // cached), the leaf level, and every node when RegionWalkPays() is
+    // false (a store in memory or a cache that holds much of it). A cursor
+    // step after the node's parent; the vertex is kept, so the node's own
+    // lookup right after costs nothing more.
+    static constexpr uint64_t kAnyRegion = ~uint64_t{0};  // as query/source.h's
+    bool has_regions() const { return region_level_ < order_.levels(); }
+    uint64_t Region(SimplexCode<D> code) {
+      if (code.level() < region_level_ || code.level() >= order_.levels()) return kAnyRegion;
+      if (code.key() != vertex_key_) VertexOf(code);
+      return BrickRegion(vertex_);
+    }
+    // The region of both children of `parent`, right after the parent's own
+    // lookup, when it is one: a child's split vertex lies within two grid
+    // steps of its parent's on every axis (the simplices of the last octave
+    // span two), so both are in the parent's brick when that one is two
+    // steps or more inside it. kPerChild when the children must be asked
+    // one by one (Region).
+    static constexpr uint64_t kPerChild = kAnyRegion - 1;
+    uint64_t ChildrenRegion(SimplexCode<D> parent) {
+      const int level = parent.level() + 1;
+      if (level < region_level_ || level >= order_.levels()) return kAnyRegion;
+      if (parent.key() != vertex_key_) return kPerChild;
+      const int bits = store_.header().brick_bits;
+      const int64_t low = 2, high = (int64_t{1} << bits) - 3;
+      for (int a = 0; a < D; ++a) {
+        const int64_t offset = vertex_[a] & ((int64_t{1} << bits) - 1);
+        if (offset < low || offset > high || vertex_[a] + 2 > int64_t{store_.header().dims[a]} - 1) {
+          return kPerChild;
+        }
+      }
+      return BrickRegion(vertex_);
+    }
 
     const DenseStore& store() const { return store_; }
     uint64_t block_fetches() const { return block_fetches_; }
@@ -304,9 +360,25 @@ class DenseStore {
     // Remembers the vertex of the last position computed: a finest lookup
     // for it needs the vertex, not the position.
     uint64_t PositionOf(SimplexCode<D> code) {
-      last_vertex_ = LatticeToGrid<D>(cursor_.Of(code), order_.domain_bits());
+      last_vertex_ = VertexOf(code);
       last_position_ = order_.PositionAtLevel(last_vertex_, code.level());
       return last_position_;
+    }
+    // The Morton index of the grid brick holding grid point g (clamped to
+    // the real grid).
+    uint64_t BrickRegion(const std::array<int64_t, D>& g) const {
+      std::array<int64_t, D> brick{};
+      for (int a = 0; a < D; ++a) {
+        brick[a] = std::min<int64_t>(g[a], int64_t{store_.header().dims[a]} - 1) >> store_.header().brick_bits;
+      }
+      return internal::Morton<D>(brick);
+    }
+    // The grid point of the node's split vertex, kept as vertex_ (Region's,
+    // then the node's lookup).
+    const std::array<int64_t, D>& VertexOf(SimplexCode<D> code) {
+      vertex_ = LatticeToGrid<D>(cursor_.Of(code), order_.domain_bits());
+      vertex_key_ = code.key();
+      return vertex_;
     }
     // The error code of finest vertex at position p (not stored), from its
     // brick's box; with `threshold`, the brick's recorded maximum when it
@@ -323,6 +395,9 @@ class DenseStore {
     // errors (their positions are those from error_positions() on), else
     // past the last level.
     int finest_level_;
+    // The first level Region() names a region for (past the last level when
+    // RegionWalkPays() is false).
+    int region_level_;
     std::array<Held, (kCoordBits<D> + 1) << D> held_;
     // The last brick read per lattice (Field) and a few finest boxes, by
     // brick number.
@@ -350,6 +425,8 @@ class DenseStore {
     uint64_t windows_tick_ = 0;
     int last_box_ = -1;  // index of the held box used last (-1: none)
     std::array<int64_t, D> last_vertex_{};
+    std::array<int64_t, D> vertex_{};  // VertexOf's last, of the node with key vertex_key_
+    uint64_t vertex_key_ = ~uint64_t{0};
     uint64_t last_position_ = ~uint64_t{0};
     uint64_t block_fetches_ = 0;
     uint64_t blocks_skipped_ = 0;
@@ -401,6 +478,7 @@ class DenseStore {
   size_t error_size_ = 2, voxel_size_ = 1;
   std::shared_ptr<BlockCache> cache_;
   uint64_t cache_store_id_ = 0;
+  bool in_memory_ = false;
   // in_memory: every block and brick decoded.
   std::vector<std::shared_ptr<const BlockCache::Block>> resident_, resident_bricks_;
   // in_memory and finest errors not stored: each grid brick's finest error

@@ -84,6 +84,7 @@ DenseStore::Reader<D>::Reader(const DenseStore& store)
     : store_(store),
       order_(store.header().domain_bits),
       finest_level_(store.header().finest_stored() ? order_.levels() : order_.levels() - D),
+      region_level_(store.RegionWalkPays(D) ? std::max(0, order_.levels() - D) : order_.levels()),
       held_bricks_(static_cast<size_t>(store.header().domain_bits) + 1) {
   const size_t bytes = store.FinestWindowBytes();
   if (bytes > 0) windows_.resize(std::clamp<size_t>((size_t{1} << 20) / bytes, 2, 16));

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <random>
+#include <set>
 
 #include "query/mesh_io.h"
 #include "query/refine.h"
@@ -161,6 +162,64 @@ void CheckStoresAgree(uint32_t side, const std::vector<double>& percents, size_t
 
 TEST(Stores, SameMeshOverEveryStoreHt) { CheckStoresAgree<3>(17, {0, 3, 20}, 8 << 10, 16 << 10); }
 TEST(Stores, SameMeshOverEveryStoreHp) { CheckStoresAgree<4>(9, {3, 20}, 64 << 10, 32 << 10); }
+
+// Out of core with a small cache the depth-first walk takes the last octave
+// a region (grid brick) at a time (query/refine.h, DepthFirstByRegion): the
+// same mesh, errors and values as the plain walk over the store in memory
+// and out of core with a large cache, on stores of many regions, for
+// uniform, box and isovalue queries.
+template <int D>
+void CheckRegionWalk(uint32_t side, size_t small) {
+  TempDir dir;
+  const TestVolume volume = Structured(D, side);
+  testing::BuildDense(volume, dir.path(), "z");
+  DenseStore::Options in_memory;
+  in_memory.in_memory = true;
+  const auto resident = *DenseStore::Open(dir.path() + "/z.sdb", in_memory);
+  DenseStore::Options small_cache, large_cache;
+  small_cache.cache_bytes = small;
+  large_cache.cache_bytes = size_t{1} << 30;
+  const auto starved = *DenseStore::Open(dir.path() + "/z.sdb", small_cache);
+  const auto roomy = *DenseStore::Open(dir.path() + "/z.sdb", large_cache);
+  DenseSource<D> m(*resident), t(*starved), l(*roomy);
+  // Regions with the small cache alone (DenseStore::RegionWalkPays).
+  ASSERT_FALSE(m.regions());
+  ASSERT_TRUE(t.regions());
+  ASSERT_FALSE(l.regions());
+  const int k = resident->header().domain_bits;
+  const double range = m.info().field_range();
+  std::set<uint64_t> regions;  // of the last octave's nodes split
+  for (const double pct : {1.0, 4.0, 15.0}) {
+    CriteriaSpec uniform;
+    uniform.error = {pct, true};
+    CriteriaSpec iso = uniform;
+    iso.iso = m.info().field_min + range * 0.4 + 1.0 / 3;
+    CriteriaSpec box = uniform;
+    const double s = std::ldexp(1.0, k);
+    box.box = std::vector<double>{0, s / 4, s / 3, s / 2, s, s * 0.6};
+    for (const auto& [name, spec] : {std::pair{"uniform", uniform}, {"iso", iso}, {"box", box}}) {
+      SCOPED_TRACE(std::string(name) + " " + std::to_string(pct) + "%");
+      const Criteria<D> c = *MakeCriteria<D>(spec, k, range);
+      const Extracted<D> want = Run<D>(m, c, Algorithm::kDepthFirst);
+      for (const SimplexCode<D> leaf : want.leaves) {
+        if (leaf.level() > 0) regions.insert(t.Region(leaf.parent()));
+      }
+      for (auto* source : {&t, &l}) {
+        const Extracted<D> got = Run<D>(*source, c, Algorithm::kDepthFirst);
+        EXPECT_EQ(testing::Keys(got.leaves), testing::Keys(want.leaves));
+        EXPECT_EQ(got.errors, want.errors);
+        EXPECT_EQ(got.values, want.values);
+      }
+    }
+  }
+  // The walks crossed many regions: the nodes of the last octave they split
+  // lie in many grid bricks.
+  regions.erase(kAnyRegion);
+  EXPECT_GE(regions.size(), D == 3 ? 64u : 12u);
+}
+
+TEST(Stores, RegionWalkGivesThePlainWalksMeshHt) { CheckRegionWalk<3>(65, 24 << 10); }
+TEST(Stores, RegionWalkGivesThePlainWalksMeshHp) { CheckRegionWalk<4>(17, 256 << 10); }
 
 // Per-block maxima from the dense store's index answer "does it exceed the
 // threshold?" without reading a block, and change no mesh.

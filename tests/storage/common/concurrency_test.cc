@@ -6,10 +6,12 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <map>
 #include <random>
 #include <thread>
 
 #include "storage/common/block_cache.h"
+#include "storage/dense/dense_prefetch.h"
 #include "storage/dense/dense_store.h"
 #include "storage/volume/generate.h"
 #include "tests/storage/common/smooth_store.h"
@@ -50,6 +52,52 @@ TEST(Concurrency, ThreadsShareAStoreAndASmallCache) {
   EXPECT_GT(store->stats().blocks_decoded, 100u);
   EXPECT_LE(store->cache()->charge(), options.cache_bytes + 4 * 1024)
       << "the cache exceeds its budget by more than a few blocks";
+}
+
+// A walk's reader and a RegionPrefetcher working ahead of it share a store
+// and a small cache: the walk reads every bound as a lone reader does,
+// region by region, while the prefetcher walks the region after; and a
+// prefetcher dropped in the middle of its work stops.
+TEST(Concurrency, APrefetcherWorksAheadOfAWalk) {
+  // 65^3 (125 grid bricks): a cache of 16 KiB is small enough for regions
+  // (DenseStore::RegionWalkPays).
+  struct {
+    TempDir dir;
+    SmoothHtStore store{dir.path(), "s", 65, GenerateOptions{}.seed, /*block_bits=*/9};
+  } f;
+  DenseStore::Options options;
+  options.cache_bytes = 16 << 10;
+  auto store = *DenseStore::Open(f.store.path, options);
+  DenseStore::Reader<3> reader(*store);
+  ASSERT_TRUE(reader.has_regions());
+  // The nodes of the last octave by region (Morton order), the others apart.
+  std::map<uint64_t, std::vector<size_t>> regions;
+  for (size_t k = 0; k < f.store.codes.size(); ++k) regions[reader.Region(f.store.codes[k])].push_back(k);
+  ASSERT_GE(regions.size(), 100u);  // 125 grid bricks, and kAnyRegion
+  int mismatches = 0;
+  {
+    RegionPrefetcher<3> ahead(*store);
+    for (auto it = regions.begin(); it != regions.end(); ++it) {
+      if (const auto next = std::next(it); next != regions.end()) {
+        std::vector<TetCode> codes;
+        for (const size_t k : next->second) codes.push_back(f.store.codes[k]);
+        ahead.Ahead(next->first, codes, /*threshold=*/0);
+      }
+      for (const size_t k : it->second) {
+        const Result<double> e = reader.ErrorBound(f.store.codes[k]);
+        if (!e.ok() || *e != f.store.expected[k]) ++mismatches;
+      }
+    }
+    EXPECT_GT(ahead.looked_up(), 0u);
+  }
+  EXPECT_EQ(mismatches, 0);
+  // Dropped at once with all of the store to walk: the destructor returns.
+  auto again = *DenseStore::Open(f.store.path, options);
+  {
+    RegionPrefetcher<3> ahead(*again);
+    ahead.Ahead(regions.rbegin()->first, f.store.codes, 0);
+  }
+  EXPECT_LE(store->cache()->charge(), options.cache_bytes + 4 * 1024);
 }
 
 TEST(Concurrency, ProcessesOpenTheSameStore) {
