@@ -184,10 +184,11 @@ concept OrderedReadSource =
 // core, the region of the store they read: Region(code) (kAnyRegion for
 // nodes whose reads are cheap anywhere), and ChildrenRegion(parent) the
 // region of both children of `parent` when they share one it knows cheaply
-// (kPerChild: ask Region for each); regions() is false when the source names none (a
-// store in memory). The depth-first refinement then finishes a region's
-// nodes before it takes up the next region's (query/refine.h). Any answer
-// gives the same mesh: regions order the walk, nothing else.
+// (kPerChild: ask Region for each); regions() is false when the source
+// names none (a store in memory, a cache that holds much of it). The
+// depth-first refinement then finishes a region's nodes before it takes up
+// the next region's (query/refine.h). Any answer gives the same mesh:
+// regions order the walk, nothing else.
 inline constexpr uint64_t kAnyRegion = ~uint64_t{0};
 inline constexpr uint64_t kPerChild = kAnyRegion - 1;
 template <class S, int D>
