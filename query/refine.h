@@ -253,7 +253,6 @@ class Refiner {
   // query of 129^3 Perlin noise the list held 4.5 M entries, two thirds of
   // them split since, for a mesh of 4.7 M tetrahedra.
   Status DepthFirst(std::vector<Code> work) {
-    SplitSet<D>& split = mesh_->split_set();
     SplitSet<D> visited;
     const auto push_children = [&](Code m) {
       work.push_back(m.child(1));
@@ -262,20 +261,30 @@ class Refiner {
     while (!work.empty()) {
       const Code c = work.back();
       work.pop_back();
-      visited.insert(c);
-      if (split.contains(c)) {  // split for conformity while it waited
-        push_children(c);
-        continue;
-      }
-      SDB_ASSIGN_OR_RETURN(const bool fails, Fails(c));
-      if (!fails) continue;
-      // Members of the cluster go on the list before `c`'s own children, so
-      // the walk continues below `c` first.
-      SplitClosure(c, [&](Code m) {
-        if (m != c && visited.contains(m)) push_children(m);
-      });
-      push_children(c);
+      SDB_RETURN_IF_ERROR(TakeCandidate(c, visited, push_children, [&](Code m) {
+        return [&push_children, m] { push_children(m); };
+      }));
     }
+    return Status::OK();
+  }
+
+  // A depth-first walk's candidate: its children go on if it was split while
+  // it waited, or if it fails, after those of its closure's visited members
+  // (`children_of(c)`, run before the closure, returns what puts them on).
+  template <class PushChildren, class ChildrenOf>
+  Status TakeCandidate(Code c, SplitSet<D>& visited, PushChildren& push_children, ChildrenOf&& children_of) {
+    visited.insert(c);
+    if (mesh_->split_set().contains(c)) {  // split for conformity while it waited
+      push_children(c);
+      return Status::OK();
+    }
+    SDB_ASSIGN_OR_RETURN(const bool fails, Fails(c));
+    if (!fails) return Status::OK();
+    const auto push_own = children_of(c);
+    SplitClosure(c, [&](Code m) {
+      if (m != c && visited.contains(m)) push_children(m);
+    });
+    push_own();
     return Status::OK();
   }
 
@@ -292,7 +301,6 @@ class Refiner {
   // brick many times as its subtrees cross it: with a small cache each
   // return decodes the brick again.
   Status DepthFirstByRegion(std::vector<Code> roots) {
-    SplitSet<D>& split = mesh_->split_set();
     SplitSet<D> visited;
     RegionWorkList<Code> work(std::move(roots));
     // `r`: the children's region if the source knew it (ChildrenRegion).
@@ -319,18 +327,10 @@ class Refiner {
         }
         continue;
       }
-      visited.insert(c);
-      if (split.contains(c)) {  // split for conformity while it waited
-        push_children(c);
-        continue;
-      }
-      SDB_ASSIGN_OR_RETURN(const bool fails, Fails(c));
-      if (!fails) continue;
-      const uint64_t region_below = source_.ChildrenRegion(c);  // while the source holds c's vertex
-      SplitClosure(c, [&](Code m) {
-        if (m != c && visited.contains(m)) push_children(m);
-      });
-      push_children_of(c, region_below);
+      SDB_RETURN_IF_ERROR(TakeCandidate(c, visited, push_children, [&](Code m) {
+        const uint64_t r = source_.ChildrenRegion(m);  // while the source holds m's vertex
+        return [&push_children_of, m, r] { push_children_of(m, r); };
+      }));
     }
     return Status::OK();
   }
