@@ -265,8 +265,8 @@ class DenseSource : public StoreSource<D, DenseStore::Reader<D>> {
   bool regions() const { return reader_.has_regions(); }
   uint64_t Region(SimplexCode<D> code) { return reader_.Region(code); }
   uint64_t ChildrenRegion(SimplexCode<D> parent) { return reader_.ChildrenRegion(parent); }
-  // The region a walk takes up next and its waiting nodes (the first to be
-  // taken first): walked ahead on another thread
+  // The region a walk takes up next and its waiting nodes (a LIFO list: the
+  // last taken first): walked ahead on another thread
   // (storage/dense/dense_prefetch.h), started at the first call; none when
   // the machine has one core.
   void Ahead(uint64_t region, std::span<const SimplexCode<D>> codes, double threshold) {

@@ -95,15 +95,13 @@ class RegionWorkList {
     waiting_.erase(it);
     return true;
   }
-  // The region NextRegion() would take up next and its candidates, the one
-  // to be taken first first (of those filed so far); nullopt when none
-  // waits. The span lives until the next call on the list.
+  // The region NextRegion() would take up next and its candidates as they
+  // wait (filed so far; a LIFO list: the last is taken first); nullopt when
+  // none waits. The span lives until the next call on the list.
   std::optional<std::pair<uint64_t, std::span<const Code>>> After() {
     if (order_.empty()) return std::nullopt;
     const uint64_t r = *Following();
-    const std::vector<Code>& list = waiting_.find(r)->second;
-    ahead_.assign(list.rbegin(), list.rend());
-    return std::pair<uint64_t, std::span<const Code>>(r, ahead_);
+    return std::pair<uint64_t, std::span<const Code>>(r, waiting_.find(r)->second);
   }
 
  private:
@@ -117,7 +115,6 @@ class RegionWorkList {
   std::vector<std::pair<uint64_t, Code>> spill_, sorted_;
   std::unordered_map<uint64_t, std::vector<Code>> waiting_;
   std::set<uint64_t> order_;  // the regions with waiting candidates
-  std::vector<Code> ahead_;
 };
 
 }  // namespace simplexdb

@@ -21,7 +21,7 @@ template <int D>
 void RegionPrefetcher<D>::Ahead(uint64_t region, std::span<const SimplexCode<D>> codes, double threshold) {
   {
     std::lock_guard<std::mutex> lock(mu_);
-    next_.assign(codes.rbegin(), codes.rend());  // a LIFO stack: the first on top
+    next_.assign(codes.begin(), codes.end());  // the walk's LIFO order
     next_region_ = region;
     next_threshold_ = threshold;
     generation_.fetch_add(1, std::memory_order_relaxed);

@@ -42,8 +42,8 @@ class RegionPrefetcher {
   RegionPrefetcher(const RegionPrefetcher&) = delete;
   RegionPrefetcher& operator=(const RegionPrefetcher&) = delete;
 
-  // Walks `region` (DenseStore::Reader::Region) ahead from `codes`, the
-  // first to be taken first, with `threshold` as the query's
+  // Walks `region` (DenseStore::Reader::Region) ahead from `codes`, a LIFO
+  // list as the walk keeps it (the last taken first), with `threshold` as the query's
   // (DenseStore::Reader::ErrorBoundForThreshold); drops whatever is left
   // of the previous call's walk. Returns at once (copies the codes).
   void Ahead(uint64_t region, std::span<const SimplexCode<D>> codes, double threshold);
