@@ -37,10 +37,9 @@
 //   kSaturated    3.7's comparison method: a node is split iff some node
 //                 whose split needs it fails (the cluster shares one value;
 //                 a parent is at least its children), then a plain top-down
-//                 traversal. The seed precomputed saturated errors in its
-//                 store; this baseline computes the saturation per query,
-//                 visiting every internal node, so its mesh sizes compare
-//                 with the seed's and its time does not.
+//                 traversal. The seed stored saturated errors; this baseline
+//                 computes them per query, visiting every internal node: its
+//                 mesh sizes compare with the seed's, its time does not.
 //
 // Cost: depth-first does one error lookup per new leaf, one cluster
 // computation per cluster split and one hash lookup per cluster member;
@@ -590,6 +589,7 @@ class Refiner {
     return Status::OK();
   }
 
+  template <int, class> friend class PieceWalk;  // query/pieces.h: a piece of the walk, these steps
   Source& source_;
   Criteria<D> criteria_;
   VertexValues<D, Source> values_;
