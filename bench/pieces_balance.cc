@@ -58,10 +58,10 @@ int Run(const DenseStore& store, double percent, int max_pieces) {
       return 1;
     }
     std::vector<DenseSource<D>*> sources(static_cast<size_t>(n), &source);
-    std::vector<std::vector<Code>> pieces;
+    std::vector<PieceWalk<D, DenseSource<D>>> walks;
     start = std::chrono::steady_clock::now();
     const Result<PiecesStats> run =
-        ExtractPieces<D, DenseSource<D>>(std::span<DenseSource<D>* const>(sources), *c, *plan, pieces);
+        ExtractPieces<D, DenseSource<D>>(std::span<DenseSource<D>* const>(sources), *c, *plan, walks);
     const double all_seconds = Seconds(start);
     if (!run.ok()) {
       std::fprintf(stderr, "%s\n", run.status().ToString().c_str());
@@ -69,7 +69,8 @@ int Run(const DenseStore& store, double percent, int max_pieces) {
     }
     std::vector<Code> all;
     uint64_t largest = 0;
-    for (const auto& piece : pieces) {
+    for (const auto& walk : walks) {
+      const std::vector<Code> piece = walk.Leaves();
       largest = std::max<uint64_t>(largest, piece.size());
       all.insert(all.end(), piece.begin(), piece.end());
     }

@@ -1,6 +1,7 @@
 #include "ops/extract.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <new>
@@ -13,6 +14,7 @@
 #include "ops/process_memory.h"
 #include "query/clip.h"
 #include "query/mesh.h"
+#include "query/pieces.h"
 #include "query/slice.h"
 #include "query/source.h"
 #include "util/out_of_memory.h"
@@ -142,6 +144,15 @@ Result<Resolved> Resolve(const SourceInfo& info, const ExtractRequest& r) {
         r.budget != 0 ? fmt::format("--budget {}", r.budget) : fmt::format("--time-limit {}", r.time_limit),
         AlgorithmName(out.algorithm)));
   }
+  if (r.pieces < 1 || r.piece < 0 || r.piece >= r.pieces) {
+    return Status::InvalidArgument(
+        fmt::format("--piece {} of --pieces {}: expected pieces >= 1 and 0 <= piece < pieces", r.piece, r.pieces));
+  }
+  if (r.pieces > 1 && (out.algorithm != Algorithm::kDepthFirst || r.from || r.check)) {
+    return Status::InvalidArgument(fmt::format(
+        "--pieces {}: {} (a piece is cut from the depth-first mesh; check the union of the pieces instead)", r.pieces,
+        r.check ? "--check needs the whole mesh" : r.from ? "--from is for one whole mesh" : "only depth-first"));
+  }
   if (!r.slices.empty()) {
     if (info.dimension != 4) {
       return Status::InvalidArgument("--slices: a series of HP time slices; the HT has no time");
@@ -189,13 +200,117 @@ Result<Mesh<D>> PreviousMesh(const std::vector<uint64_t>& keys) {
   return mesh;
 }
 
+// What the result holds of a mesh (the whole one, or the nodes `keep`
+// keeps of a piece's): leaves, conformity, the HT's tetrahedra or the HP's
+// slices, and the process's memory.
+template <int D, class Source, class Keep>
+Status Collect(const Mesh<D>& mesh, std::vector<SimplexCode<D>> leaves, const Keep& keep, Source& source,
+               const Criteria<D>& criteria, const ExtractRequest& r, const Resolved& resolved,
+               const SliceSink& on_slice, ExtractResult& out) {
+  const SourceInfo& info = source.info();
+  if (r.check) out.conformity = CheckConformity<D>(leaves);
+  if (r.leaves) {
+    out.leaves.reserve(leaves.size());
+    for (const SimplexCode<D> c : leaves) out.leaves.push_back(c.key());
+  }
+  leaves = {};
+  if constexpr (D == 3) {
+    if (r.tetrahedra) {
+      SDB_ASSIGN_OR_RETURN(TetMeshData data, CollectTetMesh(mesh, source, keep));
+      out.mesh = OnGrid(std::move(data), info);
+    }
+  } else {
+    // The HP's time slice, for the mesh and for the statistics (the seed's
+    // Fig. 63 counts the slice's tetrahedra beside the pentatopes).
+    if (criteria.time) out.mesh_time = info.origin[3] + *resolved.spec.time * info.spacing[3];
+    if (criteria.time && (r.tetrahedra || r.count_slice)) {
+      SDB_ASSIGN_OR_RETURN(TetMeshData data, SliceHpMesh(mesh, source, *criteria.time, keep));
+      out.slice_tetrahedra = data.cells();
+      if (r.tetrahedra) out.mesh = OnGrid(std::move(data), info);
+    }
+    const double scale = std::ldexp(1.0, kCoordBits<4> - info.domain_bits);
+    for (size_t i = 0; i < resolved.slices.size(); ++i) {
+      const double t = resolved.slices[i];
+      SDB_ASSIGN_OR_RETURN(TetMeshData data, SliceHpMesh(mesh, source, t * scale, keep));
+      ExtractSlice slice{info.origin[3] + t * info.spacing[3], OnGrid(std::move(data), info)};
+      if (on_slice) {
+        SDB_RETURN_IF_ERROR(on_slice(i, std::move(slice)));
+      } else {
+        out.slices.push_back(std::move(slice));
+      }
+    }
+  }
+  // Of the whole process: the store's cache, the mesh and the query's sets,
+  // and (peak only) the store's mapped file pages the query touched.
+  out.peak_memory_bytes = PeakResidentBytes();
+  out.anonymous_memory_bytes = AnonymousResidentBytes();  // the mesh is still alive
+  return Status::OK();
+}
+
+// Piece r of the mesh (query/pieces.h): its own walk, trading crossing
+// splits through `exchange`, or without one every piece's walk here.
+template <int D, class Source>
+Status RunPiece(Source& source, const Criteria<D>& criteria, const ExtractRequest& r, const Resolved& resolved,
+                const SliceSink& on_slice, const PieceExchange& exchange, ExtractResult& out) {
+  using Code = SimplexCode<D>;
+  const auto start = std::chrono::steady_clock::now();
+  const SourceStats before = source.stats();
+  SDB_ASSIGN_OR_RETURN(const Partition<D> plan, PlanPieces<D>(source, criteria, r.pieces));
+  ExtractResult::PieceCounters counters{r.piece, r.pieces, plan.level()};
+  std::vector<PieceWalk<D, Source>> walks;
+  PiecesStats walked;
+  if (exchange) {
+    walks.emplace_back(source, criteria, plan, r.piece);
+    const auto trade = [&](const std::vector<std::vector<Code>>& outbox, bool failed,
+                           bool* quiet) -> Result<std::vector<Code>> {
+      std::vector<std::vector<uint64_t>> keys(outbox.size());
+      for (size_t s = 0; s < outbox.size(); ++s) {
+        for (const Code c : outbox[s]) keys[s].push_back(c.key());
+      }
+      SDB_ASSIGN_OR_RETURN(const std::vector<uint64_t> in, exchange(keys, failed, quiet));
+      counters.splits_received += in.size();
+      std::vector<Code> codes;
+      codes.reserve(in.size());
+      for (const uint64_t k : in) codes.push_back(Code::FromKey(k));
+      return codes;
+    };
+    SDB_ASSIGN_OR_RETURN(walked, WalkPiece<D>(walks[0], r.pieces, trade));
+  } else {
+    const std::vector<Source*> sources(static_cast<size_t>(r.pieces), &source);
+    // (Parentheses: the template's comma is not the macro's.)
+    SDB_ASSIGN_OR_RETURN(walked, (ExtractPieces<D, Source>(std::span<Source* const>(sources), criteria, plan, walks)));
+  }
+  const PieceWalk<D, Source>& walk = exchange ? walks[0] : walks[static_cast<size_t>(r.piece)];
+  counters.rounds = walked.rounds;
+  counters.splits_sent = walked.splits_sent;
+  out.piece = counters;
+  std::vector<Code> leaves = walk.Leaves();
+  out.stats = walk.stats();
+  out.stats.simplices = leaves.size();
+  const SourceStats after = source.stats();
+  out.stats.error_lookups = after.error_lookups - before.error_lookups;
+  out.stats.field_lookups = after.field_lookups - before.field_lookups;
+  out.stats.blocks_read = after.blocks_read - before.blocks_read;
+  out.stats.blocks_skipped = after.blocks_skipped - before.blocks_skipped;
+  out.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return Collect<D>(walk.mesh(), std::move(leaves), [&walk](Code c) { return walk.Keeps(c); }, source, criteria,
+                    r, resolved, on_slice, out);
+}
+
 template <int D, class Source>
 Status Run(Source& source, const ExtractRequest& r, const Resolved& resolved, const SliceSink& on_slice,
-           ExtractResult& out) {
+           const PieceExchange& exchange, ExtractResult& out) {
   const SourceInfo& info = source.info();
   SDB_ASSIGN_OR_RETURN(const Criteria<D> criteria,
                        MakeCriteria<D>(resolved.spec, info.domain_bits, info.field_range()));
   out.threshold = criteria.threshold;
+  if (r.pieces > 1) {
+    try {
+      return RunPiece<D>(source, criteria, r, resolved, on_slice, exchange, out);
+    } catch (const std::bad_alloc&) {
+      return NotEnoughMemory("the mesh refined from " + info.path, fmt::format("piece {} of {}", r.piece, r.pieces));
+    }
+  }
   Mesh<D> mesh;
   if (r.from) {
     SDB_ASSIGN_OR_RETURN(mesh, PreviousMesh<D>(*r.from));
@@ -211,45 +326,9 @@ Status Run(Source& source, const ExtractRequest& r, const Resolved& resolved, co
     return NotEnoughMemory("the mesh refined from " + info.path,
                            fmt::format("{} simplices so far", mesh.leaf_count()));
   }
-  if (r.leaves || r.check) {
-    const std::vector<SimplexCode<D>> leaves = mesh.Leaves();
-    if (r.check) out.conformity = CheckConformity<D>(leaves);
-    if (r.leaves) {
-      out.leaves.reserve(leaves.size());
-      for (const SimplexCode<D> c : leaves) out.leaves.push_back(c.key());
-    }
-  }
-  if constexpr (D == 3) {
-    if (r.tetrahedra) {
-      SDB_ASSIGN_OR_RETURN(TetMeshData data, CollectTetMesh(mesh, source));
-      out.mesh = OnGrid(std::move(data), info);
-    }
-  } else {
-    // The HP's time slice, for the mesh and for the statistics (the seed's
-    // Fig. 63 counts the slice's tetrahedra beside the pentatopes).
-    if (criteria.time) out.mesh_time = info.origin[3] + *resolved.spec.time * info.spacing[3];
-    if (criteria.time && (r.tetrahedra || r.count_slice)) {
-      SDB_ASSIGN_OR_RETURN(TetMeshData data, SliceHpMesh(mesh, source, *criteria.time));
-      out.slice_tetrahedra = data.cells();
-      if (r.tetrahedra) out.mesh = OnGrid(std::move(data), info);
-    }
-    const double scale = std::ldexp(1.0, kCoordBits<4> - info.domain_bits);
-    for (size_t i = 0; i < resolved.slices.size(); ++i) {
-      const double t = resolved.slices[i];
-      SDB_ASSIGN_OR_RETURN(TetMeshData data, SliceHpMesh(mesh, source, t * scale));
-      ExtractSlice slice{info.origin[3] + t * info.spacing[3], OnGrid(std::move(data), info)};
-      if (on_slice) {
-        SDB_RETURN_IF_ERROR(on_slice(i, std::move(slice)));
-      } else {
-        out.slices.push_back(std::move(slice));
-      }
-    }
-  }
-  // Of the whole process: the store's cache, the mesh and the query's sets,
-  // and (peak only) the store's mapped file pages the query touched.
-  out.peak_memory_bytes = PeakResidentBytes();
-  out.anonymous_memory_bytes = AnonymousResidentBytes();  // the mesh is still alive
-  return Status::OK();
+  std::vector<SimplexCode<D>> leaves;
+  if (r.leaves || r.check) leaves = mesh.Leaves();
+  return Collect<D>(mesh, std::move(leaves), KeepAll{}, source, criteria, r, resolved, on_slice, out);
 }
 
 template <int D>
@@ -275,7 +354,7 @@ Status CheckExtract(const SourceInfo& info, const ExtractRequest& request) {
 }
 
 Result<ExtractResult> Extract(const AnyStore& store, const ExtractRequest& request,
-                              const SliceSink& on_slice) {
+                              const SliceSink& on_slice, const PieceExchange& exchange) {
   SDB_ASSIGN_OR_RETURN(const Resolved resolved, Resolve(store.info(), request));
   ExtractResult out;
   out.info = store.info();
@@ -284,7 +363,7 @@ Result<ExtractResult> Extract(const AnyStore& store, const ExtractRequest& reque
   Status s;
   try {
     s = store.Visit([&]<int D, class Source>(Source& source) {
-      return Run<D>(source, request, resolved, on_slice, out);
+      return Run<D>(source, request, resolved, on_slice, exchange, out);
     });
   } catch (const std::bad_alloc&) {
     // After the refinement (which names itself): the leaves, the slices,
@@ -359,6 +438,16 @@ nlohmann::ordered_json ExtractStatsJson(const ExtractResult& r) {
   if (r.conformity) {
     j["conforming"] = r.conformity->ok;
     if (!r.conformity->ok) j["conformity_problem"] = r.conformity->problem;
+  }
+  if (r.piece) {
+    // This piece's: "simplices" above counts its own leaves.
+    j["piece"] = r.piece->piece;
+    j["pieces"] = r.piece->pieces;
+    j["partition_level"] = r.piece->level;
+    j["exchange_rounds"] = r.piece->rounds;
+    j["splits_sent"] = r.piece->splits_sent;
+    j["splits_received"] = r.piece->splits_received;
+    j["exchange_bytes_sent"] = 8 * r.piece->splits_sent;
   }
   return j;
 }

@@ -60,7 +60,23 @@ struct ExtractRequest {
   bool tetrahedra = false;  // the HT's tetrahedra, or the slice at `time` of an HP
   bool count_slice = false;  // HP with `time`: the slice's tetrahedra counted (statistics)
   bool check = false;        // --check: the result's conformity, from geometry
+  // --piece/--pieces: piece `piece` (0-based) alone of the mesh cut in
+  // `pieces` (query/pieces.h: the same parts for every caller): its leaves,
+  // tetrahedra and slices; depth-first only. Under MPI each rank asks for
+  // its own, exchanging (PieceExchange); without, this process walks every
+  // piece to know the splits that cross into its own.
+  int piece = 0;
+  int pieces = 1;
 };
+
+// One round's trade of the splits that cross between pieces, among the
+// processes extracting them (parallel/mpi_session.h): outbox[s] the packed
+// codes for piece s; returns those sent to this process's piece and sets
+// *quiet when no piece sent any (then every process stops). `failed`: this
+// process's walk failed (its last call); the exchange then returns an
+// error to every process.
+using PieceExchange = std::function<Result<std::vector<uint64_t>>(const std::vector<std::vector<uint64_t>>& outbox,
+                                                                  bool failed, bool* quiet)>;
 
 // An HP time slice's tetrahedra, clipped and placed, and its physical time.
 struct ExtractSlice {
@@ -80,6 +96,14 @@ struct ExtractResult {
   std::optional<uint64_t> slice_tetrahedra;  // an HP slice at `time`, counted or collected
   std::optional<double> given_time;          // request.time, as given
   std::optional<ConformityReport> conformity;  // request.check
+  // request.pieces > 1: which piece, of how many, the mesh's level-L
+  // partition (query/pieces.h), and the exchange: rounds, and splits sent
+  // to and received from other pieces (8 bytes each).
+  struct PieceCounters {
+    int piece = 0, pieces = 1, level = 0, rounds = 0;
+    uint64_t splits_sent = 0, splits_received = 0;
+  };
+  std::optional<PieceCounters> piece;
   // A dense store's counters since it opened (DenseStore::Stats): blocks and
   // bricks decoded or checked (and of those the bricks), distinct ones,
   // bricks' finest boxes made and finest vertices' errors computed, and the
@@ -98,7 +122,9 @@ struct ExtractResult {
 // --units, --error, --box (count, bounds, missing the grid), --iso (outside
 // the field's range), --time (an HT's, outside the store's times),
 // --algorithm, --from without incremental, --budget and --time-limit but
-// with priority, --slices (an HT's, outside the store's times). O(1).
+// with priority, --slices (an HT's, outside the store's times), --piece
+// outside 0..pieces-1, --pieces with another algorithm, --from or --check
+// (the pieces' union is the mesh, not one piece). O(1).
 Status CheckExtract(const SourceInfo& info, const ExtractRequest& request);
 
 // Called with each time slice of request.slices in order: its index, then
@@ -108,8 +134,11 @@ using SliceSink = std::function<Status(size_t index, ExtractSlice&& slice)>;
 // Runs the request over `store` (CheckExtract first). Slices go to
 // `on_slice` when given (one slice in memory at a time), else into the
 // result. Cost: the refinement's, then O(leaves) per mesh collected.
+// With request.pieces > 1 and an `exchange`, only this piece's walk runs
+// (one process per piece, each calling Extract with the same request but
+// its piece).
 Result<ExtractResult> Extract(const AnyStore& store, const ExtractRequest& request,
-                              const SliceSink& on_slice = {});
+                              const SliceSink& on_slice = {}, const PieceExchange& exchange = {});
 
 // The statistics as `simplexdb extract --format json` prints them (the
 // keys DESIGN.md's contract names and more), and the Python package's

@@ -30,7 +30,7 @@ std::string ExtensionOf(const std::string& output) {
 // The format an output file's extension names, or "" for another one.
 std::string FormatOfExtension(const std::string& output) {
   const std::string ext = ExtensionOf(output);
-  if (ext == "vtu" || ext == "pvd" || ext == "json") return ext;
+  if (ext == "vtu" || ext == "pvtu" || ext == "pvd" || ext == "json") return ext;
   if (ext == "codes" || ext == "txt") return "codes";
   return "";
 }
@@ -52,8 +52,8 @@ Result<std::string> ResolveExtractFormat(const std::string& format, const std::s
     // Writing statistics into mesh.vtk would look like success.
     const std::string ext = ExtensionOf(path);
     return Status::InvalidArgument(fmt::format(
-        "{}: {}: name the file .vtu (the mesh, for ParaView), .pvd (HP time slices), .json (the "
-        "statistics) or .codes (the leaf codes), or give --format",
+        "{}: {}: name the file .vtu (the mesh, for ParaView), .pvtu (the mesh in pieces), .pvd (HP time "
+        "slices), .json (the statistics) or .codes (the leaf codes), or give --format",
         path, ext.empty() ? "no extension names what to write" : "the extension ." + ext + " is no format extract writes"));
   }
   const std::string chosen = format.empty() ? (implied.empty() ? "json" : implied) : format;
@@ -63,20 +63,20 @@ Result<std::string> ResolveExtractFormat(const std::string& format, const std::s
                     "or name the file for what it holds)",
                     format, path, implied));
   }
-  if (chosen != "codes" && chosen != "json" && chosen != "vtu" && chosen != "pvd") {
-    return Status::InvalidArgument(fmt::format("--format {}: expected codes, vtu, pvd or json", chosen));
+  if (chosen != "codes" && chosen != "json" && chosen != "vtu" && chosen != "pvtu" && chosen != "pvd") {
+    return Status::InvalidArgument(fmt::format("--format {}: expected codes, vtu, pvtu, pvd or json", chosen));
   }
   return chosen;
 }
 
 Status CheckExtractOutput(const SourceInfo& info, const ExtractRequest& request,
                           const std::string& format, const std::string& path) {
-  if ((format == "vtu" || format == "pvd") && path == "-") {
+  if ((format == "vtu" || format == "pvtu" || format == "pvd") && path == "-") {
     return Status::InvalidArgument(fmt::format("--format {} needs -o FILE", format));
   }
-  if (format == "vtu" && info.dimension == 4 && !request.time) {
+  if ((format == "vtu" || format == "pvtu") && info.dimension == 4 && !request.time) {
     return Status::InvalidArgument(
-        "--format vtu of an HP writes the 3D mesh of a time slice: give --time T");
+        fmt::format("--format {} of an HP writes the 3D mesh of a time slice: give --time T", format));
   }
   if (format == "pvd") {
     if (info.dimension != 4) {
@@ -91,14 +91,25 @@ Status CheckExtractOutput(const SourceInfo& info, const ExtractRequest& request,
 
 ExtractRequest RequestFor(ExtractRequest request, const std::string& format) {
   request.leaves = format == "codes";
-  request.tetrahedra = format == "vtu";
-  request.count_slice = format == "vtu" || format == "json";
+  request.tetrahedra = format == "vtu" || format == "pvtu";
+  request.count_slice = format == "vtu" || format == "pvtu" || format == "json";
   if (format != "pvd") request.slices.clear();
   return request;
 }
 
+std::string PvtuPieceFile(const std::string& path, int piece) {
+  return fmt::format("{}_{}.vtu", path.substr(0, path.size() - 5), piece);
+}
+
+Status WritePvtuOf(const std::string& path, int pieces) {
+  std::vector<std::string> names;
+  for (int r = 0; r < pieces; ++r) names.push_back(Folderless(PvtuPieceFile(path, r)));
+  return WritePvtu(names, path);
+}
+
 Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest& request,
-                                    const std::string& format, const std::string& path) {
+                                    const std::string& format, const std::string& path,
+                                    const PieceExchange& exchange) {
   SDB_RETURN_IF_ERROR(CheckExtractOutput(store.info(), request, format, path));
   // OUTPUT.pvd and one OUTPUT_<i>.vtu per time beside it.
   const std::string stem = ExtensionOf(path) == "pvd" ? path.substr(0, path.size() - 4) : path;
@@ -110,12 +121,16 @@ Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest&
     return Status::OK();
   };
   SDB_ASSIGN_OR_RETURN(ExtractResult result,
-                       Extract(store, RequestFor(request, format), format == "pvd" ? write_slice : SliceSink{}));
+                       Extract(store, RequestFor(request, format), format == "pvd" ? write_slice : SliceSink{},
+                               exchange));
   if (format == "codes") {
     SDB_RETURN_IF_ERROR(result.info.dimension == 3 ? WriteLeafCodes<3>(result.leaves, path)
                                                    : WriteLeafCodes<4>(result.leaves, path));
   } else if (format == "vtu") {
     SDB_RETURN_IF_ERROR(WriteVtu(*result.mesh, path));
+  } else if (format == "pvtu") {
+    SDB_RETURN_IF_ERROR(WriteVtu(*result.mesh, PvtuPieceFile(path, request.piece)));
+    if (request.pieces == 1) SDB_RETURN_IF_ERROR(WritePvtuOf(path, 1));
   } else if (format == "pvd") {
     SDB_RETURN_IF_ERROR(WritePvd(pvd, path));
   } else if (format == "json" && path != "-") {

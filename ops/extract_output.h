@@ -4,6 +4,9 @@
 //   codes  the leaves' codes, "T:bits" a line ("-": standard output)
 //   vtu    the tetrahedra as a VTK XML unstructured grid (an HP: the slice
 //          at --time)
+//   pvtu   the same in pieces (request.piece of request.pieces: under MPI
+//          one per rank): OUT_<piece>.vtu each beside OUT, and OUT (a
+//          parallel grid naming them) once every piece is written
 //   pvd    an HP's time slices (--slices): OUT_<i>.vtu each beside OUT and
 //          OUT (a ParaView collection) naming them with their physical times
 //   json   the statistics (ExtractStatsJson), indented ("-": the caller
@@ -43,12 +46,21 @@ Status CheckExtractOutput(const SourceInfo& info, const ExtractRequest& request,
 // tetrahedra for vtu, the slice's count for json).
 ExtractRequest RequestFor(ExtractRequest request, const std::string& format);
 
-// Extract(store, RequestFor(request, format)) with CheckExtractOutput
-// first, writing `format` to `path` (a json file too; for "-" the caller
-// prints ExtractStatsJson, and codes go to standard output). The slices of
-// pvd are written as they are cut, one in memory at a time.
+// Extract(store, RequestFor(request, format), ..., exchange) with
+// CheckExtractOutput first, writing `format` to `path` (a json file too;
+// for "-" the caller prints ExtractStatsJson, and codes go to standard
+// output). The slices of pvd are written as they are cut, one in memory at
+// a time. For pvtu this piece's .vtu (PvtuPieceFile), and the .pvtu too
+// when the mesh is one piece; else the caller writes it (WritePvtuOf) once
+// every piece is.
 Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest& request,
-                                    const std::string& format, const std::string& path);
+                                    const std::string& format, const std::string& path,
+                                    const PieceExchange& exchange = {});
+
+// Piece r's file of the .pvtu `path`: PATH-without-.pvtu_<r>.vtu.
+std::string PvtuPieceFile(const std::string& path, int piece);
+// The .pvtu naming pieces 0..pieces-1 (query/pvd_writer.h), atomically.
+Status WritePvtuOf(const std::string& path, int pieces);
 
 // A mesh to `path` by its extension: .vtu (WriteVtu), or .pvd: the mesh as
 // PATH-without-.pvd.vtu beside it, then the collection naming it at `time`.

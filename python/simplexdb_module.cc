@@ -174,7 +174,8 @@ std::string Output(const std::string& path, const std::vector<std::string>& inpu
 py::dict ExtractMesh(const std::shared_ptr<AnyStore>& store, const py::object& error,
                      std::optional<std::vector<double>> box, std::optional<double> iso,
                      std::optional<double> time, const std::string& units, const std::string& algorithm,
-                     uint64_t budget, std::optional<std::vector<uint64_t>> previous, bool mesh_wanted) {
+                     uint64_t budget, std::optional<std::vector<uint64_t>> previous, bool mesh_wanted, int piece,
+                     int pieces) {
   ExtractRequest request;
   request.error = AmountOf(error, "--error");
   request.box = std::move(box);
@@ -187,6 +188,8 @@ py::dict ExtractMesh(const std::shared_ptr<AnyStore>& store, const py::object& e
   request.leaves = true;
   request.tetrahedra = mesh_wanted;
   request.count_slice = mesh_wanted;
+  request.piece = piece;
+  request.pieces = pieces;
   Result<ExtractResult> result = [&] {
     py::gil_scoped_release unlocked;
     return Extract(*store, request);
@@ -491,7 +494,7 @@ PYBIND11_MODULE(_simplexdb, m) {
       py::arg("path"), py::arg("cache_mb"), py::arg("in_memory"));
   m.def("extract", &ExtractMesh, py::arg("store"), py::arg("error"), py::arg("box"), py::arg("iso"),
         py::arg("time"), py::arg("units"), py::arg("algorithm"), py::arg("budget"), py::arg("previous"),
-        py::arg("mesh"));
+        py::arg("mesh"), py::arg("piece"), py::arg("pieces"));
   m.def("save_mesh", &SaveMesh, py::arg("path"), py::arg("points"), py::arg("cells"), py::arg("field"),
         py::arg("error"), py::arg("level"), py::arg("codes"), py::arg("time"));
   m.def("code_string", [](int dimension, uint64_t key) {

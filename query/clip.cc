@@ -26,12 +26,21 @@ class PlaneClipper {
  private:
   double Side(int64_t p) const { return out_.points[3 * p + axis_] - h_; }
 
+  // The global order of points: by position (x, then y, then z). Not by
+  // index: a piece of a mesh (query/pieces.h) numbers its points otherwise
+  // than the whole, and must cut and fan its cells as the whole does.
+  bool Less(int64_t a, int64_t b) const {
+    const double* pa = &out_.points[3 * a];
+    const double* pb = &out_.points[3 * b];
+    return std::lexicographical_compare(pa, pa + 3, pb, pb + 3);
+  }
+
   // The point where edge a-b (one end on each side) meets the plane, named
-  // by the edge: computed once, from its smaller end.
+  // by the edge: computed once, from its smaller end in the global order.
   int64_t Cut(int64_t a, int64_t b) {
-    if (a > b) std::swap(a, b);
-    assert(b < (int64_t{1} << 32));
-    const uint64_t key = static_cast<uint64_t>(a) << 32 | static_cast<uint64_t>(b);
+    if (Less(b, a)) std::swap(a, b);
+    assert(a < (int64_t{1} << 32) && b < (int64_t{1} << 32));
+    const uint64_t key = static_cast<uint64_t>(std::min(a, b)) << 32 | static_cast<uint64_t>(std::max(a, b));
     const auto [it, fresh] = cuts_.emplace(key, static_cast<int64_t>(out_.field.size()));
     if (fresh) {
       const double sa = Side(a), sb = Side(b), w = sa / (sa - sb);
@@ -113,11 +122,12 @@ class PlaneClipper {
     std::sort(cap.begin(), cap.end(), [&](int64_t a, int64_t b) { return angle(a) < angle(b); });
     if (cap.size() >= 3) faces.push_back(std::move(cap));
 
+    const auto less = [this](int64_t a, int64_t b) { return Less(a, b); };
     int64_t apex = faces[0][0];
-    for (const Polygon& f : faces) apex = std::min(apex, *std::min_element(f.begin(), f.end()));
+    for (const Polygon& f : faces) apex = std::min(apex, *std::min_element(f.begin(), f.end(), less), less);
     for (Polygon& f : faces) {
       if (std::find(f.begin(), f.end(), apex) != f.end()) continue;
-      std::rotate(f.begin(), std::min_element(f.begin(), f.end()), f.end());
+      std::rotate(f.begin(), std::min_element(f.begin(), f.end(), less), f.end());
       for (size_t i = 1; i + 1 < f.size(); ++i) Emit(cell, {apex, f[0], f[i], f[i + 1]});
     }
   }

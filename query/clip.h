@@ -14,9 +14,10 @@
 // its smallest point, and the polytope is coned from its smallest point over
 // the triangles of the faces that do not hold it. A face shared by two cells
 // is the same polygon on both sides (its points are the same: a cut point is
-// named by the edge it cuts, by point index), so both fan it alike. Points
-// are ordered by index: the input's points first, then cut points in the
-// order they appear.
+// named by the edge it cuts), so both fan it alike. Points are ordered by
+// position (x, then y, then z), and a cut point is computed from its edge's
+// smaller end: so a piece of a mesh (query/pieces.h) is clipped exactly as
+// the same cells of the whole mesh, and the pieces stay conforming.
 //
 // Thread safety: free functions over values.
 //

@@ -58,10 +58,18 @@ struct TetMeshData {
 // arrays in memory until written: also ResourceExhausted when they do not fit.
 Status WriteVtu(const TetMeshData& mesh, const std::string& path);
 
+// Every node: ForEachLeaf's default `keep`.
+struct KeepAll {
+  template <class Code>
+  bool operator()(Code) const { return true; }
+};
+
 // Walks the leaves of `mesh` depth-first, carrying vertices and their field
-// values down from the roots: calls leaf(code, vertices, values).
-template <int D, ReadSource<D> Source, class Leaf>
-Status ForEachLeaf(const Mesh<D>& mesh, Source& source, Leaf&& leaf) {
+// values down from the roots: calls leaf(code, vertices, values). Nodes
+// for which keep(code) is false are skipped with their subtrees (a piece
+// of the mesh: query/pieces.h, PieceWalk::Keeps).
+template <int D, ReadSource<D> Source, class Leaf, class Keep = KeepAll>
+Status ForEachLeaf(const Mesh<D>& mesh, Source& source, Leaf&& leaf, const Keep& keep = {}) {
   using Code = SimplexCode<D>;
   VertexValues<D, Source> values(source);
   struct Frame {
@@ -78,6 +86,7 @@ Status ForEachLeaf(const Mesh<D>& mesh, Source& source, Leaf&& leaf) {
   while (!stack.empty()) {
     const Frame fr = stack.back();
     stack.pop_back();
+    if (!keep(fr.code)) continue;
     if (!mesh.is_split(fr.code)) {
       SDB_RETURN_IF_ERROR(leaf(fr.code, fr.v, fr.f));
       continue;
@@ -108,11 +117,12 @@ inline bool PositivelyOriented(const SimplexVertices<3>& v) {
   return det > 0;
 }
 
-// The HT mesh's leaves with their field and errors, points shared. Each
+// The HT mesh's leaves (those `keep` keeps) with their field and errors,
+// points shared. Each
 // tetrahedron is written with positive orientation (half of them, in code
 // order, are not: their first two vertices are swapped).
-template <ReadSource<3> Source>
-Result<TetMeshData> CollectTetMesh(const Mesh<3>& mesh, Source& source) {
+template <ReadSource<3> Source, class Keep = KeepAll>
+Result<TetMeshData> CollectTetMesh(const Mesh<3>& mesh, Source& source, const Keep& keep = {}) {
   TetMeshData out;
   std::unordered_map<uint64_t, int64_t> index;
   const double scale = std::ldexp(1.0, -(kCoordBits<3> - source.info().domain_bits));
@@ -133,7 +143,8 @@ Result<TetMeshData> CollectTetMesh(const Mesh<3>& mesh, Source& source) {
         out.level.push_back(static_cast<uint8_t>(code.level()));
         out.code.push_back(code.key());
         return Status::OK();
-      }));
+      },
+      keep));
   return out;
 }
 

@@ -239,6 +239,13 @@ class PieceWalk {
     return out;
   }
 
+  // Whether an output walk over mesh() (query/mesh_io.h ForEachLeaf's
+  // `keep`) goes into c: a node relevant here, split, or a leaf owned here.
+  bool Keeps(Code c) const {
+    return partition_.IsRelevant(c, piece_) && (mesh_.is_split(c) || partition_.Owner(c) == piece_);
+  }
+  int piece() const { return piece_; }
+
   // The split set: this piece's nodes and whatever else it learned.
   const Mesh<D>& mesh() const { return mesh_; }
   const QueryStats& stats() const { return stats_; }
@@ -283,16 +290,48 @@ struct PiecesStats {
   std::vector<double> piece_seconds;  // each piece's walk, all rounds
 };
 
+// One piece's walk to the end where each piece has its own process (MPI):
+// exchange(outbox, failed, &quiet) hands a round's crossing splits to the
+// others (outbox[s] for piece s) and returns what they sent this piece,
+// with quiet set when no piece sent anything (every process sees the same;
+// the walk stops then). Every process calls it once per round, the same
+// number of rounds: a walk that fails still calls it once, with `failed`,
+// so that the others stop too (the exchange returns an error to them).
+// Returns this piece's figures (piece_seconds: its walk's alone).
+template <int D, class Source, class Exchange>
+Result<PiecesStats> WalkPiece(PieceWalk<D, Source>& walk, int pieces, Exchange&& exchange) {
+  using Code = SimplexCode<D>;
+  PiecesStats stats;
+  stats.piece_seconds.assign(1, 0.0);
+  std::vector<Code> inbox;
+  while (true) {
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<std::vector<Code>> outbox(static_cast<size_t>(pieces));
+    PieceRoundStats round;
+    const Status walked = walk.Round(inbox, outbox, round);
+    stats.piece_seconds[0] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    stats.splits_sent += round.sent;
+    ++stats.rounds;
+    bool quiet = false;
+    Result<std::vector<Code>> received = exchange(outbox, !walked.ok(), &quiet);
+    SDB_RETURN_IF_ERROR(walked);
+    SDB_ASSIGN_OR_RETURN(inbox, std::move(received));
+    if (quiet) break;
+  }
+  return stats;
+}
+
 // All pieces in one process, round by round (for tests, and for a caller
-// without MPI that wants every piece): piece r's leaves in out[r]. `sources`
-// has one source per piece (they may be the same object: the walks run one
-// after the other).
+// without MPI that wants a piece exact: it needs the others' splits):
+// `walks` gets one walk per piece, run to the end (Leaves() and mesh() of
+// each are its piece). `sources` has one source per piece (they may be the
+// same object: the walks run one after the other).
 template <int D, class Source>
 Result<PiecesStats> ExtractPieces(std::span<Source* const> sources, const Criteria<D>& criteria,
-                                  const Partition<D>& partition, std::vector<std::vector<SimplexCode<D>>>& out) {
+                                  const Partition<D>& partition, std::vector<PieceWalk<D, Source>>& walks) {
   using Code = SimplexCode<D>;
   const size_t n = static_cast<size_t>(partition.pieces());
-  std::vector<PieceWalk<D, Source>> walks;
+  walks.clear();
   walks.reserve(n);
   for (size_t r = 0; r < n; ++r) walks.emplace_back(*sources[r], criteria, partition, static_cast<int>(r));
   PiecesStats stats;
@@ -315,8 +354,6 @@ Result<PiecesStats> ExtractPieces(std::span<Source* const> sources, const Criter
     inbox.swap(next);
     if (sent == 0) break;
   }
-  out.assign(n, {});
-  for (size_t r = 0; r < n; ++r) out[r] = walks[r].Leaves();
   return stats;
 }
 

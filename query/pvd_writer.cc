@@ -51,4 +51,25 @@ Status WritePvd(std::span<const PvdDataSet> datasets, const std::string& path) {
   return WriteFileAtomically(path, text);
 }
 
+std::string PvtuText(std::span<const std::string> pieces) {
+  std::string x =
+      "<?xml version=\"1.0\"?>\n"
+      "<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
+      "<PUnstructuredGrid GhostLevel=\"0\">\n"
+      "<PPointData Scalars=\"field\">\n<PDataArray type=\"Float64\" Name=\"field\"/>\n</PPointData>\n"
+      "<PCellData Scalars=\"error\">\n<PDataArray type=\"Float64\" Name=\"error\"/>\n"
+      "<PDataArray type=\"UInt8\" Name=\"level\"/>\n<PDataArray type=\"UInt64\" Name=\"code\"/>\n</PCellData>\n"
+      "<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
+  for (const std::string& piece : pieces) {
+    assert(piece.find('/') == std::string::npos);
+    x += "<Piece Source=\"" + XmlEscaped(piece) + "\"/>\n";
+  }
+  x += "</PUnstructuredGrid>\n</VTKFile>\n";
+  return x;
+}
+
+Status WritePvtu(std::span<const std::string> pieces, const std::string& path) {
+  return WriteFileAtomically(path, PvtuText(pieces));
+}
+
 }  // namespace simplexdb

@@ -1,6 +1,7 @@
 // ParaView collections (.pvd): a list of VTK XML files (.vtu, .vti) with a
 // time each, which ParaView opens as one time series (its reader is
-// vtkXMLCollectionReader / vtkPVDReader). The one writer of them:
+// vtkXMLCollectionReader / vtkPVDReader); and parallel grids (.pvtu), the
+// pieces of one mesh (below). The one writer of them:
 // `simplexdb extract -o X.pvd` (HP time slices), `simplexdb export -o X.pvd`
 // (the field's time steps) and the Python package's Mesh.save("X.pvd").
 //
@@ -41,5 +42,13 @@ Result<std::string> PvdText(std::span<const PvdDataSet> datasets);
 
 // Writes PvdText(datasets) to `path` atomically.
 Status WritePvd(std::span<const PvdDataSet> datasets, const std::string& path);
+
+// A parallel unstructured grid (.pvtu, vtkXMLPUnstructuredGridReader): the
+// pieces' .vtu files (names beside the .pvtu, as for a .pvd), each written
+// by WriteVtu (query/mesh_io.h), whose arrays it declares: point data
+// "field", cell data "error", "level" and "code", Float64 points. The one
+// writer of them: `mpirun ... simplexdb extract -o X.pvtu`.
+std::string PvtuText(std::span<const std::string> pieces);
+Status WritePvtu(std::span<const std::string> pieces, const std::string& path);
 
 }  // namespace simplexdb

@@ -43,8 +43,9 @@ namespace simplexdb {
 
 // `t` is in lattice units (Criteria<4>::time). Cell arrays: the pentatope's
 // error, level and code for each tetrahedron cut from it.
-template <ReadSource<4> Source>
-Result<TetMeshData> SliceHpMesh(const Mesh<4>& mesh, Source& source, double t) {
+// The pentatopes walked are those `keep` keeps (ForEachLeaf, query/mesh_io.h).
+template <ReadSource<4> Source, class Keep = KeepAll>
+Result<TetMeshData> SliceHpMesh(const Mesh<4>& mesh, Source& source, double t, const Keep& keep = {}) {
   TetMeshData out;
   const int k = source.info().domain_bits;
   const double scale = std::ldexp(1.0, -(kCoordBits<4> - k));
@@ -165,7 +166,8 @@ Result<TetMeshData> SliceHpMesh(const Mesh<4>& mesh, Source& source, double t) {
           }
         }
         return Status::OK();
-      }));
+      },
+      keep));
   return out;
 }
 

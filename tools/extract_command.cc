@@ -3,6 +3,7 @@
 // calls the same Extract), and `simplexdb conformity`: the geometric
 // conformity check of a mesh given as leaf codes. Here: the options
 // parsed, the statistics printed.
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -16,8 +17,10 @@
 #include "hierarchy/simplex_code.h"
 #include "ops/extract.h"
 #include "ops/extract_output.h"
+#include "parallel/mpi_session.h"
 #include "query/conformity.h"
 #include "query/open_store.h"
+#include "storage/io/file.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
 
@@ -42,7 +45,122 @@ struct ExtractArgs {
   bool force = false;
 };
 
+bool ExtensionIsPvtu(const std::string& path) {
+  return path.size() > 5 && path.compare(path.size() - 5, 5, ".pvtu") == 0;
+}
+
+// Runs `step` on every rank; an error on any rank (a CommandError or a
+// failed status) stops every rank with the message of the lowest rank
+// that failed (MpiSession::Agree), which main prints once, at rank 0.
+template <class Step>
+void Together(MpiSession& mpi, Step&& step) {
+  Status mine;
+  try {
+    mine = step();
+  } catch (const CommandError& e) {
+    mine = e.exit_code() == 2 ? Status::InvalidArgument(e.what()) : Status::IOError(e.what());
+  }
+  const Status all = mpi.Agree(mine);
+  if (!all.ok()) throw CommandError(std::string(all.message()), all.IsInvalidArgument() ? 2 : 1);
+}
+
+// Under mpirun with several ranks: each rank extracts its piece of the
+// mesh (query/pieces.h), trading the splits that cross with the others;
+// -o OUT.pvtu: OUT_<rank>.vtu from each rank, then OUT.pvtu from rank 0;
+// the statistics of every piece and of the whole printed by rank 0.
+void RunExtractInPieces(ExtractArgs a, MpiSession& mpi) {
+  std::string format;
+  std::optional<AnyStore> store;
+  ExtractRequest& request = a.request;
+  Together(mpi, [&]() -> Status {
+    format = UsageValue(ResolveExtractFormat(a.format, a.output));
+    if (format != "pvtu" && format != "json") {
+      return Status::InvalidArgument(fmt::format(
+          "under mpirun extract writes the mesh in pieces (-o OUT.pvtu: one .vtu per rank) or the statistics "
+          "(.json, or -); not {}",
+          format));
+    }
+    if (a.output != "-") a.output = CheckOutput(a.output, {a.store}, a.force);
+    request.error = ParseAmountOption(a.error, "--error");
+    if (!a.box.empty()) request.box = ParseNumberList(a.box, "--box", 1, 8);
+    request.piece = mpi.rank();
+    request.pieces = mpi.size();
+    StoreOptions options;
+    options.in_memory = a.in_memory;
+    options.cache_bytes = MebibytesOption(a.cache_mb, "--cache-mb");
+    SDB_ASSIGN_OR_RETURN(AnyStore opened, AnyStore::Open(a.store, options));
+    store.emplace(std::move(opened));
+    CheckUsage(CheckExtract(store->info(), request));
+    CheckUsage(CheckExtractOutput(store->info(), request, format, a.output));
+    return Status::OK();
+  });
+  const PieceExchange exchange = [&mpi](const std::vector<std::vector<uint64_t>>& outbox, bool failed, bool* quiet) {
+    return mpi.Exchange(outbox, failed, quiet);
+  };
+  std::optional<ExtractResult> result;
+  const std::string piece_file = format == "pvtu" ? PvtuPieceFile(a.output, mpi.rank()) : "";
+  try {
+    Together(mpi, [&]() -> Status {
+      SDB_ASSIGN_OR_RETURN(ExtractResult r,
+                           ExtractToFile(*store, request, format, format == "json" ? "-" : a.output, exchange));
+      result.emplace(std::move(r));
+      return Status::OK();
+    });
+    // The .pvtu last, naming only pieces that every rank wrote.
+    Together(mpi, [&]() -> Status {
+      return format == "pvtu" && mpi.rank() == 0 ? WritePvtuOf(a.output, mpi.size()) : Status::OK();
+    });
+  } catch (const CommandError&) {
+    if (!piece_file.empty()) std::remove(piece_file.c_str());  // no pieces of a mesh that failed
+    throw;
+  }
+  json mine = ExtractStatsJson(*result);
+  if (result->mesh) mine["cells_written"] = result->mesh->cells();
+  mine["exchange_bytes_sent_mpi"] = mpi.bytes_sent();
+  const Result<std::vector<std::string>> all = mpi.Gather(mine.dump());
+  if (!all.ok()) Fail(all.status());
+  if (mpi.rank() != 0) return;
+  json whole;
+  whole["store"] = mine["store"];
+  whole["pieces"] = mpi.size();
+  uint64_t simplices = 0, largest = 0, sent = 0, max_sent = 0;
+  double seconds = 0;
+  json each = json::array();
+  for (const std::string& text : *all) {
+    json j = json::parse(text);
+    const uint64_t n = j["simplices"].get<uint64_t>();
+    simplices += n;
+    largest = std::max(largest, n);
+    const uint64_t bytes = j.value("exchange_bytes_sent", uint64_t{0});  // none in one piece
+    sent += bytes;
+    max_sent = std::max(max_sent, bytes);
+    seconds = std::max(seconds, j["seconds"].get<double>());
+    each.push_back(std::move(j));
+  }
+  whole["simplices"] = simplices;
+  whole["largest_piece_over_mean"] = simplices > 0 ? static_cast<double>(largest) * mpi.size() / simplices : 0.0;
+  whole["exchange_rounds"] = each[0].value("exchange_rounds", 0);
+  whole["exchange_bytes_sent"] = sent;
+  whole["exchange_bytes_sent_max_rank"] = max_sent;
+  whole["seconds"] = seconds;  // the slowest rank's
+  if (format == "pvtu") whole["output"] = a.output;
+  whole["per_piece"] = std::move(each);
+  const std::string text = whole.dump(2) + "\n";
+  if (format == "json" && a.output != "-") {
+    if (const Status s = WriteFileAtomically(a.output, text); !s.ok()) Fail(s);
+  } else {
+    std::fputs(text.c_str(), stdout);
+  }
+}
+
 void RunExtract(ExtractArgs a) {
+  // Under mpirun: in pieces (with one rank only for a .pvtu; otherwise one
+  // rank is a plain run).
+  if (MpiSession* mpi = MpiSession::Current();
+      mpi != nullptr && (mpi->size() > 1 || ExtensionIsPvtu(a.output) || a.format == "pvtu")) {
+    RunExtractInPieces(std::move(a), *mpi);
+    return;
+  }
   const std::string format = UsageValue(ResolveExtractFormat(a.format, a.output));
   if (a.output != "-") {
     std::vector<std::string> inputs = {a.store};
@@ -124,11 +242,16 @@ The bound: on every tetrahedron (pentatope) of the result that meets the criteri
 every grid point inside it differs from the linear interpolation of its vertices' values by at
 most --error (the stored errors are rounded up, never down).
 The output's extension names what is written: .vtu the mesh (ParaView; an HP's at --time),
-.pvd a series of HP time slices (--slices), .json the statistics, .codes the leaf codes.
+.pvtu the mesh in pieces, .pvd a series of HP time slices (--slices), .json the statistics,
+.codes the leaf codes.
+Under mpirun every rank extracts one piece (the same pieces whatever the machine), trading the
+splits that cross with the others; -o OUT.pvtu writes OUT_<rank>.vtu per rank and OUT.pvtu,
+which ParaView opens as one mesh (the union is the one-process mesh, cell for cell).
 Examples:
   simplexdb extract tooth.sdb --error 3% -o tooth.vtu
   simplexdb extract tooth.sdb --error 1% --box 20,20,40,80,70,120 --units physical -o zoom.vtu
-  simplexdb extract fmri.sdb --error 5% --slices 0,1 -o fmri.pvd)";
+  simplexdb extract fmri.sdb --error 5% --slices 0,1 -o fmri.pvd
+  mpirun -np 4 simplexdb extract tooth.sdb --error 1% -o tooth.pvtu)";
 
 }  // namespace
 
@@ -157,9 +280,10 @@ void RegisterExtractCommand(CLI::App& app) {
   cmd->add_option("--from", args->from, "incremental: the previous mesh, as leaf codes (--format codes)");
   cmd->add_option("--format", args->format,
                   "codes (leaf codes, one per line), vtu (VTK unstructured grid: the HT's tetrahedra, or the\n"
-                  "tetrahedra of the HP's time slice --time), pvd (HP: a ParaView series of time slices\n"
+                  "tetrahedra of the HP's time slice --time), pvtu (the same in pieces, OUTPUT_<r>.vtu each:\n"
+                  "one per MPI rank), pvd (HP: a ParaView series of time slices\n"
                   "--slices, one .vtu each beside OUTPUT) or json (statistics; with --time also the tetrahedra\n"
-                  "of the time slice). Default: named by OUTPUT's extension (.vtu, .pvd, .json, .codes or .txt),\n"
+                  "of the time slice). Default: named by OUTPUT's extension (.vtu, .pvtu, .pvd, .json, .codes or .txt),\n"
                   "else json; a --format the extension contradicts is an error");
   cmd->add_option("--slices", args->slices, "pvd: the times of the slices, T1,T2,... (in --units)");
   cmd->add_option("-o,--output", args->output, "Output file ('-' for stdout, the default for codes and json)");

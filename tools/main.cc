@@ -2,10 +2,13 @@
 #include <cerrno>
 #include <cstdio>
 #include <exception>
+#include <memory>
 #include <new>
 #include <string>
 
 #include <CLI/CLI.hpp>
+
+#include "parallel/mpi_session.h"
 
 #include "storage/dense/dense_format.h"
 #include "storage/sparse/sparse_format.h"
@@ -37,13 +40,36 @@ int main(int argc, char** argv) {
   simplexdb::tools::RegisterConvertCommand(app);
   simplexdb::tools::RegisterUpdateCommand(app);
   simplexdb::tools::RegisterExtractCommand(app);
+  // Under an MPI launcher (mpirun) only: a plain run never touches MPI.
+  std::unique_ptr<simplexdb::MpiSession> mpi;
+  if (simplexdb::MpiSession::Launched()) {
+    auto started = simplexdb::MpiSession::Start(&argc, &argv);
+    if (!started.ok()) {
+      std::fprintf(stderr, "simplexdb: %s\n", std::string(started.status().message()).c_str());
+      return 1;
+    }
+    mpi = *std::move(started);
+    // Only extract runs in pieces; two ranks importing into one file would
+    // not make one store.
+    const std::string command = argc > 1 ? argv[1] : "";
+    if (mpi->size() > 1 && command != "extract" && command.rfind("-", 0) != 0) {
+      if (mpi->rank() == 0) {
+        std::fprintf(stderr, "simplexdb: %s: under mpirun with %d ranks only extract runs (in pieces); run %s "
+                     "without mpirun\n", command.c_str(), mpi->size(), command.c_str());
+      }
+      return 2;
+    }
+  }
+  // Several ranks print one message: rank 0's (errors are agreed among
+  // ranks first: tools/extract_command.cc, Together).
+  const bool prints = mpi == nullptr || mpi->rank() == 0;
   int code = 0;
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     code = app.exit(e) == 0 ? 0 : 2;  // --help is success; usage errors are 2
   } catch (const simplexdb::tools::CommandError& e) {
-    std::fprintf(stderr, "simplexdb: %s\n", e.what());
+    if (prints) std::fprintf(stderr, "simplexdb: %s\n", e.what());
     return e.exit_code();
   } catch (const std::bad_alloc&) {
     // A last resort: the large allocations report what they were for

@@ -29,12 +29,14 @@ set -euo pipefail
 #   python3-numpy                  its arrays
 #   python3-pytest                 its tests
 #   python3-matplotlib             examples/python_thresholds.py (and its test)
+#   libopenmpi-dev, openmpi-bin    extraction in pieces under mpirun (parallel/)
 PACKAGES=(
   cmake ninja-build g++ pkg-config ccache
   libboost-dev libzstd-dev liblmdb-dev libxxhash-dev zlib1g-dev
   libfmt-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-vtk9 pybind11-dev python3-dev python3-numpy python3-pytest python3-matplotlib
+  libopenmpi-dev openmpi-bin
 )
 
 install_missing_packages() {

@@ -203,7 +203,7 @@ class Store:
         return f"<simplexdb.Store {self.info['path']!r}: {self.info['hierarchy'].upper()} over {dims}>"
 
     def extract(self, error, box=None, iso=None, time=None, algorithm="depth-first", budget=None, mesh=True,
-                units="grid", previous=None):
+                units="grid", previous=None, piece=None, pieces=None):
         """Selective refinement, as `simplexdb extract`: the minimal
         conforming mesh whose simplices meeting the criteria have error <=
         `error` (a float in field units, or a string like "1%" of the field
@@ -211,7 +211,21 @@ class Store:
         isovalue, `time` (HP) the time slice; box and time in grid units, or
         physical ones with units="physical". `algorithm` as the command's
         (incremental refines `previous`, a Mesh of this store, when given).
-        `mesh=False` skips the tetrahedra (codes and statistics only)."""
+        `mesh=False` skips the tetrahedra (codes and statistics only).
+
+        `piece` and `pieces` (both or neither): only piece `piece` (from 0)
+        of the mesh cut in `pieces`, the same part MPI rank `piece` of an
+        `mpirun -np PIECES simplexdb extract` writes; the pieces' union is
+        the whole mesh, cell for cell. Depth-first only. This process walks
+        every piece to learn the splits that cross into this one, so a
+        piece costs about the whole mesh here: spreading the work over
+        processes is mpirun's."""
+        if (piece is None) != (pieces is None):
+            raise ValueError("piece and pieces: give both (piece r of pieces n) or neither")
+        if pieces is not None:
+            for name, v in (("piece", piece), ("pieces", pieces)):
+                if isinstance(v, bool) or not isinstance(v, int):
+                    raise ValueError(f"{name}: expected a whole number, not {v!r}")
         if box is not None:
             box = [float(x) for x in box]
         if budget is not None:
@@ -229,7 +243,8 @@ class Store:
         result = _simplexdb.extract(self._core, _amount(error, "error"), box, None if iso is None else float(iso),
                                     None if time is None else float(time), str(units), algorithm,
                                     0 if budget is None else int(budget),
-                                    None if previous is None else [int(k) for k in previous.codes], bool(mesh))
+                                    None if previous is None else [int(k) for k in previous.codes], bool(mesh),
+                                    0 if piece is None else piece, 1 if pieces is None else pieces)
         return Mesh(self.dimension, result)
 
     def export(self, roi=None, step=1, time=None, out=None, force=False):

@@ -99,6 +99,35 @@ def test_hp_time_slice(stores):
         pentatopes.to_vtk()
 
 
+@pytest.mark.parametrize("name,criteria", [("ht.sdb", {}), ("ht.lmdb", {}), ("ht.sdb", {"box": (2, 2, 2, 10, 6, 9)}),
+                                           ("hp.sdb", {"time": 3.5})])
+def test_pieces_make_the_mesh(stores, name, criteria):
+    """The pieces of extract(piece=r, pieces=n), one after the other, are the
+    whole mesh: its codes in order and its cells, none twice."""
+    store = simplexdb.open(stores / name)
+    whole = store.extract("2%", **criteria)
+    for n in (2, 3):
+        parts = [store.extract("2%", piece=r, pieces=n, **criteria) for r in range(n)]
+        np.testing.assert_array_equal(np.concatenate([p.codes for p in parts]), whole.codes)
+        assert all(len(p.codes) > 0 for p in parts)
+        assert sum(p.stats["simplices"] for p in parts) == whole.stats["simplices"]
+        assert [p.stats["piece"] for p in parts] == list(range(n))
+        if whole.cells is not None:
+            assert sum(len(p.cells) for p in parts) == len(whole.cells)
+            cells = np.concatenate([p.cell_codes for p in parts])
+            assert sorted(cells.tolist()) == sorted(whole.cell_codes.tolist())
+
+
+def test_pieces_refuse_what_they_cannot_be(stores):
+    store = simplexdb.open(stores / "ht.sdb")
+    with pytest.raises(ValueError, match="both"):
+        store.extract("1%", piece=0)
+    with pytest.raises(ValueError, match="piece 2 of --pieces 2"):
+        store.extract("1%", piece=2, pieces=2)
+    with pytest.raises(ValueError, match="only depth-first"):
+        store.extract("1%", piece=0, pieces=2, algorithm="priority")
+
+
 def test_threads_get_what_one_thread_gets(stores):
     store = simplexdb.open(stores / "ht.sdb", cache_mb=1)
     want = {e: store.extract(e).codes for e in ("1%", "4%", "10%")}

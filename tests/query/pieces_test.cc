@@ -7,8 +7,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <barrier>
 #include <cmath>
 #include <random>
+#include <thread>
 
 #include "query/conformity.h"
 #include "query/pieces.h"
@@ -113,6 +115,50 @@ TestVolume Uneven(int dimension, uint32_t side) {
   return v;
 }
 
+// Each piece on its own thread with its own source, exchanging through
+// mailboxes at a barrier per round (the shape of the MPI exchange).
+template <int D>
+std::vector<std::vector<SimplexCode<D>>> ThreadedPieces(const DenseStore& store, const Criteria<D>& c,
+                                                         const Partition<D>& plan) {
+  using Code = SimplexCode<D>;
+  const size_t n = static_cast<size_t>(plan.pieces());
+  std::vector<std::vector<std::vector<Code>>> mail(n, std::vector<std::vector<Code>>(n));  // [to][from]
+  std::vector<uint64_t> sent(n, 0);
+  std::barrier sync(static_cast<std::ptrdiff_t>(n));
+  std::vector<std::vector<Code>> out(n);
+  std::vector<std::thread> threads;
+  for (size_t r = 0; r < n; ++r) {
+    threads.emplace_back([&, r] {
+      DenseSource<D> source(store);
+      PieceWalk<D, DenseSource<D>> walk(source, c, plan, static_cast<int>(r));
+      const auto exchange = [&](std::vector<std::vector<Code>>& outbox, bool failed,
+                                bool* quiet) -> Result<std::vector<Code>> {
+        EXPECT_FALSE(failed);
+        sent[r] = 0;
+        for (size_t s = 0; s < n; ++s) {
+          sent[r] += outbox[s].size();
+          mail[s][r] = std::move(outbox[s]);
+        }
+        sync.arrive_and_wait();
+        std::vector<Code> inbox;
+        uint64_t total = 0;
+        for (size_t s = 0; s < n; ++s) {
+          inbox.insert(inbox.end(), mail[r][s].begin(), mail[r][s].end());
+          total += sent[s];
+        }
+        sync.arrive_and_wait();  // all read before the next round writes
+        *quiet = total == 0;
+        return inbox;
+      };
+      const Result<PiecesStats> stats = WalkPiece<D>(walk, static_cast<int>(n), exchange);
+      EXPECT_TRUE(stats.ok());
+      out[r] = walk.Leaves();
+    });
+  }
+  for (auto& t : threads) t.join();
+  return out;
+}
+
 template <int D>
 void CheckPiecesMakeTheMesh(uint32_t side, size_t cache) {
   using Code = SimplexCode<D>;
@@ -143,10 +189,17 @@ void CheckPiecesMakeTheMesh(uint32_t side, size_t cache) {
         ASSERT_TRUE(plan.ok()) << plan.status().ToString();
         ASSERT_EQ(plan->pieces(), n);
         std::vector<DenseSource<D>*> sources(static_cast<size_t>(n), &source);
-        std::vector<std::vector<Code>> pieces;
+        std::vector<PieceWalk<D, DenseSource<D>>> walks;
         const Result<PiecesStats> rounds =
-            ExtractPieces<D, DenseSource<D>>(std::span<DenseSource<D>* const>(sources), c, *plan, pieces);
+            ExtractPieces<D, DenseSource<D>>(std::span<DenseSource<D>* const>(sources), c, *plan, walks);
         ASSERT_TRUE(rounds.ok()) << rounds.status().ToString();
+        std::vector<std::vector<Code>> pieces;
+        for (const auto& w : walks) pieces.push_back(w.Leaves());
+        // The same pieces from one thread per piece, trading splits as MPI
+        // ranks do (WalkPiece).
+        if (n > 1) {
+          EXPECT_EQ(ThreadedPieces<D>(*store, c, *plan), pieces);
+        }
         std::vector<Code> all;
         size_t largest = 0;
         for (int r = 0; r < n; ++r) {

@@ -1,0 +1,129 @@
+#!/usr/bin/python3
+"""`mpirun -np N simplexdb extract STORE ... -o OUT.pvtu` (issue 42) against
+the one-process extraction, read back with VTK's own readers
+(vtkXMLPUnstructuredGridReader for the pieces, vtkXMLUnstructuredGridReader
+for the one-process .vtu): the union of the pieces is the one-process mesh
+cell for cell (each cell's code and its four points), for uniform, box and
+isovalue queries of an HT and time slices of an HP, N = 1..4; the statistics
+add up; a rank that fails leaves neither the .pvtu nor any piece, and every
+rank stops with one message naming the failing rank.
+
+    mpi_extract_test.py SIMPLEXDB_CLI WORKDIR
+
+Exits 77 (skipped) when VTK or mpirun is missing.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+try:
+    from vtkmodules.vtkIOXML import vtkXMLPUnstructuredGridReader, vtkXMLUnstructuredGridReader
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+except ImportError as error:
+    print(f"cannot import VTK: {error}", file=sys.stderr)
+    sys.exit(77)
+
+CLI, WORK = sys.argv[1], sys.argv[2]
+MPIRUN = shutil.which("mpirun")
+if MPIRUN is None:
+    print("no mpirun", file=sys.stderr)
+    sys.exit(77)
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+           OMPI_MCA_btl_vader_single_copy_mechanism="none")
+failures = []
+
+
+def run(args, mpi=None, expect=(0,)):
+    command = ([MPIRUN, "--oversubscribe", "-np", str(mpi)] if mpi else []) + [CLI] + args
+    p = subprocess.run(command, capture_output=True, text=True, env=ENV)
+    if p.returncode not in expect:
+        raise SystemExit(f"{' '.join(command)}: exit {p.returncode}, expected {expect}\n{p.stderr}")
+    return p
+
+
+def cells(grid):
+    """The cells as a sorted list of (code, the four points sorted)."""
+    points = vtk_to_numpy(grid.GetPoints().GetData())
+    codes = vtk_to_numpy(grid.GetCellData().GetArray("code"))
+    conn = vtk_to_numpy(grid.GetCells().GetConnectivityArray()).reshape(-1, 4)
+    return sorted((int(codes[i]), tuple(sorted(tuple(points[j]) for j in conn[i]))) for i in range(len(codes)))
+
+
+def read(path, parallel):
+    reader = vtkXMLPUnstructuredGridReader() if parallel else vtkXMLUnstructuredGridReader()
+    reader.SetFileName(path)
+    reader.Update()
+    return reader.GetOutput()
+
+
+def check(name, store, query, pieces):
+    one = os.path.join(WORK, name + "_one.vtu")
+    run(["extract", store, "-o", one, "--force"] + query)
+    want = cells(read(one, False))
+    assert want, name
+    for n in pieces:
+        out = os.path.join(WORK, f"{name}_{n}.pvtu")
+        stats = json.loads(run(["extract", store, "-o", out, "--force"] + query, mpi=n).stdout)
+        grid = read(out, True)
+        got = cells(grid)
+        label = f"{name}, {n} ranks"
+        if got != want:
+            failures.append(f"{label}: {len(got)} cells, the one-process mesh has {len(want)}"
+                            f" ({len(set(got) - set(want))} not in it, {len(set(want) - set(got))} missing)")
+        if stats["pieces"] != n or len(stats["per_piece"]) != n:
+            failures.append(f"{label}: statistics of {stats['pieces']} pieces")
+        if sum(p["cells_written"] for p in stats["per_piece"]) != grid.GetNumberOfCells():
+            failures.append(f"{label}: the pieces' cells_written do not add up to what VTK read")
+        if n > 1 and stats["exchange_rounds"] < 2:
+            failures.append(f"{label}: {stats['exchange_rounds']} rounds of exchange")
+        print(f"{label}: {grid.GetNumberOfCells()} cells, {stats['exchange_rounds']} rounds, "
+              f"{stats['exchange_bytes_sent']} bytes exchanged, largest piece {stats['largest_piece_over_mean']:.3f}"
+              " of the mean")
+
+
+def main():
+    shutil.rmtree(WORK, ignore_errors=True)
+    os.makedirs(WORK)
+    ht, hp = os.path.join(WORK, "ht.sdb"), os.path.join(WORK, "hp.sdb")
+    for store, dims in ((ht, "49,41,33"), (hp, "17,17,17,9")):
+        volume = store[:-4] + ".nrrd"
+        run(["generate", "--field", "perlin", "--dims", dims, "--type", "uint8", "--seed", "3", "-o", volume,
+             "--quiet"])
+        run(["import", volume, "-o", store, "--quiet"])
+    check("uniform", ht, ["--error", "2%"], [1, 2, 3, 4])
+    check("box", ht, ["--error", "1%", "--box", "5,10,0,30,40,20"], [2, 3])
+    check("iso", ht, ["--error", "1%", "--iso", "128"], [2, 4])
+    check("time", hp, ["--error", "3%", "--time", "4"], [1, 2, 3])
+    check("time_box", hp, ["--error", "2%", "--time", "2.5", "--box", "0,0,0,8,16,16"], [2, 4])
+
+    # A rank that fails: rank 1's piece file cannot be written (a folder
+    # stands there). Every rank stops, with rank 1's message once; no .pvtu
+    # and no piece stays.
+    out = os.path.join(WORK, "fails.pvtu")
+    os.makedirs(os.path.join(WORK, "fails_1.vtu"))
+    p = run(["extract", ht, "--error", "2%", "-o", out], mpi=2, expect=(1, 2))
+    messages = [line for line in p.stderr.splitlines() if line.startswith("simplexdb:")]
+    if len(messages) != 1 or "rank 1 of 2" not in messages[0] or "fails_1.vtu" not in messages[0]:
+        failures.append(f"a failing rank: expected one message naming rank 1 and its file, got {messages}")
+    left = sorted(f for f in os.listdir(WORK) if f.startswith("fails") and f != "fails_1.vtu")
+    if left:
+        failures.append(f"a failing rank left {left}")
+
+    # Only extract runs in pieces; formats other than .pvtu and the
+    # statistics are refused, once.
+    p = run(["import", ht[:-4] + ".nrrd", "-o", os.path.join(WORK, "again.sdb")], mpi=2, expect=(2,))
+    if "only extract" not in p.stderr or p.stderr.count("simplexdb:") != 1:
+        failures.append(f"import under mpirun: {p.stderr!r}")
+    p = run(["extract", ht, "--error", "2%", "-o", os.path.join(WORK, "x.vtu")], mpi=2, expect=(2,))
+    if ".pvtu" not in p.stderr or p.stderr.count("simplexdb:") != 1:
+        failures.append(f"extract -o x.vtu under mpirun: {p.stderr!r}")
+
+    for f in failures:
+        print("FAILED:", f, file=sys.stderr)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
