@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <barrier>
 #include <cmath>
-#include <random>
 #include <thread>
 
 #include "query/conformity.h"
@@ -95,26 +94,6 @@ TEST(Partition, WeightsSplitEvenly) {
   for (int r = 0; r < 90; ++r) EXPECT_LT(many.Simplices(r).first, many.Simplices(r).second);
 }
 
-// A field with a sharp cone and a noisy slab (work is uneven).
-TestVolume Uneven(int dimension, uint32_t side) {
-  std::array<uint32_t, 4> dims = {side, side, side, dimension == 4 ? side : 1};
-  TestVolume v = TestVolume::Random(dimension, dims, VoxelType::kU8, 5);
-  std::mt19937_64 rng(23);
-  for (size_t i = 0; i < v.values.size(); ++i) {
-    size_t r = i;
-    double x[4] = {0, 0, 0, 0};
-    for (int a = 0; a < dimension; ++a) {
-      x[a] = static_cast<double>(r % dims[a]) / (side - 1);
-      r /= dims[a];
-    }
-    const double d = (x[0] - 0.3) * (x[0] - 0.3) + (x[1] - 0.6) * (x[1] - 0.6) + (x[2] - 0.5) * (x[2] - 0.5);
-    double f = d < 0.08 ? 200 * (0.08 - d) / 0.08 : 0;
-    if (x[0] > 0.75) f += static_cast<double>(rng() % 40);
-    v.values[i] = std::round(std::min(255.0, f + 20 + 30 * x[dimension - 1]));
-  }
-  return v;
-}
-
 // Each piece on its own thread with its own source, exchanging through
 // mailboxes at a barrier per round (the shape of the MPI exchange).
 template <int D>
@@ -163,7 +142,7 @@ template <int D>
 void CheckPiecesMakeTheMesh(uint32_t side, size_t cache) {
   using Code = SimplexCode<D>;
   TempDir dir;
-  testing::BuildDense(Uneven(D, side), dir.path(), "z");
+  testing::BuildDense(testing::Structured(D, side), dir.path(), "z");  // uneven work
   DenseStore::Options options;
   options.cache_bytes = cache;
   const auto store = *DenseStore::Open(dir.path() + "/z.sdb", options);

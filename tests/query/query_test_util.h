@@ -10,6 +10,7 @@
 #include <cmath>
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -128,6 +129,27 @@ std::vector<std::pair<std::string, CriteriaSpec>> OtherCriteria(const CriteriaSp
     out.emplace_back("time", time);
   }
   return out;
+}
+
+// A field with structure at every scale and flat regions: a ramp plus a
+// few bumps, clamped.
+inline TestVolume Structured(int dimension, uint32_t side) {
+  std::array<uint32_t, 4> dims = {side, side, side, dimension == 4 ? side : 1};
+  TestVolume v = TestVolume::Random(dimension, dims, VoxelType::kU8, 5);
+  std::mt19937_64 rng(17);
+  for (size_t i = 0; i < v.values.size(); ++i) {
+    size_t r = i;
+    double x[4] = {0, 0, 0, 0};
+    for (int a = 0; a < dimension; ++a) {
+      x[a] = static_cast<double>(r % dims[a]) / (side - 1);
+      r /= dims[a];
+    }
+    const double d = (x[0] - 0.3) * (x[0] - 0.3) + (x[1] - 0.6) * (x[1] - 0.6) + (x[2] - 0.5) * (x[2] - 0.5);
+    double f = d < 0.08 ? 200 * (0.08 - d) / 0.08 : 0;  // a cone: flat outside
+    if (x[0] > 0.75) f += static_cast<double>(rng() % 40);  // noise in one slab
+    v.values[i] = std::round(std::min(255.0, f + 20));
+  }
+  return v;
 }
 
 // A source over no store: every node above the leaf level of a domain of

@@ -74,27 +74,6 @@ Extracted<D> Run(Source& source, const Criteria<D>& c, Algorithm a) {
   return out;
 }
 
-// A field with structure at every scale and flat regions: a ramp plus a
-// few bumps, clamped.
-TestVolume Structured(int dimension, uint32_t side) {
-  std::array<uint32_t, 4> dims = {side, side, side, dimension == 4 ? side : 1};
-  TestVolume v = TestVolume::Random(dimension, dims, VoxelType::kU8, 5);
-  std::mt19937_64 rng(17);
-  for (size_t i = 0; i < v.values.size(); ++i) {
-    size_t r = i;
-    double x[4] = {0, 0, 0, 0};
-    for (int a = 0; a < dimension; ++a) {
-      x[a] = static_cast<double>(r % dims[a]) / (side - 1);
-      r /= dims[a];
-    }
-    const double d = (x[0] - 0.3) * (x[0] - 0.3) + (x[1] - 0.6) * (x[1] - 0.6) + (x[2] - 0.5) * (x[2] - 0.5);
-    double f = d < 0.08 ? 200 * (0.08 - d) / 0.08 : 0;  // a cone: flat outside
-    if (x[0] > 0.75) f += static_cast<double>(rng() % 40);  // noise in one slab
-    v.values[i] = std::round(std::min(255.0, f + 20));
-  }
-  return v;
-}
-
 // `small` and `sparse_small`: cache budgets that hold a few of the store's
 // blocks, bricks and boxes of finest errors, so that the caches evict all
 // the time. Not smaller: below a walk's working set lookups decode or
@@ -104,7 +83,7 @@ TestVolume Structured(int dimension, uint32_t side) {
 template <int D>
 void CheckStoresAgree(uint32_t side, const std::vector<double>& percents, size_t small, size_t sparse_small) {
   TempDir dir;
-  const TestVolume volume = Structured(D, side);
+  const TestVolume volume = testing::Structured(D, side);
   const auto zstd = testing::BuildDense(volume, dir.path(), "z");
   const auto raw = testing::BuildDense(volume, dir.path(), "r", testing::ExactDenseOptions(Compression::kNone));
   DenseStore::Options in_memory;
@@ -171,7 +150,7 @@ TEST(Stores, SameMeshOverEveryStoreHp) { CheckStoresAgree<4>(9, {3, 20}, 64 << 1
 template <int D>
 void CheckRegionWalk(uint32_t side, size_t small) {
   TempDir dir;
-  const TestVolume volume = Structured(D, side);
+  const TestVolume volume = testing::Structured(D, side);
   testing::BuildDense(volume, dir.path(), "z");
   DenseStore::Options in_memory;
   in_memory.in_memory = true;
@@ -225,7 +204,7 @@ TEST(Stores, RegionWalkGivesThePlainWalksMeshHp) { CheckRegionWalk<4>(17, 256 <<
 // threshold?" without reading a block, and change no mesh.
 TEST(Stores, BlockMaximaSkipBlocksAndChangeNothing) {
   TempDir dir;
-  const TestVolume volume = Structured(3, 33);
+  const TestVolume volume = testing::Structured(3, 33);
   testing::BuildDense(volume, dir.path(), "z");
   DenseStore::Options in_memory;
   in_memory.in_memory = true;
