@@ -93,6 +93,7 @@ struct ExtractResult {
   std::optional<TetMeshData> mesh;       // request.tetrahedra (an HP: with a time only)
   std::optional<double> mesh_time;       // an HP with `time`: the slice's physical time
   std::vector<ExtractSlice> slices;      // request.slices, without a slice callback
+  std::vector<double> slice_times;       // ExtractToFile's pvd: the slices' physical times
   std::optional<uint64_t> slice_tetrahedra;  // an HP slice at `time`, counted or collected
   std::optional<double> given_time;          // request.time, as given
   std::optional<ConformityReport> conformity;  // request.check

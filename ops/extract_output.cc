@@ -101,6 +101,23 @@ std::string PvtuPieceFile(const std::string& path, int piece) {
   return fmt::format("{}_{}.vtu", path.substr(0, path.size() - 5), piece);
 }
 
+std::string PvdPieceFile(const std::string& path, size_t slice, int piece) {
+  return fmt::format("{}_{}_{}.vtu", path.substr(0, path.size() - 4), slice, piece);
+}
+
+Status WritePiecesPvd(const std::string& path, int pieces, std::span<const double> times) {
+  const std::string stem = path.substr(0, path.size() - 4);
+  std::vector<PvdDataSet> pvd;
+  for (size_t i = 0; i < times.size(); ++i) {
+    std::vector<std::string> names;
+    for (int r = 0; r < pieces; ++r) names.push_back(Folderless(PvdPieceFile(path, i, r)));
+    const std::string pvtu = fmt::format("{}_{}.pvtu", stem, i);
+    SDB_RETURN_IF_ERROR(WritePvtu(names, pvtu));
+    pvd.push_back({times[i], Folderless(pvtu)});
+  }
+  return WritePvd(pvd, path);
+}
+
 Status WritePvtuOf(const std::string& path, int pieces) {
   std::vector<std::string> names;
   for (int r = 0; r < pieces; ++r) names.push_back(Folderless(PvtuPieceFile(path, r)));
@@ -111,11 +128,13 @@ Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest&
                                     const std::string& format, const std::string& path,
                                     const PieceExchange& exchange) {
   SDB_RETURN_IF_ERROR(CheckExtractOutput(store.info(), request, format, path));
-  // OUTPUT.pvd and one OUTPUT_<i>.vtu per time beside it.
+  // OUTPUT.pvd and one OUTPUT_<i>.vtu per time beside it (in pieces:
+  // OUTPUT_<i>_<piece>.vtu; WritePiecesPvd names them).
   const std::string stem = ExtensionOf(path) == "pvd" ? path.substr(0, path.size() - 4) : path;
   std::vector<PvdDataSet> pvd;
   const SliceSink write_slice = [&](size_t i, ExtractSlice&& slice) -> Status {
-    const std::string file = fmt::format("{}_{}.vtu", stem, i);
+    const std::string file =
+        request.pieces > 1 ? PvdPieceFile(path, i, request.piece) : fmt::format("{}_{}.vtu", stem, i);
     SDB_RETURN_IF_ERROR(WriteVtu(slice.mesh, file));
     pvd.push_back({slice.time, Folderless(file)});
     return Status::OK();
@@ -132,7 +151,8 @@ Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest&
     SDB_RETURN_IF_ERROR(WriteVtu(*result.mesh, PvtuPieceFile(path, request.piece)));
     if (request.pieces == 1) SDB_RETURN_IF_ERROR(WritePvtuOf(path, 1));
   } else if (format == "pvd") {
-    SDB_RETURN_IF_ERROR(WritePvd(pvd, path));
+    for (const PvdDataSet& d : pvd) result.slice_times.push_back(d.timestep);
+    if (request.pieces == 1) SDB_RETURN_IF_ERROR(WritePvd(pvd, path));
   } else if (format == "json" && path != "-") {
     SDB_RETURN_IF_ERROR(WriteFileAtomically(path, ExtractStatsJson(result).dump(2) + "\n"));
   }

@@ -8,7 +8,9 @@
 //          one per rank): OUT_<piece>.vtu each beside OUT, and OUT (a
 //          parallel grid naming them) once every piece is written
 //   pvd    an HP's time slices (--slices): OUT_<i>.vtu each beside OUT and
-//          OUT (a ParaView collection) naming them with their physical times
+//          OUT (a ParaView collection) naming them with their physical times;
+//          in pieces OUT_<i>_<piece>.vtu, then (WritePiecesPvd) OUT_<i>.pvtu
+//          per slice and OUT naming those
 //   json   the statistics (ExtractStatsJson), indented ("-": the caller
 //          prints them)
 // Each file is written atomically (storage/io/file.h); a .pvd is written
@@ -22,6 +24,7 @@
 // file, ResourceExhausted for a full disk), and Extract's.
 #pragma once
 
+#include <span>
 #include <string>
 
 #include "ops/extract.h"
@@ -61,6 +64,11 @@ Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest&
 std::string PvtuPieceFile(const std::string& path, int piece);
 // The .pvtu naming pieces 0..pieces-1 (query/pvd_writer.h), atomically.
 Status WritePvtuOf(const std::string& path, int pieces);
+// Piece r's file of slice i of the .pvd `path`: PATH-without-.pvd_<i>_<r>.vtu.
+std::string PvdPieceFile(const std::string& path, size_t slice, int piece);
+// For a .pvd in pieces (ExtractResult::slice_times): OUT_<i>.pvtu per slice
+// naming its pieces, then the .pvd naming those at their times.
+Status WritePiecesPvd(const std::string& path, int pieces, std::span<const double> times);
 
 // A mesh to `path` by its extension: .vtu (WriteVtu), or .pvd: the mesh as
 // PATH-without-.pvd.vtu beside it, then the collection naming it at `time`.

@@ -74,15 +74,16 @@ void RunExtractInPieces(ExtractArgs a, MpiSession& mpi) {
   ExtractRequest& request = a.request;
   Together(mpi, [&]() -> Status {
     format = UsageValue(ResolveExtractFormat(a.format, a.output));
-    if (format != "pvtu" && format != "json") {
+    if (format != "pvtu" && format != "pvd" && format != "json") {
       return Status::InvalidArgument(fmt::format(
-          "under mpirun extract writes the mesh in pieces (-o OUT.pvtu: one .vtu per rank) or the statistics "
-          "(.json, or -); not {}",
+          "under mpirun extract writes the mesh in pieces (-o OUT.pvtu: one .vtu per rank; an HP's slices "
+          "-o OUT.pvd), or the statistics (.json, or -); not {}",
           format));
     }
     if (a.output != "-") a.output = CheckOutput(a.output, {a.store}, a.force);
     request.error = ParseAmountOption(a.error, "--error");
     if (!a.box.empty()) request.box = ParseNumberList(a.box, "--box", 1, 8);
+    if (!a.slices.empty()) request.slices = ParseNumberList(a.slices, "--slices", 1, 100000);
     request.piece = mpi.rank();
     request.pieces = mpi.size();
     StoreOptions options;
@@ -98,7 +99,12 @@ void RunExtractInPieces(ExtractArgs a, MpiSession& mpi) {
     return mpi.Exchange(outbox, failed, quiet);
   };
   std::optional<ExtractResult> result;
-  const std::string piece_file = format == "pvtu" ? PvtuPieceFile(a.output, mpi.rank()) : "";
+  // This rank's files, removed if any rank fails.
+  std::vector<std::string> piece_files;
+  if (format == "pvtu") piece_files.push_back(PvtuPieceFile(a.output, mpi.rank()));
+  for (size_t i = 0; format == "pvd" && i < request.slices.size(); ++i) {
+    piece_files.push_back(PvdPieceFile(a.output, i, mpi.rank()));
+  }
   try {
     Together(mpi, [&]() -> Status {
       SDB_ASSIGN_OR_RETURN(ExtractResult r,
@@ -106,16 +112,20 @@ void RunExtractInPieces(ExtractArgs a, MpiSession& mpi) {
       result.emplace(std::move(r));
       return Status::OK();
     });
-    // The .pvtu last, naming only pieces that every rank wrote.
+    // The .pvtu (.pvd) last, naming only pieces that every rank wrote.
     Together(mpi, [&]() -> Status {
-      return format == "pvtu" && mpi.rank() == 0 ? WritePvtuOf(a.output, mpi.size()) : Status::OK();
+      if (mpi.rank() != 0) return Status::OK();
+      if (format == "pvtu") return WritePvtuOf(a.output, mpi.size());
+      if (format == "pvd") return WritePiecesPvd(a.output, mpi.size(), result->slice_times);
+      return Status::OK();
     });
   } catch (const CommandError&) {
-    if (!piece_file.empty()) std::remove(piece_file.c_str());  // no pieces of a mesh that failed
+    for (const std::string& f : piece_files) std::remove(f.c_str());  // no pieces of a mesh that failed
     throw;
   }
   json mine = ExtractStatsJson(*result);
   if (result->mesh) mine["cells_written"] = result->mesh->cells();
+  if (format == "pvd") mine["slices_written"] = result->slice_times.size();
   mine["exchange_bytes_sent_mpi"] = mpi.bytes_sent();
   const Result<std::vector<std::string>> all = mpi.Gather(mine.dump());
   if (!all.ok()) Fail(all.status());
@@ -143,7 +153,7 @@ void RunExtractInPieces(ExtractArgs a, MpiSession& mpi) {
   whole["exchange_bytes_sent"] = sent;
   whole["exchange_bytes_sent_max_rank"] = max_sent;
   whole["seconds"] = seconds;  // the slowest rank's
-  if (format == "pvtu") whole["output"] = a.output;
+  if (format != "json") whole["output"] = a.output;
   whole["per_piece"] = std::move(each);
   const std::string text = whole.dump(2) + "\n";
   if (format == "json" && a.output != "-") {

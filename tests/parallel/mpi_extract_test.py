@@ -4,7 +4,8 @@ the one-process extraction, read back with VTK's own readers
 (vtkXMLPUnstructuredGridReader for the pieces, vtkXMLUnstructuredGridReader
 for the one-process .vtu): the union of the pieces is the one-process mesh
 cell for cell (each cell's code and its four points), for uniform, box and
-isovalue queries of an HT and time slices of an HP, N = 1..4; the statistics
+isovalue queries of an HT and time slices of an HP (one, and a .pvd series
+of .pvtu files), N = 1..4; the statistics
 add up; a rank that fails leaves neither the .pvtu nor any piece, and every
 rank stops with one message naming the failing rank.
 
@@ -83,6 +84,34 @@ def check(name, store, query, pieces):
               " of the mean")
 
 
+def datasets(pvd):
+    """A .pvd's (timestep, file) pairs."""
+    import xml.etree.ElementTree as ET
+    return [(float(d.get("timestep")), d.get("file")) for d in ET.parse(pvd).getroot().iter("DataSet")]
+
+
+def check_series(name, store, query, pieces):
+    """An HP's time slices (-o OUT.pvd): per slice a .pvtu of the pieces,
+    each the one-process slice cell for cell, at the same times."""
+    one = os.path.join(WORK, name + "_one.pvd")
+    run(["extract", store, "-o", one, "--force"] + query)
+    want = datasets(one)
+    for n in pieces:
+        out = os.path.join(WORK, f"{name}_{n}.pvd")
+        run(["extract", store, "-o", out, "--force"] + query, mpi=n)
+        got = datasets(out)
+        label = f"{name}, {n} ranks"
+        if [t for t, _ in got] != [t for t, _ in want] or not all(f.endswith(".pvtu") for _, f in got):
+            failures.append(f"{label}: the .pvd names {got}, the one-process one {want}")
+            continue
+        for (t, f), (_, g) in zip(got, want):
+            a = cells(read(os.path.join(WORK, f), True))
+            b = cells(read(os.path.join(WORK, g), False))
+            if a != b:
+                failures.append(f"{label}, t = {t}: {len(a)} cells against {len(b)}")
+        print(f"{label}: {len(got)} slices, each the one-process slice")
+
+
 def main():
     shutil.rmtree(WORK, ignore_errors=True)
     os.makedirs(WORK)
@@ -97,6 +126,7 @@ def main():
     check("iso", ht, ["--error", "1%", "--iso", "128"], [2, 4])
     check("time", hp, ["--error", "3%", "--time", "4"], [1, 2, 3])
     check("time_box", hp, ["--error", "2%", "--time", "2.5", "--box", "0,0,0,8,16,16"], [2, 4])
+    check_series("series", hp, ["--error", "3%", "--slices", "1,4.5,8"], [2, 3])
 
     # A rank that fails: rank 1's piece file cannot be written (a folder
     # stands there). Every rank stops, with rank 1's message once; no .pvtu
