@@ -58,7 +58,7 @@ int Run(const DenseStore& store, double percent, int max_pieces) {
       return 1;
     }
     std::vector<DenseSource<D>*> sources(static_cast<size_t>(n), &source);
-    std::vector<PieceWalk<D, DenseSource<D>>> walks;
+    std::vector<std::unique_ptr<PieceWalk<D, DenseSource<D>>>> walks;
     start = std::chrono::steady_clock::now();
     const Result<PiecesStats> run =
         ExtractPieces<D, DenseSource<D>>(std::span<DenseSource<D>* const>(sources), *c, *plan, walks);
@@ -70,7 +70,7 @@ int Run(const DenseStore& store, double percent, int max_pieces) {
     std::vector<Code> all;
     uint64_t largest = 0;
     for (const auto& walk : walks) {
-      const std::vector<Code> piece = walk.Leaves();
+      const std::vector<Code> piece = walk->Leaves();
       largest = std::max<uint64_t>(largest, piece.size());
       all.insert(all.end(), piece.begin(), piece.end());
     }

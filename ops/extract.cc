@@ -257,10 +257,10 @@ Status RunPiece(Source& source, const Criteria<D>& criteria, const ExtractReques
   const SourceStats before = source.stats();
   SDB_ASSIGN_OR_RETURN(const Partition<D> plan, PlanPieces<D>(source, criteria, r.pieces));
   ExtractResult::PieceCounters counters{r.piece, r.pieces, plan.level()};
-  std::vector<PieceWalk<D, Source>> walks;
+  std::vector<std::unique_ptr<PieceWalk<D, Source>>> walks;
   PiecesStats walked;
   if (exchange) {
-    walks.emplace_back(source, criteria, plan, r.piece);
+    walks.push_back(std::make_unique<PieceWalk<D, Source>>(source, criteria, plan, r.piece));
     const auto trade = [&](const std::vector<std::vector<Code>>& outbox, bool failed,
                            bool* quiet) -> Result<std::vector<Code>> {
       std::vector<std::vector<uint64_t>> keys(outbox.size());
@@ -274,13 +274,13 @@ Status RunPiece(Source& source, const Criteria<D>& criteria, const ExtractReques
       for (const uint64_t k : in) codes.push_back(Code::FromKey(k));
       return codes;
     };
-    SDB_ASSIGN_OR_RETURN(walked, WalkPiece<D>(walks[0], r.pieces, trade));
+    SDB_ASSIGN_OR_RETURN(walked, WalkPiece<D>(*walks[0], r.pieces, trade));
   } else {
     const std::vector<Source*> sources(static_cast<size_t>(r.pieces), &source);
     // (Parentheses: the template's comma is not the macro's.)
     SDB_ASSIGN_OR_RETURN(walked, (ExtractPieces<D, Source>(std::span<Source* const>(sources), criteria, plan, walks)));
   }
-  const PieceWalk<D, Source>& walk = exchange ? walks[0] : walks[static_cast<size_t>(r.piece)];
+  const PieceWalk<D, Source>& walk = *walks[exchange ? 0 : static_cast<size_t>(r.piece)];
   counters.rounds = walked.rounds;
   counters.splits_sent = walked.splits_sent;
   out.piece = counters;

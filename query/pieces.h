@@ -39,6 +39,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <utility>
 #include <vector>
@@ -181,6 +182,9 @@ class PieceWalk {
     refiner_.stats_ = &stats_;
     for (int t = Code::kRoots - 1; t >= 0; --t) Push(Code::Root(t));
   }
+  // Not moved: its refiner points at its own mesh and statistics.
+  PieceWalk(const PieceWalk&) = delete;
+  PieceWalk& operator=(const PieceWalk&) = delete;
 
   // Applies `received` (splits other pieces sent; any order, repeats and
   // nodes not relevant here are ignored), then walks until no candidate is
@@ -328,12 +332,14 @@ Result<PiecesStats> WalkPiece(PieceWalk<D, Source>& walk, int pieces, Exchange&&
 // same object: the walks run one after the other).
 template <int D, class Source>
 Result<PiecesStats> ExtractPieces(std::span<Source* const> sources, const Criteria<D>& criteria,
-                                  const Partition<D>& partition, std::vector<PieceWalk<D, Source>>& walks) {
+                                  const Partition<D>& partition,
+                                  std::vector<std::unique_ptr<PieceWalk<D, Source>>>& walks) {
   using Code = SimplexCode<D>;
   const size_t n = static_cast<size_t>(partition.pieces());
   walks.clear();
-  walks.reserve(n);
-  for (size_t r = 0; r < n; ++r) walks.emplace_back(*sources[r], criteria, partition, static_cast<int>(r));
+  for (size_t r = 0; r < n; ++r) {
+    walks.push_back(std::make_unique<PieceWalk<D, Source>>(*sources[r], criteria, partition, static_cast<int>(r)));
+  }
   PiecesStats stats;
   stats.piece_seconds.assign(n, 0.0);
   std::vector<std::vector<Code>> inbox(n);
@@ -344,7 +350,7 @@ Result<PiecesStats> ExtractPieces(std::span<Source* const> sources, const Criter
       const auto start = std::chrono::steady_clock::now();
       std::vector<std::vector<Code>> outbox(n);
       PieceRoundStats round;
-      SDB_RETURN_IF_ERROR(walks[r].Round(inbox[r], outbox, round));
+      SDB_RETURN_IF_ERROR(walks[r]->Round(inbox[r], outbox, round));
       sent += round.sent;
       for (size_t s = 0; s < n; ++s) next[s].insert(next[s].end(), outbox[s].begin(), outbox[s].end());
       stats.piece_seconds[r] += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -168,12 +168,12 @@ void CheckPiecesMakeTheMesh(uint32_t side, size_t cache) {
         ASSERT_TRUE(plan.ok()) << plan.status().ToString();
         ASSERT_EQ(plan->pieces(), n);
         std::vector<DenseSource<D>*> sources(static_cast<size_t>(n), &source);
-        std::vector<PieceWalk<D, DenseSource<D>>> walks;
+        std::vector<std::unique_ptr<PieceWalk<D, DenseSource<D>>>> walks;
         const Result<PiecesStats> rounds =
             ExtractPieces<D, DenseSource<D>>(std::span<DenseSource<D>* const>(sources), c, *plan, walks);
         ASSERT_TRUE(rounds.ok()) << rounds.status().ToString();
         std::vector<std::vector<Code>> pieces;
-        for (const auto& w : walks) pieces.push_back(w.Leaves());
+        for (const auto& w : walks) pieces.push_back(w->Leaves());
         // The same pieces from one thread per piece, trading splits as MPI
         // ranks do (WalkPiece).
         if (n > 1) {
