@@ -70,10 +70,12 @@ Result<std::vector<uint64_t>> MpiSession::Exchange(const std::vector<std::vector
   const size_t n = static_cast<size_t>(size_);
   std::vector<int> send_counts(n), recv_counts(n), send_at(n), recv_at(n);
   std::vector<uint64_t> sent;
-  for (size_t r = 0; r < n; ++r) {
-    if (outbox[r].size() > static_cast<size_t>(INT32_MAX) - sent.size()) {
-      return Status::ResourceExhausted("more than 2^31 codes to send in one round");
-    }
+  uint64_t total_out = 0;
+  for (const auto& box : outbox) total_out += box.size();
+  // MPI counts are ints: more than that fails this rank, which sends
+  // nothing but still joins the round, so that every rank stops.
+  const bool too_many = total_out > static_cast<uint64_t>(INT32_MAX);
+  for (size_t r = 0; r < n && !too_many; ++r) {
     send_at[r] = static_cast<int>(sent.size());
     send_counts[r] = static_cast<int>(outbox[r].size());
     sent.insert(sent.end(), outbox[r].begin(), outbox[r].end());
@@ -91,13 +93,15 @@ Result<std::vector<uint64_t>> MpiSession::Exchange(const std::vector<std::vector
                                           MPI_COMM_WORLD),
                             "MPI_Alltoallv"));
   // Codes sent, and ranks that failed, over all ranks.
-  const uint64_t mine[2] = {sent.size(), failed ? 1u : 0u};
+  const uint64_t mine[2] = {sent.size(), failed || too_many ? 1u : 0u};
   uint64_t all[2] = {0, 0};
   SDB_RETURN_IF_ERROR(Check(MPI_Allreduce(mine, all, 2, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD), "MPI_Allreduce"));
+  if (too_many) {
+    return Status::ResourceExhausted(std::to_string(total_out) + " split codes to send in one round: more than 2^31");
+  }
   if (all[1] > 0) return PeerFailed();
   *quiet = all[0] == 0;
   bytes_sent_ += 8 * (mine[0] - static_cast<uint64_t>(send_counts[static_cast<size_t>(rank_)]));
-  ++exchanges_;
   return received;
 }
 
@@ -118,12 +122,6 @@ Status MpiSession::Agree(const Status& mine) {
   SDB_RETURN_IF_ERROR(Check(MPI_Bcast(text.data(), head[1], MPI_CHAR, first, MPI_COMM_WORLD), "MPI_Bcast"));
   return WithCode(static_cast<Status::Code>(head[0]),
                   "rank " + std::to_string(first) + " of " + std::to_string(size_) + ": " + text);
-}
-
-Result<uint64_t> MpiSession::Sum(uint64_t mine) {
-  uint64_t all = 0;
-  SDB_RETURN_IF_ERROR(Check(MPI_Allreduce(&mine, &all, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD), "MPI_Allreduce"));
-  return all;
 }
 
 Result<std::vector<std::string>> MpiSession::Gather(const std::string& mine) {

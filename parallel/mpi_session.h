@@ -54,19 +54,16 @@ class MpiSession {
   // PeerFailed), its message prefixed "rank R of N: ": one rank's error
   // stops them all with one message.
   Status Agree(const Status& mine);
-  // The sum over ranks.
-  Result<uint64_t> Sum(uint64_t mine);
   // Each rank's text at rank 0, in rank order (empty elsewhere).
   Result<std::vector<std::string>> Gather(const std::string& mine);
 
-  // Bytes this rank sent through Exchange so far, and its calls.
+  // Bytes this rank sent to other ranks through Exchange so far.
   uint64_t bytes_sent() const { return bytes_sent_; }
-  uint64_t exchanges() const { return exchanges_; }
 
  private:
   MpiSession(int rank, int size) : rank_(rank), size_(size) {}
   int rank_, size_;
-  uint64_t bytes_sent_ = 0, exchanges_ = 0;
+  uint64_t bytes_sent_ = 0;
 };
 
 }  // namespace simplexdb

@@ -67,7 +67,8 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    code = app.exit(e) == 0 ? 0 : 2;  // --help is success; usage errors are 2
+    // --help is success; usage errors are 2 (printed once under mpirun).
+    code = (prints ? app.exit(e) : e.get_exit_code()) == 0 ? 0 : 2;
   } catch (const simplexdb::tools::CommandError& e) {
     if (prints) std::fprintf(stderr, "simplexdb: %s\n", e.what());
     return e.exit_code();
