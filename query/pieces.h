@@ -11,9 +11,9 @@
 // its level-L ancestor; a coarser node is *relevant* to every piece its
 // level-L descendants meet and *owned* (output) by the piece of its first
 // one. Ranges are weighted by work (PlanPieces): the leaves of the same
-// query cut off L + kWeightLevels levels down, one cheap coarse refinement
-// that every caller runs alike, so every caller (MPI ranks, ParaView's
-// pieces, Python) gets the same parts.
+// query cut off some octaves below L, cheap coarse refinements that every
+// caller runs alike, so every caller (MPI ranks, ParaView's pieces,
+// Python) gets the same parts.
 //
 // PieceWalk: the depth-first walk over the nodes relevant to its piece. A
 // split whose node is relevant to other pieces (cluster members across the
@@ -136,25 +136,31 @@ class CappedSource {
   int cap_;
 };
 
-// How many levels below the partition's the weighing refinement goes.
-inline constexpr int kWeightLevels = 9;
+// The weighing refinement's size: it goes an octave deeper while its mesh
+// stays under this many leaves (an octave multiplies them by up to 2^D).
+inline constexpr uint64_t kWeightLeaves = uint64_t{1} << 22;
 
 // The partition of a query's mesh into `pieces`: level L the first with at
-// least 64 simplices per piece, weights from the query's mesh cut off at
-// L + kWeightLevels (its leaves under each level-L simplex). Deterministic:
-// the same store, criteria and count give the same partition. Cost: one
-// refinement to that level (a small part of the query's).
+// least 512 simplices per piece (granularity: one heavy simplex must not
+// be a piece's whole share), weights from the same query cut off whole
+// octaves below L, the deepest whose mesh has at most about kWeightLeaves
+// leaves (its leaves under each level-L simplex). Deterministic: the same
+// store, criteria and count give the same partition. Cost: a few
+// refinements of at most kWeightLeaves leaves each (tens of ms).
 template <int D, ReadSource<D> Source>
 Result<Partition<D>> PlanPieces(Source& source, const Criteria<D>& criteria, int pieces) {
   using Code = SimplexCode<D>;
   if (pieces <= 1) return Partition<D>();
   int level = 0;
-  while ((uint64_t{Code::kRoots} << level) < 64 * static_cast<uint64_t>(pieces)) ++level;
-  CappedSource<D, Source> capped(source, level + kWeightLevels);
-  Refiner<D, CappedSource<D, Source>> coarse(capped, criteria);
+  while ((uint64_t{Code::kRoots} << level) < 512 * static_cast<uint64_t>(pieces)) ++level;
   Mesh<D> mesh;
-  QueryStats stats;
-  SDB_RETURN_IF_ERROR(coarse.Run({Algorithm::kDepthFirst}, mesh, stats));
+  for (int cap = level + D;; cap += D) {
+    CappedSource<D, Source> capped(source, cap);
+    Refiner<D, CappedSource<D, Source>> coarse(capped, criteria);
+    QueryStats stats;
+    SDB_RETURN_IF_ERROR(coarse.Run({Algorithm::kDepthFirst}, mesh, stats));
+    if (cap + D > source.info().leaf_level() || (mesh.leaf_count() << D) > kWeightLeaves) break;
+  }
   std::vector<uint64_t> weights(uint64_t{Code::kRoots} << level, 0);
   for (const Code leaf : mesh.Leaves()) {
     const uint64_t first = leaf.key() >> (Code::kLevelBits + Code::kMaxLevel - level);
