@@ -35,6 +35,16 @@ std::string FormatOfExtension(const std::string& output) {
   return "";
 }
 
+// `path` without its extension when that is `ext` (lower case, no dot).
+std::string StemOf(const std::string& path, const std::string& ext) {
+  return ExtensionOf(path) == ext ? path.substr(0, path.size() - ext.size() - 1) : path;
+}
+
+// Slice i's .pvtu of the .pvd `path` in pieces: PATH-without-.pvd_<i>.pvtu.
+std::string SlicePvtu(const std::string& path, size_t slice) {
+  return fmt::format("{}_{}.pvtu", StemOf(path, "pvd"), slice);
+}
+
 template <int D>
 Status WriteLeafCodes(const std::vector<uint64_t>& keys, const std::string& path) {
   std::vector<SimplexCode<D>> codes;
@@ -98,22 +108,18 @@ ExtractRequest RequestFor(ExtractRequest request, const std::string& format) {
 }
 
 std::string PvtuPieceFile(const std::string& path, int piece) {
-  return fmt::format("{}_{}.vtu", path.substr(0, path.size() - 5), piece);
+  return fmt::format("{}_{}.vtu", StemOf(path, "pvtu"), piece);
 }
 
 std::string PvdPieceFile(const std::string& path, size_t slice, int piece) {
-  return fmt::format("{}_{}_{}.vtu", path.substr(0, path.size() - 4), slice, piece);
+  return PvtuPieceFile(SlicePvtu(path, slice), piece);
 }
 
 Status WritePiecesPvd(const std::string& path, int pieces, std::span<const double> times) {
-  const std::string stem = path.substr(0, path.size() - 4);
   std::vector<PvdDataSet> pvd;
   for (size_t i = 0; i < times.size(); ++i) {
-    std::vector<std::string> names;
-    for (int r = 0; r < pieces; ++r) names.push_back(Folderless(PvdPieceFile(path, i, r)));
-    const std::string pvtu = fmt::format("{}_{}.pvtu", stem, i);
-    SDB_RETURN_IF_ERROR(WritePvtu(names, pvtu));
-    pvd.push_back({times[i], Folderless(pvtu)});
+    SDB_RETURN_IF_ERROR(WritePvtuOf(SlicePvtu(path, i), pieces));
+    pvd.push_back({times[i], Folderless(SlicePvtu(path, i))});
   }
   return WritePvd(pvd, path);
 }
@@ -130,7 +136,7 @@ Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest&
   SDB_RETURN_IF_ERROR(CheckExtractOutput(store.info(), request, format, path));
   // OUTPUT.pvd and one OUTPUT_<i>.vtu per time beside it (in pieces:
   // OUTPUT_<i>_<piece>.vtu; WritePiecesPvd names them).
-  const std::string stem = ExtensionOf(path) == "pvd" ? path.substr(0, path.size() - 4) : path;
+  const std::string stem = StemOf(path, "pvd");
   std::vector<PvdDataSet> pvd;
   const SliceSink write_slice = [&](size_t i, ExtractSlice&& slice) -> Status {
     const std::string file =

@@ -60,11 +60,13 @@ Result<ExtractResult> ExtractToFile(const AnyStore& store, const ExtractRequest&
                                     const std::string& format, const std::string& path,
                                     const PieceExchange& exchange = {});
 
-// Piece r's file of the .pvtu `path`: PATH-without-.pvtu_<r>.vtu.
+// Piece r's file of the .pvtu `path`: PATH-without-.pvtu_<r>.vtu (the
+// whole path when it does not end in .pvtu).
 std::string PvtuPieceFile(const std::string& path, int piece);
 // The .pvtu naming pieces 0..pieces-1 (query/pvd_writer.h), atomically.
 Status WritePvtuOf(const std::string& path, int pieces);
-// Piece r's file of slice i of the .pvd `path`: PATH-without-.pvd_<i>_<r>.vtu.
+// Piece r's file of slice i of the .pvd `path`: PATH-without-.pvd_<i>_<r>.vtu,
+// a piece of slice i's PATH-without-.pvd_<i>.pvtu.
 std::string PvdPieceFile(const std::string& path, size_t slice, int piece);
 // For a .pvd in pieces (ExtractResult::slice_times): OUT_<i>.pvtu per slice
 // naming its pieces, then the .pvd naming those at their times.

@@ -101,7 +101,6 @@ Result<std::vector<uint64_t>> MpiSession::Exchange(const std::vector<std::vector
   }
   if (all[1] > 0) return PeerFailed();
   *quiet = all[0] == 0;
-  bytes_sent_ += 8 * (mine[0] - static_cast<uint64_t>(send_counts[static_cast<size_t>(rank_)]));
   return received;
 }
 

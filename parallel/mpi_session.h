@@ -57,13 +57,9 @@ class MpiSession {
   // Each rank's text at rank 0, in rank order (empty elsewhere).
   Result<std::vector<std::string>> Gather(const std::string& mine);
 
-  // Bytes this rank sent to other ranks through Exchange so far.
-  uint64_t bytes_sent() const { return bytes_sent_; }
-
  private:
   MpiSession(int rank, int size) : rank_(rank), size_(size) {}
   int rank_, size_;
-  uint64_t bytes_sent_ = 0;
 };
 
 }  // namespace simplexdb

@@ -45,6 +45,39 @@ struct ExtractArgs {
   bool force = false;
 };
 
+// The options of `a` parsed into a.request, the output checked and the
+// store opened and checked against the request and `format`: usage errors
+// throw with exit 2, a store or a --from file that does not read with 1.
+AnyStore PrepareExtract(ExtractArgs& a, const std::string& format) {
+  if (a.output != "-") {
+    std::vector<std::string> inputs = {a.store};
+    if (!a.from.empty()) inputs.push_back(a.from);
+    a.output = CheckOutput(a.output, inputs, a.force);
+  }
+  // A usage error (exit 2) before anything is opened, as --in-memory names
+  // the option; AnyStore::Open would refuse it too.
+  if (a.in_memory && ProbeStoreKind(a.store) == StoreKind::kSparse) {
+    throw CommandError("--in-memory applies to dense stores; the LMDB store is read in place", 2);
+  }
+  ExtractRequest& request = a.request;
+  request.error = ParseAmountOption(a.error, "--error");
+  if (!a.box.empty()) request.box = ParseNumberList(a.box, "--box", 1, 8);
+  if (!a.slices.empty()) request.slices = ParseNumberList(a.slices, "--slices", 1, 100000);
+  StoreOptions options;
+  options.in_memory = a.in_memory;
+  options.cache_bytes = MebibytesOption(a.cache_mb, "--cache-mb");
+  Result<AnyStore> store = AnyStore::Open(a.store, options);
+  if (!store.ok()) Fail(store.status());
+  CheckUsage(CheckExtract(store->info(), request));
+  CheckUsage(CheckExtractOutput(store->info(), request, format, a.output));
+  if (!a.from.empty()) {
+    Result<std::vector<uint64_t>> from = ReadLeafCodes(a.from, store->dimension());
+    if (!from.ok()) Fail(from.status());
+    request.from = *std::move(from);
+  }
+  return *std::move(store);
+}
+
 bool ExtensionIsPvtu(const std::string& path) {
   return path.size() > 5 && path.compare(path.size() - 5, 5, ".pvtu") == 0;
 }
@@ -80,19 +113,9 @@ void RunExtractInPieces(ExtractArgs a, MpiSession& mpi) {
           "-o OUT.pvd), or the statistics (.json, or -); not {}",
           format));
     }
-    if (a.output != "-") a.output = CheckOutput(a.output, {a.store}, a.force);
-    request.error = ParseAmountOption(a.error, "--error");
-    if (!a.box.empty()) request.box = ParseNumberList(a.box, "--box", 1, 8);
-    if (!a.slices.empty()) request.slices = ParseNumberList(a.slices, "--slices", 1, 100000);
     request.piece = mpi.rank();
     request.pieces = mpi.size();
-    StoreOptions options;
-    options.in_memory = a.in_memory;
-    options.cache_bytes = MebibytesOption(a.cache_mb, "--cache-mb");
-    SDB_ASSIGN_OR_RETURN(AnyStore opened, AnyStore::Open(a.store, options));
-    store.emplace(std::move(opened));
-    CheckUsage(CheckExtract(store->info(), request));
-    CheckUsage(CheckExtractOutput(store->info(), request, format, a.output));
+    store.emplace(PrepareExtract(a, format));
     return Status::OK();
   });
   const PieceExchange exchange = [&mpi](const std::vector<std::vector<uint64_t>>& outbox, bool failed, bool* quiet) {
@@ -126,7 +149,6 @@ void RunExtractInPieces(ExtractArgs a, MpiSession& mpi) {
   json mine = ExtractStatsJson(*result);
   if (result->mesh) mine["cells_written"] = result->mesh->cells();
   if (format == "pvd") mine["slices_written"] = result->slice_times.size();
-  mine["exchange_bytes_sent_mpi"] = mpi.bytes_sent();
   const Result<std::vector<std::string>> all = mpi.Gather(mine.dump());
   if (!all.ok()) Fail(all.status());
   if (mpi.rank() != 0) return;
@@ -172,33 +194,8 @@ void RunExtract(ExtractArgs a) {
     return;
   }
   const std::string format = UsageValue(ResolveExtractFormat(a.format, a.output));
-  if (a.output != "-") {
-    std::vector<std::string> inputs = {a.store};
-    if (!a.from.empty()) inputs.push_back(a.from);
-    a.output = CheckOutput(a.output, inputs, a.force);
-  }
-  // A usage error (exit 2) before anything is opened, as --in-memory names
-  // the option; AnyStore::Open would refuse it too.
-  if (a.in_memory && ProbeStoreKind(a.store) == StoreKind::kSparse) {
-    throw CommandError("--in-memory applies to dense stores; the LMDB store is read in place", 2);
-  }
-  ExtractRequest& request = a.request;
-  request.error = ParseAmountOption(a.error, "--error");
-  if (!a.box.empty()) request.box = ParseNumberList(a.box, "--box", 1, 8);
-  if (!a.slices.empty()) request.slices = ParseNumberList(a.slices, "--slices", 1, 100000);
-  StoreOptions options;
-  options.in_memory = a.in_memory;
-  options.cache_bytes = MebibytesOption(a.cache_mb, "--cache-mb");
-  Result<AnyStore> store = AnyStore::Open(a.store, options);
-  if (!store.ok()) Fail(store.status());
-  CheckUsage(CheckExtract(store->info(), request));
-  CheckUsage(CheckExtractOutput(store->info(), request, format, a.output));
-  if (!a.from.empty()) {
-    Result<std::vector<uint64_t>> from = ReadLeafCodes(a.from, store->dimension());
-    if (!from.ok()) Fail(from.status());
-    request.from = *std::move(from);
-  }
-  const Result<ExtractResult> r = ExtractToFile(*store, request, format, a.output);
+  const AnyStore store = PrepareExtract(a, format);
+  const Result<ExtractResult> r = ExtractToFile(store, a.request, format, a.output);
   if (!r.ok()) Fail(r.status());
   if (format != "json" || a.output == "-") {
     // With codes on stdout the statistics go to stderr, out of the way.
