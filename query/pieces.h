@@ -171,8 +171,7 @@ Result<Partition<D>> PlanPieces(Source& source, const Criteria<D>& criteria, int
 
 // What a round of a PieceWalk did.
 struct PieceRoundStats {
-  uint64_t received = 0;  // splits received that were new here
-  uint64_t sent = 0;      // splits sent to other pieces (one per piece sent to)
+  uint64_t sent = 0;  // splits sent to other pieces (one per piece sent to)
 };
 
 template <int D, class Source>
@@ -203,7 +202,6 @@ class PieceWalk {
     SplitSet<D>& split = mesh_.split_set();
     for (const Code m : received) {
       if (split.contains(m) || !partition_.IsRelevant(m, piece_)) continue;
-      ++round.received;
       // A forced split: the members of its closure (m among them) queue
       // their children if they were visited; the others wait on the list.
       // None is sent on: the sender's set is closed, so it holds them all,
@@ -228,33 +226,30 @@ class PieceWalk {
     return Status::OK();
   }
 
-  // The leaves this piece owns (Partition::Owner), in depth-first order:
-  // after the last round, its part of the mesh. O(nodes relevant here).
-  std::vector<Code> Leaves() const {
-    std::vector<Code> out, stack;
-    for (int t = Code::kRoots - 1; t >= 0; --t) {
-      if (partition_.IsRelevant(Code::Root(t), piece_)) stack.push_back(Code::Root(t));
-    }
-    while (!stack.empty()) {
-      const Code c = stack.back();
-      stack.pop_back();
-      if (!mesh_.is_split(c)) {
-        if (partition_.Owner(c) == piece_) out.push_back(c);
-        continue;
-      }
-      for (const Code child : {c.child(1), c.child(0)}) {
-        if (partition_.IsRelevant(child, piece_)) stack.push_back(child);
-      }
-    }
-    return out;
-  }
-
   // Whether an output walk over mesh() (query/mesh_io.h ForEachLeaf's
   // `keep`) goes into c: a node relevant here, split, or a leaf owned here.
   bool Keeps(Code c) const {
     return partition_.IsRelevant(c, piece_) && (mesh_.is_split(c) || partition_.Owner(c) == piece_);
   }
-  int piece() const { return piece_; }
+
+  // The leaves this piece owns (Partition::Owner), in depth-first order:
+  // after the last round, its part of the mesh. O(nodes relevant here).
+  std::vector<Code> Leaves() const {
+    std::vector<Code> out, stack;
+    for (int t = Code::kRoots - 1; t >= 0; --t) stack.push_back(Code::Root(t));
+    while (!stack.empty()) {
+      const Code c = stack.back();
+      stack.pop_back();
+      if (!Keeps(c)) continue;
+      if (!mesh_.is_split(c)) {
+        out.push_back(c);
+        continue;
+      }
+      stack.push_back(c.child(1));
+      stack.push_back(c.child(0));
+    }
+    return out;
+  }
 
   // The split set: this piece's nodes and whatever else it learned.
   const Mesh<D>& mesh() const { return mesh_; }
