@@ -66,8 +66,10 @@ class Partition {
   // REQUIRES: pieces >= 1, weights.size() == kRoots << level.
   static Partition Weighted(int level, std::span<const uint64_t> weights, int pieces) {
     const uint64_t n = weights.size(), k = static_cast<uint64_t>(pieces);
-    std::vector<uint64_t> prefix{0};  // + 1 each: no range of nothing
-    for (const uint64_t w : weights) prefix.push_back(prefix.back() + w + 1);
+    // Each weight in units of n, plus one unit: no range is of nothing,
+    // and all the units together weigh no more than one of `weights`.
+    std::vector<uint64_t> prefix{0};
+    for (const uint64_t w : weights) prefix.push_back(prefix.back() + w * n + 1);
     std::vector<uint64_t> bounds{0};
     for (uint64_t r = 1; r < k; ++r) {
       // The first index whose running sum reaches r/pieces of the total,
