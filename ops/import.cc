@@ -63,6 +63,11 @@ Status CheckImport(const VolumeInfo& input, const ImportOptions& options) {
         "--mask with --sparse: the sparse store does not take missing values yet; import a "
         "dense store");
   }
+  if (options.sparse && options.group != nullptr && options.group->size() > 1) {
+    return Status::InvalidArgument(fmt::format(
+        "--sparse with {} processes: the sparse store is built by one; run the import in one process, or "
+        "build a dense store", options.group->size()));
+  }
   SDB_RETURN_IF_ERROR(CheckAmount(options.tolerance, "--tolerance"));
   if (!options.sparse && options.tolerance.value != 0) {
     return Status::InvalidArgument("--tolerance needs --sparse (the dense store is lossless)");
@@ -117,6 +122,7 @@ Result<ImportReport> ImportVolume(const VolumeInfo& input, const std::string& ou
   o.threads = options.threads;
   o.mask = options.mask;
   o.progress = options.progress;
+  o.group = options.group;
   SDB_ASSIGN_OR_RETURN(report.dense, BuildDenseStore(placed, output, o));
   return report;
 }

@@ -54,6 +54,10 @@ struct ImportOptions {
   // axis; time's must be > 0.
   std::optional<std::vector<double>> spacing, origin;
   std::function<void(const BuildProgress&)> progress;
+  // The processes building the store together (DenseBuildOptions::group:
+  // the ranks of `mpirun simplexdb import`), each calling ImportVolume with
+  // the same arguments; dense stores only. Null: this process alone.
+  ProcessGroup* group = nullptr;
 };
 
 // Exactly one is set: the dense or the sparse builder's report.
@@ -64,7 +68,7 @@ struct ImportReport {
 
 // The options' checks against `input`, nothing read or written: a
 // hierarchy other than ht/hp or that does not fit the volume, a mask with a
-// sparse store, a tolerance without one or one that is negative or not
+// sparse store or with a group, a tolerance without one or one that is negative or not
 // finite, a negative thread count, a zstd level outside 1..22, spacing and
 // origin of the wrong count or not finite (a spacing of 0, a time spacing
 // <= 0). InvalidArgument naming the option as the command spells it

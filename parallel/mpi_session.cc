@@ -2,7 +2,9 @@
 
 #include <mpi.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <limits>
 
 namespace simplexdb {
 namespace {
@@ -51,7 +53,13 @@ Result<std::unique_ptr<MpiSession>> MpiSession::Start(int* argc, char*** argv) {
   int rank = 0, size = 1;
   SDB_RETURN_IF_ERROR(Check(MPI_Comm_rank(MPI_COMM_WORLD, &rank), "MPI_Comm_rank"));
   SDB_RETURN_IF_ERROR(Check(MPI_Comm_size(MPI_COMM_WORLD, &size), "MPI_Comm_size"));
-  std::unique_ptr<MpiSession> session(new MpiSession(rank, size));
+  MPI_Comm local;
+  int local_size = 1;
+  SDB_RETURN_IF_ERROR(Check(MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, rank, MPI_INFO_NULL, &local),
+                            "MPI_Comm_split_type"));
+  SDB_RETURN_IF_ERROR(Check(MPI_Comm_size(local, &local_size), "MPI_Comm_size"));
+  MPI_Comm_free(&local);
+  std::unique_ptr<MpiSession> session(new MpiSession(rank, size, local_size));
   current = session.get();
   return session;
 }
@@ -105,6 +113,7 @@ Result<std::vector<uint64_t>> MpiSession::Exchange(const std::vector<std::vector
 }
 
 Status MpiSession::Agree(const Status& mine) {
+  Count(sizeof(int));
   // Ranks that failed by themselves first, then those that stopped for
   // them, then those that did not fail.
   const bool peer = !mine.ok() && mine.message() == PeerFailed().message();
@@ -124,6 +133,7 @@ Status MpiSession::Agree(const Status& mine) {
 }
 
 Result<std::vector<std::string>> MpiSession::Gather(const std::string& mine) {
+  Count(mine.size());
   const int length = static_cast<int>(mine.size());
   std::vector<int> lengths(static_cast<size_t>(size_)), at(static_cast<size_t>(size_));
   SDB_RETURN_IF_ERROR(
@@ -147,6 +157,74 @@ Result<std::vector<std::string>> MpiSession::Gather(const std::string& mine) {
     }
   }
   return out;
+}
+
+namespace {
+
+// An all-reduce in place, in parts MPI's int counts can name.
+template <class T>
+Status ReduceInPlace(std::span<T> values, MPI_Datatype type, MPI_Op op) {
+  constexpr size_t kPart = size_t{1} << 30;
+  for (size_t at = 0; at < values.size(); at += kPart) {
+    const int n = static_cast<int>(std::min(kPart, values.size() - at));
+    SDB_RETURN_IF_ERROR(
+        Check(MPI_Allreduce(MPI_IN_PLACE, values.data() + at, n, type, op, MPI_COMM_WORLD), "MPI_Allreduce"));
+  }
+  return Status::OK();
+}
+
+}  // namespace
+
+Status MpiSession::Broadcast(std::span<uint8_t> bytes, int root) {
+  Count(root == rank_ ? bytes.size() : 0);
+  constexpr size_t kPart = size_t{1} << 30;
+  for (size_t at = 0; at < bytes.size(); at += kPart) {
+    const int n = static_cast<int>(std::min(kPart, bytes.size() - at));
+    SDB_RETURN_IF_ERROR(Check(MPI_Bcast(bytes.data() + at, n, MPI_BYTE, root, MPI_COMM_WORLD), "MPI_Bcast"));
+  }
+  return Status::OK();
+}
+
+Status MpiSession::Max(std::span<double> values) {
+  Count(values.size_bytes());
+  return ReduceInPlace(values, MPI_DOUBLE, MPI_MAX);
+}
+Status MpiSession::Max(std::span<float> values) {
+  Count(values.size_bytes());
+  return ReduceInPlace(values, MPI_FLOAT, MPI_MAX);
+}
+Status MpiSession::Or(std::span<uint64_t> words) {
+  Count(words.size_bytes());
+  return ReduceInPlace(words, MPI_UINT64_T, MPI_BOR);
+}
+
+Result<std::string> MpiSession::Scatter(const std::vector<std::string>& parts) {
+  uint64_t total_bytes = 0;
+  for (const std::string& part : parts) total_bytes += rank_ == 0 ? part.size() : 0;
+  Count(total_bytes);
+  std::vector<int> lengths(static_cast<size_t>(size_)), at(static_cast<size_t>(size_));
+  std::string all;
+  if (rank_ == 0) {
+    int total = 0;
+    for (int r = 0; r < size_; ++r) {
+      const std::string& part = parts[static_cast<size_t>(r)];
+      if (part.size() > static_cast<size_t>(std::numeric_limits<int>::max() - total)) {
+        return Status::ResourceExhausted("MPI_Scatterv: more than 2 GiB to send");
+      }
+      lengths[static_cast<size_t>(r)] = static_cast<int>(part.size());
+      at[static_cast<size_t>(r)] = total;
+      total += static_cast<int>(part.size());
+      all += part;
+    }
+  }
+  int length = 0;
+  SDB_RETURN_IF_ERROR(
+      Check(MPI_Scatter(lengths.data(), 1, MPI_INT, &length, 1, MPI_INT, 0, MPI_COMM_WORLD), "MPI_Scatter"));
+  std::string mine(static_cast<size_t>(length), '\0');
+  SDB_RETURN_IF_ERROR(Check(MPI_Scatterv(all.data(), lengths.data(), at.data(), MPI_CHAR, mine.data(), length,
+                                         MPI_CHAR, 0, MPI_COMM_WORLD),
+                            "MPI_Scatterv"));
+  return mine;
 }
 
 }  // namespace simplexdb

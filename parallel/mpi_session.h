@@ -19,11 +19,12 @@
 #include <string>
 #include <vector>
 
+#include "util/process_group.h"
 #include "util/status.h"
 
 namespace simplexdb {
 
-class MpiSession {
+class MpiSession : public ProcessGroup {
  public:
   // Whether a launcher started this process (it put its rank in the
   // environment: OMPI_COMM_WORLD_RANK, PMI_RANK, PMIX_RANK or SLURM_PROCID
@@ -33,12 +34,14 @@ class MpiSession {
   static Result<std::unique_ptr<MpiSession>> Start(int* argc, char*** argv);
   // The session Start made, or null (none, or a run without a launcher).
   static MpiSession* Current();
-  ~MpiSession();
+  ~MpiSession() override;
   MpiSession(const MpiSession&) = delete;
   MpiSession& operator=(const MpiSession&) = delete;
 
-  int rank() const { return rank_; }
-  int size() const { return size_; }
+  int rank() const override { return rank_; }
+  int size() const override { return size_; }
+  // The ranks on this rank's machine (sharing its memory), this one included.
+  int local_size() const { return local_size_; }
 
   // Every rank hands over one list per rank (outbox[r] for rank r) and gets
   // what every rank sent it, in rank order; *quiet is set when no rank sent
@@ -53,13 +56,32 @@ class MpiSession {
   // status (its code) of the lowest rank that failed by itself (not with
   // PeerFailed), its message prefixed "rank R of N: ": one rank's error
   // stops them all with one message.
-  Status Agree(const Status& mine);
+  Status Agree(const Status& mine) override;
   // Each rank's text at rank 0, in rank order (empty elsewhere).
-  Result<std::vector<std::string>> Gather(const std::string& mine);
+  Result<std::vector<std::string>> Gather(const std::string& mine) override;
+  // ProcessGroup's, over MPI_COMM_WORLD (any size: sent in parts of at
+  // most 2^30 elements).
+  Status Broadcast(std::span<uint8_t> bytes, int root) override;
+  Status Max(std::span<double> values) override;
+  Status Max(std::span<float> values) override;
+  Status Or(std::span<uint64_t> words) override;
+  Result<std::string> Scatter(const std::vector<std::string>& parts) override;
+
+  // What this rank has handed to the ProcessGroup collectives so far (the
+  // build's exchanges; extraction counts its own): calls, and the bytes of
+  // its own payload (a root's broadcast or scatter, its share of a
+  // reduction or gather).
+  uint64_t collective_calls() const { return calls_; }
+  uint64_t payload_bytes() const { return payload_; }
 
  private:
-  MpiSession(int rank, int size) : rank_(rank), size_(size) {}
-  int rank_, size_;
+  MpiSession(int rank, int size, int local_size) : rank_(rank), size_(size), local_size_(local_size) {}
+  void Count(uint64_t bytes) {
+    ++calls_;
+    payload_ += bytes;
+  }
+  int rank_, size_, local_size_;
+  uint64_t calls_ = 0, payload_ = 0;
 };
 
 }  // namespace simplexdb

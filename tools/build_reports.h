@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "storage/dense/dense_builder.h"
 #include "storage/sparse/sparse_builder.h"
@@ -13,7 +14,8 @@ namespace simplexdb::tools {
 // A dense store built from `input` (the scaling it applied is said).
 // `compression` as the option gave it.
 void PrintDenseBuild(const DenseBuildReport& built, const VolumeInfo& input, const std::string& output,
-                     const std::string& compression, bool as_json, bool quiet);
+                     const std::string& compression, bool as_json, bool quiet,
+                     const std::vector<std::string>& ranks = {});
 
 // A sparse store built at `output`.
 void PrintSparseBuild(const SparseBuildReport& built, const std::string& output, bool as_json,

@@ -20,6 +20,7 @@
 #include "query/criteria.h"  // Amount
 #include "storage/error/progress.h"
 #include "storage/volume/volume.h"
+#include "parallel/mpi_session.h"
 #include "tools/commands.h"
 #include "util/status.h"
 #include "util/utf8.h"
@@ -45,6 +46,21 @@ template <class T>
 T UsageValue(Result<T> result) {
   CheckUsage(result.status());
   return *std::move(result);
+}
+
+// Runs `step` on every rank; an error on any rank (a CommandError or a
+// failed status) stops every rank with the message of the lowest rank
+// that failed (MpiSession::Agree), which main prints once, at rank 0.
+template <class Step>
+void Together(MpiSession& mpi, Step&& step) {
+  Status mine;
+  try {
+    mine = step();
+  } catch (const CommandError& e) {
+    mine = e.exit_code() == 2 ? Status::InvalidArgument(e.what()) : Status::IOError(e.what());
+  }
+  const Status all = mpi.Agree(mine);
+  if (!all.ok()) throw CommandError(std::string(all.message()), all.IsInvalidArgument() ? 2 : 1);
 }
 
 // "65,65,65" -> {65, 65, 65}; throws CommandError (exit 2) naming `option`

@@ -82,21 +82,6 @@ bool ExtensionIsPvtu(const std::string& path) {
   return path.size() > 5 && path.compare(path.size() - 5, 5, ".pvtu") == 0;
 }
 
-// Runs `step` on every rank; an error on any rank (a CommandError or a
-// failed status) stops every rank with the message of the lowest rank
-// that failed (MpiSession::Agree), which main prints once, at rank 0.
-template <class Step>
-void Together(MpiSession& mpi, Step&& step) {
-  Status mine;
-  try {
-    mine = step();
-  } catch (const CommandError& e) {
-    mine = e.exit_code() == 2 ? Status::InvalidArgument(e.what()) : Status::IOError(e.what());
-  }
-  const Status all = mpi.Agree(mine);
-  if (!all.ok()) throw CommandError(std::string(all.message()), all.IsInvalidArgument() ? 2 : 1);
-}
-
 // Under mpirun with several ranks: each rank extracts its piece of the
 // mesh (query/pieces.h), trading the splits that cross with the others;
 // -o OUT.pvtu: OUT_<rank>.vtu from each rank, then OUT.pvtu from rank 0;

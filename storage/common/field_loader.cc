@@ -92,6 +92,7 @@ Result<FieldRange> Merge(const std::vector<PartResult>& parts) {
     hi = std::max(hi, r.max);
   }
   if (lo <= hi) {
+    range.present = true;
     range.min = lo;
     range.max = hi;
   }
@@ -104,12 +105,14 @@ Result<FieldRange> ScanPlanes(const VolumeInfo& input, const std::optional<Volum
                               const LoadFieldOptions& options,
                               const std::function<void(int64_t z, const double* values)>& sink) {
   const int64_t planes = input.dims[input.dimension - 1];
-  std::vector<PartResult> found(static_cast<size_t>(planes));
+  const int64_t lo = std::min(options.first_plane, planes);
+  const int64_t hi = options.end_plane < 0 ? planes : std::clamp(options.end_plane, lo, planes);
+  std::vector<PartResult> found(static_cast<size_t>(hi - lo));
   PlaneReader reader(input, mask, options.threads);
   const uint64_t n = reader.plane_points();
-  SDB_RETURN_IF_ERROR(reader.Read(0, planes, "field", options.start, options.progress,
+  SDB_RETURN_IF_ERROR(reader.Read(lo, hi, "field", options.start, options.progress,
                                   [&](int, int64_t z, double* values) -> Status {
-    PartResult& result = found[static_cast<size_t>(z)];
+    PartResult& result = found[static_cast<size_t>(z - lo)];
     result.Scan(input, options.stored, static_cast<uint64_t>(z) * n, values, n);
     if (result.status.ok()) sink(z, values);
     return Status::OK();

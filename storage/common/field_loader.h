@@ -97,16 +97,20 @@ struct LoadFieldOptions {
   int threads = 1;  // workers reading (one for a gzip-encoded input)
   std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
   std::function<void(const BuildProgress&)> progress;  // phase "field"
+  // ScanPlanes: the planes [first_plane, end_plane) of the last axis (-1:
+  // to the last), a process's part of a field several share.
+  int64_t first_plane = 0, end_plane = -1;
 };
 
 // What a pass over a field finds: the range of the values present (both 0
-// when none is) and whether any is missing.
+// when none is: `present` false) and whether any is missing.
 struct FieldRange {
   double min = 0, max = 0;
   bool missing = false;
+  bool present = false;
 };
 
-// Reads every plane of the last axis of `input` once (with `mask` applied,
+// Reads every plane of the last axis of `input` (those options names) once (with `mask` applied,
 // PlaneReader on options.threads workers), checks every value as LoadField
 // does, and returns the field's range, each value rounded to float32 first
 // when options.stored is kF32. sink(z, values) sees each plane's values so

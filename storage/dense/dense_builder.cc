@@ -122,8 +122,12 @@ Result<DenseBuildPlan> PlanDenseBuild(const VolumeInfo& input, const std::string
 Result<DenseBuildReport> BuildDenseStore(const VolumeInfo& input, const std::string& out_path,
                                          const DenseBuildOptions& options) {
   const auto start = dense_build::Clock::now();
-  // Check the output before the long part.
-  SDB_RETURN_IF_ERROR(PrepareOutput(out_path));
+  // Check the output before the long part (rank 0 of a group: the others
+  // may run on other machines, where rank 0's temporary looks abandoned).
+  ProcessGroup* group = options.group;
+  Status ready = group == nullptr || group->rank() == 0 ? PrepareOutput(out_path) : Status::OK();
+  if (group != nullptr) ready = group->Agree(ready);
+  SDB_RETURN_IF_ERROR(ready);
   SDB_ASSIGN_OR_RETURN(const int k, CheckInput(input, out_path, options));
   try {
     // The field held as its stored voxels (a byte a point for uint8).

@@ -21,8 +21,9 @@
 //     blocks): the input read twice, a first pass for the range, the
 //     checks and the corner lattice, and each slab's blocks and bricks
 //     written as soon as they are complete.
-// Any window gives the same blocks and bricks (in another order in the
-// file), and the same window the same bytes at any thread count.
+// Any window gives the same bytes: every stored block in index order, then
+// every brick (several windows make them out of that order and spool them,
+// DenseWriteOptions::spool), at any thread count and any number of ranks.
 //
 // Memory, checked against memory_bytes before anything is allocated: the
 // window as the field's stored voxels (a byte a point for uint8, four for
@@ -60,6 +61,7 @@
 #include "storage/dense/dense_format.h"
 #include "storage/error/progress.h"
 #include "storage/volume/volume.h"
+#include "util/process_group.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -80,6 +82,17 @@ struct DenseBuildOptions {
   // Phases "field" (a pass over the input), "errors", "blocks", "bricks"
   // with one window; "field", then "slabs" with several.
   std::function<void(const BuildProgress&)> progress;
+  // The processes building this store together (the ranks of `mpirun -np
+  // N simplexdb import`; util/process_group.h), each calling
+  // BuildDenseStore with the same arguments; null: this one alone. Each
+  // reads its own slabs of planes (and a halo), within memory_bytes; the
+  // ranks combine the range, the corner lattice, the scanned scales'
+  // maxima and the coarse lattices' points, and write one file (rank 0
+  // the header and indexes). The store is the one this process would
+  // build alone, byte for byte. A grid too small to cut into slabs is
+  // built by rank 0 alone. Any rank's failure fails every rank with one
+  // message naming it, and leaves no store.
+  ProcessGroup* group = nullptr;
 };
 
 struct DenseBuildReport {
@@ -91,6 +104,9 @@ struct DenseBuildReport {
   const char* method = "diamonds";
   int windows = 1;
   int64_t window_planes = 0;  // the window's planes of the last axis, halo included
+  // With a group: the processes, and the slabs this one built (of windows).
+  int ranks = 1;
+  int slabs_built = 1;
   // The error blocks that may hold errors, by geometry (the "blocks"
   // progress counts them); those holding only zeros are not stored.
   uint64_t candidate_blocks = 0;

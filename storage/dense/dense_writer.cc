@@ -35,7 +35,8 @@ namespace {
 // never handed over: what follows it stays unwritten, and the run fails.
 class AppendInOrder {
  public:
-  explicit AppendInOrder(AtomicFileWriter& file) : file_(file) {}
+  using Append = std::function<Result<uint64_t>(std::span<const uint8_t>)>;
+  explicit AppendInOrder(Append append) : append_(std::move(append)) {}
 
   // Item `item`'s stored bytes, whose offset, size and checksum go to
   // `entry` once written (`entry` null: the item stores nothing).
@@ -61,13 +62,13 @@ class AppendInOrder {
   Status Write(std::span<const uint8_t> stored, DenseIndexEntry* e) {
     ++next_;
     if (e == nullptr) return Status::OK();
-    SDB_ASSIGN_OR_RETURN(e->offset, file_.Append(stored));
+    SDB_ASSIGN_OR_RETURN(e->offset, append_(stored));
     e->stored_size = static_cast<uint32_t>(stored.size());
     e->checksum = Checksum(stored);
     return Status::OK();
   }
 
-  AtomicFileWriter& file_;
+  Append append_;
   std::mutex mu_;
   uint64_t next_ = 0;
   std::map<uint64_t, Pending> waiting_;
@@ -154,8 +155,16 @@ Result<std::unique_ptr<DenseStoreWriter>> DenseStoreWriter::Create(const std::st
   } catch (const std::bad_alloc&) {
     return NotEnoughMemory(path + ": the block list", h.virtual_blocks * 8 + h.bricks * 48);
   }
-  SDB_ASSIGN_OR_RETURN(w->writer_, AtomicFileWriter::Create(path));
-  w->writer_->Reserve(kDenseHeaderSize);
+  if (options.group != nullptr && !options.spool) {
+    return Status::InvalidArgument(path + ": a store written by several processes is spooled");
+  }
+  if (options.group == nullptr || options.group->rank() == 0) {
+    SDB_ASSIGN_OR_RETURN(w->writer_, AtomicFileWriter::Create(path));
+    w->writer_->Reserve(kDenseHeaderSize);
+  }
+  if (options.spool) {
+    SDB_ASSIGN_OR_RETURN(w->spool_, ScratchFile::Create(path, "spool"));
+  }
   w->workers_.resize(static_cast<size_t>(options.threads));
   return w;
 }
@@ -232,7 +241,7 @@ Status DenseStoreWriter::WriteBlocks(std::span<const uint64_t> which, const Dens
   }
   const size_t n = h_.block_records();
   const uint64_t stored_positions = h_.error_positions();
-  AppendInOrder in_order(*writer_);
+  AppendInOrder in_order([this](std::span<const uint8_t> bytes) { return AppendItem(bytes); });
   const auto block = [&](int w, uint64_t run_item) -> Status {
     const uint64_t item = which[run_item];
     Worker& wk = Prepare(w);
@@ -294,7 +303,7 @@ Status DenseStoreWriter::WriteBricks(std::span<const uint64_t> which, const Held
     }
     brick_written_[b] = 1;
   }
-  AppendInOrder in_order(*writer_);
+  AppendInOrder in_order([this](std::span<const uint8_t> bytes) { return AppendItem(bytes); });
   const auto brick = [&](int w, uint64_t i) -> Status {
     const uint64_t b = which[i];
     Worker& wk = Prepare(w);
@@ -320,7 +329,158 @@ void DenseStoreWriter::RaiseErrorMax(double e) {
   error_max_ = std::max(error_max_, e);
 }
 
+Result<uint64_t> DenseStoreWriter::AppendItem(std::span<const uint8_t> bytes) {
+  return spool_ != nullptr ? spool_->Append(bytes) : writer_->Append(bytes);
+}
+
+namespace {
+
+// A spooled item as the ranks exchange it: blocks by candidate index,
+// bricks after them; the entry's offset is the item's in the spool.
+struct SpoolRecord {
+  uint64_t item;
+  DenseIndexEntry entry;
+};
+SpoolRecord RecordAt(const std::string& records, size_t k) {
+  SpoolRecord r;
+  std::memcpy(&r, records.data() + sizeof(double) + k * sizeof(SpoolRecord), sizeof r);
+  return r;
+}
+size_t RecordCount(const std::string& records) {
+  return (records.size() - sizeof(double)) / sizeof(SpoolRecord);
+}
+uint64_t U64At(const std::string& text, size_t k) {
+  uint64_t v;
+  std::memcpy(&v, text.data() + k * sizeof v, sizeof v);
+  return v;
+}
+
+}  // namespace
+
 Result<DenseHeader> DenseStoreWriter::Finish() {
+  if (!options_.spool) return WriteTail();
+  ProcessGroup* group = options_.group;
+  const bool root = group == nullptr || group->rank() == 0;
+  // This process's items (its largest error first), to rank 0.
+  std::string mine(sizeof(double), '\0');
+  std::memcpy(mine.data(), &error_max_, sizeof(double));
+  const auto add = [&](uint64_t item, const DenseIndexEntry& e) {
+    const SpoolRecord r{item, e};
+    mine.append(reinterpret_cast<const char*>(&r), sizeof r);
+  };
+  for (uint64_t i = 0; i < candidates_.size(); ++i) {
+    if (kept_[i]) add(i, entries_[i]);
+  }
+  for (uint64_t b = 0; b < h_.bricks; ++b) {
+    if (brick_written_[b]) add(candidates_.size() + b, brick_entries_[b]);
+  }
+  std::vector<std::string> records{mine}, places;
+  if (group != nullptr) {
+    SDB_ASSIGN_OR_RETURN(records, group->Gather(mine));
+  }
+  // Rank 0 places every item; each rank learns where its own go.
+  Status placed = root ? MergeSpooled(records, places) : Status::OK();
+  std::string my_places = root && placed.ok() ? places[0] : std::string();
+  if (group != nullptr) {
+    if (places.size() != static_cast<size_t>(group->size())) places.assign(static_cast<size_t>(group->size()), {});
+    SDB_ASSIGN_OR_RETURN(my_places, group->Scatter(places));
+    placed = group->Agree(placed);
+  }
+  SDB_RETURN_IF_ERROR(placed);
+  Status copied = CopySpooled(mine, my_places);
+  if (group != nullptr) copied = group->Agree(copied);
+  SDB_RETURN_IF_ERROR(copied);
+  if (group == nullptr) return WriteTail();
+  Result<DenseHeader> done = root ? WriteTail() : Result<DenseHeader>(DenseHeader{});
+  SDB_RETURN_IF_ERROR(group->Agree(done.status()));
+  std::array<uint8_t, kDenseHeaderSize> header{};
+  if (root) header = SerializeDenseHeader(*done);
+  SDB_RETURN_IF_ERROR(group->Broadcast(header, 0));
+  return ParseDenseHeader(header, path_);
+}
+
+// Rank 0: every rank's items into this writer's tables (its own are there
+// already), each placed in the canonical order from just past the header;
+// places[r] the offsets of rank r's items in its order, then the path of
+// the temporary they go to.
+Status DenseStoreWriter::MergeSpooled(const std::vector<std::string>& records, std::vector<std::string>& places) {
+  const uint64_t blocks = candidates_.size();
+  for (size_t r = 0; r < records.size(); ++r) {
+    double emax = 0;
+    std::memcpy(&emax, records[r].data(), sizeof emax);
+    error_max_ = std::max(error_max_, emax);
+    for (size_t k = 0; r > 0 && k < RecordCount(records[r]); ++k) {
+      const SpoolRecord rec = RecordAt(records[r], k);
+      const bool block = rec.item < blocks;
+      const uint64_t i = block ? rec.item : rec.item - blocks;
+      if (block ? kept_[i] != 0 : brick_written_[i] != 0) {
+        return Status::InvalidArgument(path_ + ": " + (block ? "candidate block " : "brick ") + std::to_string(i) +
+                                       " was written by two ranks");
+      }
+      (block ? kept_[i] : brick_written_[i]) = 1;
+      (block ? entries_[i] : brick_entries_[i]) = rec.entry;
+    }
+  }
+  uint64_t at = kDenseHeaderSize;
+  for (uint64_t i = 0; i < blocks; ++i) {
+    if (!kept_[i]) continue;
+    entries_[i].offset = at;
+    at += entries_[i].stored_size;
+  }
+  for (uint64_t b = 0; b < h_.bricks; ++b) {
+    if (!brick_written_[b]) continue;
+    brick_entries_[b].offset = at;
+    at += brick_entries_[b].stored_size;
+  }
+  data_end_ = at;
+  places.assign(records.size(), {});
+  for (size_t r = 0; r < records.size(); ++r) {
+    for (size_t k = 0; k < RecordCount(records[r]); ++k) {
+      const uint64_t item = RecordAt(records[r], k).item;
+      const uint64_t offset = item < blocks ? entries_[item].offset : brick_entries_[item - blocks].offset;
+      places[r].append(reinterpret_cast<const char*>(&offset), sizeof offset);
+    }
+    places[r] += writer_->temp_path();
+  }
+  return Status::OK();
+}
+
+// This process's spooled items to their places in the store's temporary,
+// runs that follow each other in both files at once.
+Status DenseStoreWriter::CopySpooled(const std::string& records, const std::string& places) {
+  const size_t n = RecordCount(records);
+  std::unique_ptr<FilePartWriter> part;
+  if (writer_ == nullptr) {
+    SDB_ASSIGN_OR_RETURN(part, FilePartWriter::Open(places.substr(n * sizeof(uint64_t))));
+  }
+  constexpr uint64_t kRun = uint64_t{16} << 20;
+  std::vector<uint8_t> buffer;
+  uint64_t from = 0, to = 0, size = 0;
+  const auto flush = [&]() -> Status {
+    if (size == 0) return Status::OK();
+    buffer.resize(size);
+    SDB_RETURN_IF_ERROR(spool_->ReadAt(from, buffer));
+    return writer_ != nullptr ? writer_->WriteAt(to, buffer) : part->WriteAt(to, buffer);
+  };
+  for (size_t k = 0; k < n; ++k) {
+    const DenseIndexEntry e = RecordAt(records, k).entry;
+    const uint64_t place = U64At(places, k);
+    if (size > 0 && e.offset == from + size && place == to + size && size + e.stored_size <= kRun) {
+      size += e.stored_size;
+      continue;
+    }
+    SDB_RETURN_IF_ERROR(flush());
+    from = e.offset;
+    to = place;
+    size = e.stored_size;
+  }
+  SDB_RETURN_IF_ERROR(flush());
+  return part != nullptr ? part->Sync() : Status::OK();
+}
+
+// The indexes after the items, the header, and the file into place.
+Result<DenseHeader> DenseStoreWriter::WriteTail() {
+  if (options_.spool) writer_->Reserve(data_end_ - writer_->size());
   for (uint64_t b = 0; b < h_.bricks; ++b) {
     if (!brick_written_[b]) {
       return Status::InvalidArgument(path_ + ": brick " + std::to_string(b) + " was not written");

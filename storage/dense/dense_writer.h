@@ -41,6 +41,7 @@
 #include "storage/error/quantize.h"
 #include "storage/io/file.h"
 #include "storage/volume/voxel_type.h"
+#include "util/process_group.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -54,6 +55,18 @@ struct DenseWriteOptions {
   // the rounding of a computation.
   bool errors_are_bounds = false;
   std::function<void(const BuildProgress&)> progress;  // phases "blocks", "bricks"
+  // The store's canonical order whatever order the items are made in:
+  // they go to a scratch file (storage/io/file.h ScratchFile) as made, and
+  // Finish writes every stored block in index order, then every brick, as
+  // a writer asked for them in that order writes them directly. For a
+  // build that makes them a window of planes at a time, or a rank's part.
+  bool spool = false;
+  // The processes writing this store together, each its own items
+  // (REQUIRES: spool); Finish is then collective: every rank copies its
+  // items to their place in rank 0's temporary (a file system all see),
+  // rank 0 writes the indexes and the header and renames the file into
+  // place once every rank has succeeded. Null: this process alone.
+  ProcessGroup* group = nullptr;
 };
 
 // Fills the errors at HZ positions [first, first + count): errors[i] the
@@ -105,7 +118,9 @@ class DenseStoreWriter {
   template <class V>
   Status WriteBricks(std::span<const uint64_t> which, const HeldField<V>& field,
                      const double* finest_max);
-  // Completes the file. Returns the header written.
+  // Completes the file. Returns the header written (on every rank of a
+  // group). With a group, collective: any rank's failure fails all
+  // (ProcessGroup::Agree) and leaves nothing.
   Result<DenseHeader> Finish();
 
  private:
@@ -114,6 +129,10 @@ class DenseStoreWriter {
   Worker& Prepare(int worker);
   bool MayHoldData(uint64_t vblock) const;
   void RaiseErrorMax(double e);
+  Result<uint64_t> AppendItem(std::span<const uint8_t> bytes);
+  Status MergeSpooled(const std::vector<std::string>& records, std::vector<std::string>& places);
+  Status CopySpooled(const std::string& records, const std::string& places);
+  Result<DenseHeader> WriteTail();
 
   std::string path_;
   DenseWriteOptions options_;
@@ -125,7 +144,9 @@ class DenseStoreWriter {
   std::vector<uint64_t> candidates_;
   std::vector<DenseIndexEntry> entries_, brick_entries_;
   std::vector<uint8_t> kept_, block_written_, brick_written_;
-  std::unique_ptr<AtomicFileWriter> writer_;
+  std::unique_ptr<AtomicFileWriter> writer_;  // null on a group's ranks but 0
+  std::unique_ptr<ScratchFile> spool_;        // with options_.spool
+  uint64_t data_end_ = 0;                     // spooled: the items' end in the store
   std::vector<Worker> workers_;
   std::mutex max_mu_;
   double error_max_ = 0;

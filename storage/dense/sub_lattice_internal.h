@@ -41,6 +41,7 @@ class SubLattice {
   uint64_t size() const { return size_; }
   void Allocate() { values_.assign(size_, T{}); }
   const T* data() const { return values_.data(); }
+  T* mutable_data() { return values_.data(); }
   uint64_t stride(int a) const { return stride_[a]; }
 
   // The lattice's index of coordinate c on axis a, or -1 when c is not on it.

@@ -307,6 +307,57 @@ Status AtomicFileWriter::Commit() {
   return Status::OK();
 }
 
+Result<std::unique_ptr<ScratchFile>> ScratchFile::Create(const std::string& final_path, std::string_view role) {
+  const std::string path = TemporaryPathFor(final_path) + "." + std::string(role);
+  int fd;
+  do {
+    fd = open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  } while (fd < 0 && errno == EINTR);
+  if (fd < 0) return StatusFromErrno(errno, final_path, "create the scratch file " + path);
+  unlink(path.c_str());
+  return std::unique_ptr<ScratchFile>(new ScratchFile(final_path + " (scratch file " + path + ")", fd));
+}
+
+ScratchFile::~ScratchFile() { close(fd_); }
+
+Result<uint64_t> ScratchFile::Append(std::span<const uint8_t> bytes) {
+  const uint64_t offset = end_.fetch_add(bytes.size());
+  SDB_RETURN_IF_ERROR(WriteFully(fd_, offset, bytes, what_));
+  return offset;
+}
+
+Status ScratchFile::ReadAt(uint64_t offset, std::span<uint8_t> out) const {
+  size_t done = 0;
+  while (done < out.size()) {
+    const ssize_t n = pread(fd_, out.data() + done, out.size() - done, static_cast<off_t>(offset + done));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return StatusFromErrno(errno, what_, "read");
+    if (n == 0) return Status::IOError(what_ + ": cannot read: it ends at " + std::to_string(offset + done));
+    done += static_cast<size_t>(n);
+  }
+  return Status::OK();
+}
+
+Result<std::unique_ptr<FilePartWriter>> FilePartWriter::Open(const std::string& path) {
+  int fd;
+  do {
+    fd = open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  } while (fd < 0 && errno == EINTR);
+  if (fd < 0) return StatusFromErrno(errno, path, "open for writing");
+  return std::unique_ptr<FilePartWriter>(new FilePartWriter(path, fd));
+}
+
+FilePartWriter::~FilePartWriter() { close(fd_); }
+
+Status FilePartWriter::WriteAt(uint64_t offset, std::span<const uint8_t> bytes) {
+  return WriteFully(fd_, offset, bytes, path_);
+}
+
+Status FilePartWriter::Sync() {
+  if (fdatasync(fd_) != 0) return StatusFromErrno(errno, path_, "flush");
+  return Status::OK();
+}
+
 Status WriteFileAtomically(const std::string& path, std::string_view bytes) {
   SDB_ASSIGN_OR_RETURN(std::unique_ptr<AtomicFileWriter> file, AtomicFileWriter::Create(path));
   SDB_ASSIGN_OR_RETURN(const uint64_t at, file->Append(bytes));

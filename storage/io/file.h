@@ -223,6 +223,52 @@ class TemporaryFile {
   bool committed_ = false;
 };
 
+// A scratch file for bytes a writer makes before it knows where they go
+// (items of a store made out of its order, storage/dense/dense_writer.h):
+// created as `<final_path>.tmp.<pid>.<role>` and unlinked at once, so it
+// goes with the process however that ends (the caller has checked the
+// output's folder: PrepareOutput). Append and ReadAt may be
+// called from several threads at once. Errors name `final_path` and the
+// scratch file, as AtomicFileWriter's.
+class ScratchFile {
+ public:
+  static Result<std::unique_ptr<ScratchFile>> Create(const std::string& final_path, std::string_view role);
+  ~ScratchFile();
+  ScratchFile(const ScratchFile&) = delete;
+  ScratchFile& operator=(const ScratchFile&) = delete;
+
+  // Writes `bytes` at the end and returns their offset.
+  Result<uint64_t> Append(std::span<const uint8_t> bytes);
+  // Reads out.size() bytes from `offset`. REQUIRES: within what was appended.
+  Status ReadAt(uint64_t offset, std::span<uint8_t> out) const;
+
+ private:
+  ScratchFile(std::string what, int fd) : what_(std::move(what)), fd_(fd) {}
+  std::string what_;
+  int fd_;
+  std::atomic<uint64_t> end_{0};
+};
+
+// An existing file opened to write parts of it in place: another
+// process's AtomicFileWriter temporary on a file system both see (the
+// ranks of an MPI run writing one store). Errors name `path`.
+class FilePartWriter {
+ public:
+  static Result<std::unique_ptr<FilePartWriter>> Open(const std::string& path);
+  ~FilePartWriter();
+  FilePartWriter(const FilePartWriter&) = delete;
+  FilePartWriter& operator=(const FilePartWriter&) = delete;
+
+  Status WriteAt(uint64_t offset, std::span<const uint8_t> bytes);
+  // Flushes what was written to the disk (fdatasync).
+  Status Sync();
+
+ private:
+  FilePartWriter(std::string path, int fd) : path_(std::move(path)), fd_(fd) {}
+  std::string path_;
+  int fd_;
+};
+
 class MappingGuard;
 
 // A file's modification time from fstat, in nanoseconds: the mark the
