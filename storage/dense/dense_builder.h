@@ -20,7 +20,7 @@
 //     narrowest (64 planes in the HT, 32 in the HP, with the default
 //     blocks): the input read twice, a first pass for the range, the
 //     checks and the corner lattice, and each slab's blocks and bricks
-//     written as soon as they are complete.
+//     spooled as soon as they are complete, put in order at the end.
 // Any window gives the same bytes: every stored block in index order, then
 // every brick (several windows make them out of that order and spool them,
 // DenseWriteOptions::spool), at any thread count and any number of ranks.
