@@ -16,8 +16,9 @@ Exits 77 (skipped) when VTK or mpirun is missing.
 import json
 import os
 import shutil
-import subprocess
 import sys
+
+from mpi_cli import require_mpirun, runner
 
 try:
     from vtkmodules.vtkIOXML import vtkXMLPUnstructuredGridReader, vtkXMLUnstructuredGridReader
@@ -27,21 +28,9 @@ except ImportError as error:
     sys.exit(77)
 
 CLI, WORK = sys.argv[1], sys.argv[2]
-MPIRUN = shutil.which("mpirun")
-if MPIRUN is None:
-    print("no mpirun", file=sys.stderr)
-    sys.exit(77)
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-           OMPI_MCA_btl_vader_single_copy_mechanism="none")
+require_mpirun()
+run = runner(CLI)
 failures = []
-
-
-def run(args, mpi=None, expect=(0,)):
-    command = ([MPIRUN, "--oversubscribe", "-np", str(mpi)] if mpi else []) + [CLI] + args
-    p = subprocess.run(command, capture_output=True, text=True, env=ENV)
-    if p.returncode not in expect:
-        raise SystemExit(f"{' '.join(command)}: exit {p.returncode}, expected {expect}\n{p.stderr}")
-    return p
 
 
 def cells(grid):
