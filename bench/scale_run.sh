@@ -21,6 +21,13 @@
 #     the volume takes 8.6 GB; several windows).
 # The query holds its mesh in memory (a 1% mesh of 257^3 uint8 Perlin
 # noise: 6.9 M tetrahedra, 274 MiB peak).
+#
+# With RANKS=N (N > 1) the volume is built a second time by `mpirun
+# --oversubscribe -np N simplexdb import` with the same options (issue 42):
+# prints that build's report (its time, each rank's slabs and peak memory),
+# fails unless the file is the one-process store byte for byte and every
+# rank's peak stays within MEMORY_MB. ctest runs ScaleBuild2049Mpi
+# (RANKS=2, long).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 if [[ $# -lt 2 || $# -gt 3 ]]; then
@@ -35,7 +42,8 @@ work=${3:-$(mktemp -d)}
 mkdir -p "$work"
 volume="$work/perlin$side.nrrd"
 store="$work/perlin$side.sdb"
-trap 'rm -f "$volume" "$store"' EXIT
+ranks=${RANKS:-1}
+trap 'rm -f "$volume" "$store" "$store.mpi"' EXIT
 start=$(date +%s)
 "$simplexdb" generate --field perlin --dims "$side,$side,$side" --type uint8 -q -o "$volume"
 echo "generated in $(( $(date +%s) - start )) s" >&2
@@ -46,6 +54,29 @@ peak=$(python3 -c 'import json,sys; print(json.loads(sys.argv[1])["peak_memory_b
 if (( peak > limit_mb * 1024 * 1024 )); then
   echo "peak memory $peak bytes exceeds the ${limit_mb} MiB bound" >&2
   exit 1
+fi
+if (( ranks > 1 )); then
+  export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
+         OMPI_MCA_btl_vader_single_copy_mechanism=none
+  mpi_report=$(mpirun --oversubscribe -np "$ranks" "$simplexdb" import "$volume" -o "$store.mpi" \
+               --memory-mb "$limit_mb" --json -q)
+  echo "$mpi_report"
+  python3 -c '
+import json, sys
+one, many, limit = json.loads(sys.argv[1]), json.loads(sys.argv[2]), int(sys.argv[3]) << 20
+print("one process: %.1f s, peak %.0f MiB; %d ranks: %.1f s (%.2fx), per rank %s"
+      % (one["seconds"], one["peak_memory_bytes"] / 2**20, len(many["ranks"]), many["seconds"],
+         many["seconds"] / one["seconds"],
+         "; ".join("%d slabs, peak %.0f MiB, %.1f MiB sent"
+                   % (r["slabs"], r["peak_memory_bytes"] / 2**20, r["payload_bytes_sent"] / 2**20)
+                   for r in many["ranks"])))
+over = [r for r in many["ranks"] if r["peak_memory_bytes"] > limit]
+if over:
+    sys.exit("ranks over the memory bound: %s" % over)
+' "$report" "$mpi_report" "$limit_mb"
+  cmp "$store" "$store.mpi"
+  echo "the $ranks ranks wrote the one-process store byte for byte"
+  rm -f "$store.mpi"
 fi
 query=$("$simplexdb" extract "$store" --error 1% --algorithm level-order --cache-mb 256 \
         --format json -o -)

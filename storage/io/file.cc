@@ -10,7 +10,9 @@
 #include <boost/interprocess/file_mapping.hpp>
 #include <boost/interprocess/mapped_region.hpp>
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <mutex>
 #include <set>
 #include <system_error>
@@ -105,6 +107,26 @@ bool IsTemporaryOf(std::string_view name, std::string_view final_name) {
   return TemporaryOwner(name, final_name) != 0;
 }
 
+namespace {
+
+// Whether process `pid` still runs: it exists and has not exited. A zombie
+// (exited, not yet reaped: an MPI rank whose mpirun returned first, under
+// a PID 1 that does not reap) holds no file, so its temporaries are stale.
+bool ProcessRuns(long pid) {
+  if (kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) return false;
+  std::FILE* f = std::fopen(("/proc/" + std::to_string(pid) + "/stat").c_str(), "r");
+  if (f == nullptr) return true;  // no /proc: trust kill()
+  char line[512];
+  const bool read = std::fgets(line, sizeof line, f) != nullptr;
+  std::fclose(f);
+  // "pid (comm) S ...": the state follows the last ')', comm may hold any.
+  const char* close = read ? std::strrchr(line, ')') : nullptr;
+  if (close == nullptr || close[1] != ' ') return true;
+  return close[2] != 'Z' && close[2] != 'X';
+}
+
+}  // namespace
+
 void RemoveStaleTemporaries(const std::string& final_path) {
   const std::string dir = DirectoryOf(final_path);
   const std::string base = BaseOf(final_path);
@@ -114,9 +136,7 @@ void RemoveStaleTemporaries(const std::string& final_path) {
     const std::string name = e->d_name;
     const long pid = TemporaryOwner(name, base);
     if (pid == 0 || pid == getpid()) continue;
-    if (kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
-      unlink((dir + "/" + name).c_str());
-    }
+    if (!ProcessRuns(pid)) unlink((dir + "/" + name).c_str());
   }
   closedir(d);
 }

@@ -92,8 +92,8 @@ bool IsTemporaryOf(std::string_view name, std::string_view final_name);
 const char* KindOfNonRegularFile(mode_t mode);
 
 // Removes the temporaries of `final_path` (every pattern above) left by
-// processes that no longer run. Best effort: what cannot be listed or
-// removed stays.
+// processes that no longer run (exited ones not yet reaped included). Best
+// effort: what cannot be listed or removed stays.
 void RemoveStaleTemporaries(const std::string& final_path);
 
 // What a command does before it writes anything for `final_path`: checks

@@ -6,8 +6,10 @@ one process builds from the same input and options, byte for byte, and
 and NIfTI input (a 3D float32 one with missing values, written here, and
 the shared 4D fMRI); N = 1..4. One process under a small --memory-mb
 (many windows, spooled) must give the same bytes as one window. A rank
-that fails (an infinity in its slabs) stops every rank with one message
-naming it and leaves neither a store nor a temporary.
+that fails (an infinity in its slabs, a full disk) stops every rank with
+one message naming it and leaves neither a store nor a temporary; a rank
+killed mid-build leaves no store, and the next run of the same output
+leaves nothing but its store.
 
     mpi_build_test.py SIMPLEXDB_CLI WORKDIR SHARED_DATA
 
@@ -16,10 +18,13 @@ Exits 77 (skipped) when mpirun or numpy is missing.
 import json
 import os
 import shutil
+import signal
 import struct
+import subprocess
 import sys
+import time
 
-from mpi_cli import require_mpirun, runner
+from mpi_cli import ENV, MPIRUN, require_mpirun, runner
 
 try:
     import numpy as np
@@ -75,7 +80,102 @@ def same_bytes(name, input_args, pieces, extra=()):
     return want
 
 
+def outputs(folder, name):
+    """The files of `folder` that belong to output `name`: it and its
+    temporaries."""
+    return sorted(f for f in os.listdir(folder) if f == name or f.startswith(name + ".tmp."))
+
+
+def full_disk(ht):
+    """Two ranks writing to a 256 KiB tmpfs: one message naming a rank,
+    the output and the cause; nothing left there. Skipped (with a line
+    saying so) where mounting is not allowed."""
+    disk = os.path.join(WORK, "disk")
+    os.makedirs(disk)
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", disk],
+                      capture_output=True).returncode != 0:
+        print("full disk: cannot mount a small tmpfs here, not tested")
+        return
+    try:
+        out = os.path.join(disk, "full.sdb")
+        p = run(["import", ht, "-o", out], mpi=2, expect=(1,))
+        messages = [line for line in p.stderr.splitlines() if line.startswith("simplexdb:")]
+        if (len(messages) != 1 or " of 2" not in messages[0] or out not in messages[0]
+                or "No space left" not in messages[0]):
+            failures.append(f"a full disk: expected one message naming a rank, {out} and the cause, got "
+                            f"{p.stderr!r}")
+        if os.listdir(disk):
+            failures.append(f"a full disk left {os.listdir(disk)}")
+        print(f"full disk: {messages}")
+    finally:
+        subprocess.run(["umount", disk])
+
+
+def rank_pids(out):
+    """{rank: pid} of the running `simplexdb import ... -o out` processes."""
+    found = {}
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                args = f.read().split(b"\0")
+            if os.path.basename(args[0]) != b"simplexdb" or out.encode() not in args:
+                continue
+            with open(f"/proc/{pid}/environ", "rb") as f:
+                env = dict(e.split(b"=", 1) for e in f.read().split(b"\0") if b"=" in e)
+            if b"OMPI_COMM_WORLD_RANK" in env:
+                found[int(env[b"OMPI_COMM_WORLD_RANK"])] = int(pid)
+        except (OSError, IndexError):
+            continue
+    return found
+
+
+def killed_rank():
+    """Rank 1 of 2 killed (SIGKILL) while rank 0 writes its temporary: no
+    store under the name; the next run of the same output builds it, and
+    then only the store remains (a killed run's temporary is removed)."""
+    volume = os.path.join(WORK, "kill.nrrd")
+    run(["generate", "--field", "perlin", "--dims", "257,257,257", "--type", "float32", "--seed", "3",
+         "-o", volume, "--quiet"])
+    out = os.path.join(WORK, "kill.sdb")
+    command = [MPIRUN, "--oversubscribe", "-np", "2", CLI, "import", volume, "-o", out, "--quiet"]
+    p = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
+    deadline = time.monotonic() + 60
+    pids = {}
+    while time.monotonic() < deadline and p.poll() is None:
+        pids = rank_pids(out)
+        if len(pids) == 2 and any(f.startswith("kill.sdb.tmp.") for f in os.listdir(WORK)):
+            break
+        time.sleep(0.02)
+    if p.poll() is not None or len(pids) != 2:
+        p.kill()
+        p.communicate()
+        failures.append(f"a killed rank: the build ended (or its ranks were not found: {pids}) before the kill")
+        return
+    time.sleep(0.2)
+    os.kill(pids[1], signal.SIGKILL)
+    _, err = p.communicate(timeout=120)
+    if p.returncode == 0:
+        failures.append("a killed rank: mpirun exited 0")
+    if os.path.exists(out):
+        failures.append(f"a killed rank left a store {out}")
+    # mpirun may return before the rank it stopped has exited; the next
+    # run removes only the temporaries of processes that no longer run.
+    deadline = time.monotonic() + 60
+    while rank_pids(out) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if rank_pids(out):
+        failures.append(f"a killed rank: ranks {rank_pids(out)} still run a minute after mpirun exited")
+        return
+    print(f"killed rank 1: mpirun exit {p.returncode}, left {outputs(WORK, 'kill.sdb')}")
+    run(["import", volume, "-o", out, "--quiet"], mpi=2)
+    run(["verify", out, "--quiet"])
+    if outputs(WORK, "kill.sdb") != ["kill.sdb"]:
+        failures.append(f"after a killed rank, the next run left {outputs(WORK, 'kill.sdb')}")
+
+
 def main():
+    # An interrupted run may have left its small disk mounted.
+    subprocess.run(["umount", os.path.join(WORK, "disk")], capture_output=True)
     shutil.rmtree(WORK, ignore_errors=True)
     os.makedirs(WORK)
     rng = np.random.default_rng(7)
@@ -131,6 +231,9 @@ def main():
     left = sorted(f for f in os.listdir(WORK) if f.startswith("bad.sdb"))
     if left:
         failures.append(f"a failing rank left {left}")
+
+    full_disk(ht)
+    killed_rank()
 
     # The sparse store is built by one process: refused once.
     p = run(["import", ht, "--sparse", "-o", os.path.join(WORK, "sparse.sdb")], mpi=2, expect=(2,))

@@ -3,6 +3,7 @@
 #include "storage/io/file.h"
 
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -76,6 +77,24 @@ TEST(Temporaries, StaleOnesOfDeadProcessesAreRemoved) {
   EXPECT_EQ(SortedNames(dir.path()),
             (std::vector<std::string>{"other.sdb.tmp." + dead, "out.sdb.tmp." + live,
                                       "out.sdb.tmp." + live + "-lock", "out.sdb.tmp.notapid"}));
+}
+
+// A process that exited and was not reaped (a zombie: an MPI rank whose
+// mpirun returned first, under a PID 1 that does not reap) holds no file:
+// its temporaries are stale although kill(pid, 0) still finds it.
+TEST(Temporaries, ThoseOfAZombieAreStale) {
+  TempDir dir;
+  const std::string out = dir.path() + "/out.sdb";
+  const pid_t zombie = fork();
+  if (zombie == 0) _exit(0);
+  siginfo_t info{};
+  ASSERT_EQ(waitid(P_PID, static_cast<id_t>(zombie), &info, WEXITED | WNOWAIT), 0);  // exited, kept
+  ASSERT_EQ(kill(zombie, 0), 0);
+  Touch(out + ".tmp." + std::to_string(zombie));
+  RemoveStaleTemporaries(out);
+  EXPECT_EQ(SortedNames(dir.path()), std::vector<std::string>{});
+  int status = 0;
+  waitpid(zombie, &status, 0);
 }
 
 TEST(AtomicFileWriter, WritesUnderATemporaryAndCommitsIntoPlace) {
