@@ -7,16 +7,41 @@
 #include <chrono>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "storage/dense/dense_builder.h"
 #include "storage/dense/dense_format.h"
 #include "storage/dense/dense_writer.h"
+#include "storage/error/diamond_errors.h"
 #include "storage/volume/volume.h"
+#include "util/big_array.h"
 #include "util/status.h"
 
 namespace simplexdb::dense_build {
 
 using Clock = std::chrono::steady_clock;
+
+// The windowed build's tables of diamond errors (dense_windowed_build_internal.h).
+template <int D>
+struct LocalTable {  // a local scale's: one chunk of planes
+  int64_t chunk = 0;  // planes per chunk (a multiple of the slab)
+  std::array<int64_t, D> extent{};
+  std::array<uint64_t, D> stride{};
+  uint64_t size = 0;
+  BigArray<float> table;
+  std::vector<std::vector<uint64_t>> blocks;  // candidates by chunk
+};
+template <int D>
+struct ScannedTable {  // a scanned scale's maxima: every vertex of the domain
+  std::array<uint64_t, D> stride{};
+  uint64_t size = 0;
+  std::vector<float> table;
+  std::vector<DiamondAvailability> availability;  // with missing values
+  void Release() {
+    std::vector<float>().swap(table);
+    std::vector<DiamondAvailability>().swap(availability);
+  }
+};
 
 // "12 MiB", rounded up.
 std::string MiB(uint64_t bytes);

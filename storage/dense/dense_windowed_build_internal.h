@@ -112,11 +112,9 @@ class WindowedBuild {
   int windows() const { return static_cast<int>(slabs_); }
   int64_t window_planes() const { return window_planes_; }
 
-  // The memory the build takes, for the bound: the window, the tables (and
-  // with missing values where the scanned diamonds' simplices have values),
-  // the readers' buffers (a chunk of 2^20 doubles per worker for the whole
-  // field, a plane per worker otherwise; twice that with a mask) and the
-  // writer's blocks.
+  // The memory the build takes, for the bound: the window, the tables (with
+  // missing values, the scanned diamonds' availability), the readers' buffers
+  // (2^20 doubles or a plane per worker; twice with a mask), the writer's.
   uint64_t Bytes(bool missing = false) const {
     uint64_t bytes = static_cast<uint64_t>(window_planes_) * plane_ * sizeof(V);
     for (int s = 1; s < S; ++s) {
@@ -133,7 +131,12 @@ class WindowedBuild {
     const uint64_t buffer = OneWindow() ? std::min<uint64_t>(n_, uint64_t{1} << 20) : plane_;
     bytes += uint64_t(threads_) * buffer * sizeof(double) * (options_.mask ? 2 : 1);
     bytes += uint64_t(threads_) * (uint64_t{1} << options_.block_bits) * 40;  // writer
-    return bytes;
+    // The writer's tables; with several windows ours are freed before its
+    // Finish (FreeTables).
+    DenseHeader params = ParamsFor(D, input_, options_, stored_, k_, 0, 1);
+    params.flags = missing ? kDenseFinestStored : 0;
+    const DenseStoreWriter::Memory w = DenseStoreWriter::MemoryFor(params, !OneWindow());
+    return w.tables + (OneWindow() ? bytes + w.finish : std::max(bytes, w.finish));
   }
 
   // Each step's outcome becomes every rank's (Together) before the next
@@ -154,6 +157,7 @@ class WindowedBuild {
     SDB_RETURN_IF_ERROR(ranks_.Together(slabs));
     if (ranks_.group() != nullptr) SDB_RETURN_IF_ERROR(ShareAfterSlabs());
     SDB_RETURN_IF_ERROR(ranks_.Together(WriteLast()));
+    if (!OneWindow()) FreeTables();  // Finish's records take their place (Bytes)
     SDB_ASSIGN_OR_RETURN(const DenseHeader header, writer_->Finish());
     return DenseBuildReport{header, std::chrono::duration<double>(Clock::now() - start_).count(), n_,
                             OneWindow() ? "diamonds" : "streamed", static_cast<int>(slabs_),
@@ -260,20 +264,20 @@ class WindowedBuild {
     return ranks_.Together(status);
   }
 
-  struct Local {  // a local scale's table: one chunk of planes
-    int64_t chunk = 0;  // planes per chunk (a multiple of the slab)
-    std::array<int64_t, D> extent{};
-    std::array<uint64_t, D> stride{};
-    uint64_t size = 0;
-    BigArray<float> table;
-    std::vector<std::vector<uint64_t>> blocks;  // candidates by chunk
-  };
-  struct Scanned {  // a scanned scale's maxima: every vertex of the domain
-    std::array<uint64_t, D> stride{};
-    uint64_t size = 0;
-    std::vector<float> table;
-    std::vector<DiamondAvailability> availability;  // with missing values
-  };
+  using Local = LocalTable<D>;
+  using Scanned = ScannedTable<D>;
+
+  // Several windows: what the slabs and WriteLast needed, freed for Finish.
+  void FreeTables() {
+    diamonds_.reset();  // it points into the window
+    planes_.reset();
+    window_ = BigArray<V>();
+    for (Local& t : local_) t.table = BigArray<float>();
+    for (Scanned& t : scanned_) t.Release();
+    corners_.Release();
+    coarse_.Release();
+    std::vector<double>().swap(finest_max_);
+  }
 
   static std::vector<uint64_t> Iota(uint64_t n) {  // 0, 1, ..., n - 1
     std::vector<uint64_t> v(n);

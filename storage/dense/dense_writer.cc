@@ -337,6 +337,10 @@ namespace {
 
 // A spooled item as the ranks exchange it: blocks by candidate index,
 // bricks after them; the entry's offset is the item's in the spool.
+// The most bytes CopySpooled copies at once (a block or a brick is far
+// smaller).
+constexpr uint64_t kSpoolRun = uint64_t{1} << 20;
+
 struct SpoolRecord {
   uint64_t item;
   DenseIndexEntry entry;
@@ -356,6 +360,23 @@ uint64_t U64At(const std::string& text, size_t k) {
 }
 
 }  // namespace
+
+DenseStoreWriter::Memory DenseStoreWriter::MemoryFor(const DenseHeader& params, bool spool) {
+  DenseHeader h = params;
+  const int stored_bits = std::countr_zero(h.error_positions());
+  h.virtual_blocks = stored_bits <= h.block_bits ? 1 : uint64_t{1} << (stored_bits - h.block_bits);
+  DenseStoreWriter geometry;  // MayHoldData reads the header alone
+  geometry.h_ = h;
+  uint64_t blocks = 0;
+  for (uint64_t b = 0; b < h.virtual_blocks; ++b) blocks += geometry.MayHoldData(b) ? 1 : 0;
+  const uint64_t bricks = BrickGrid(h.dimension, h.dims, h.domain_bits, h.brick_bits).bricks();
+  Memory m;
+  // candidates_, entries_, kept_, block_written_; brick_entries_, brick_written_.
+  m.tables = blocks * (sizeof(uint64_t) + sizeof(DenseIndexEntry) + 2) + bricks * (sizeof(DenseIndexEntry) + 1);
+  m.finish = (blocks + bricks) * kDenseIndexEntrySize + 8 * ((h.virtual_blocks + 63) / 64);
+  if (spool) m.finish += (blocks + bricks) * (sizeof(SpoolRecord) + sizeof(uint64_t)) + kSpoolRun;
+  return m;
+}
 
 Result<DenseHeader> DenseStoreWriter::Finish() {
   if (!options_.spool) return WriteTail();
@@ -453,7 +474,6 @@ Status DenseStoreWriter::CopySpooled(const std::string& records, const std::stri
   if (writer_ == nullptr) {
     SDB_ASSIGN_OR_RETURN(part, FilePartWriter::Open(places.substr(n * sizeof(uint64_t))));
   }
-  constexpr uint64_t kRun = uint64_t{16} << 20;
   std::vector<uint8_t> buffer;
   uint64_t from = 0, to = 0, size = 0;
   const auto flush = [&]() -> Status {
@@ -465,7 +485,7 @@ Status DenseStoreWriter::CopySpooled(const std::string& records, const std::stri
   for (size_t k = 0; k < n; ++k) {
     const DenseIndexEntry e = RecordAt(records, k).entry;
     const uint64_t place = U64At(places, k);
-    if (size > 0 && e.offset == from + size && place == to + size && size + e.stored_size <= kRun) {
+    if (size > 0 && e.offset == from + size && place == to + size && size + e.stored_size <= kSpoolRun) {
       size += e.stored_size;
       continue;
     }

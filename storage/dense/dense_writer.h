@@ -84,6 +84,16 @@ using DenseFill = std::function<Status(int worker, uint64_t first, size_t count,
 // one run at a time (each runs on options.threads workers).
 class DenseStoreWriter {
  public:
+  // The memory a writer of a store of `params` (its dimension, dims,
+  // domain, block and brick bits, finest flag) holds: its tables for the
+  // whole build, and what Finish adds to them (the indexes' buffers; with
+  // `spool` also every item's record and place and the copy's buffer).
+  // An upper bound. O(virtual blocks).
+  struct Memory {
+    uint64_t tables = 0, finish = 0;
+  };
+  static Memory MemoryFor(const DenseHeader& params, bool spool);
+
   // Checks `params` (as WriteDenseStore) and opens the temporary file.
   static Result<std::unique_ptr<DenseStoreWriter>> Create(const std::string& path,
                                                           const DenseHeader& params,

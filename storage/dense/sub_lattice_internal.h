@@ -40,6 +40,7 @@ class SubLattice {
 
   uint64_t size() const { return size_; }
   void Allocate() { values_.assign(size_, T{}); }
+  void Release() { std::vector<T>().swap(values_); }
   const T* data() const { return values_.data(); }
   T* mutable_data() { return values_.data(); }
   uint64_t stride(int a) const { return stride_[a]; }
