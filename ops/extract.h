@@ -29,6 +29,7 @@
 
 #include "query/conformity.h"
 #include "query/criteria.h"
+#include "query/isosurface.h"
 #include "query/mesh_io.h"
 #include "query/open_store.h"
 #include "query/refine.h"
@@ -60,6 +61,9 @@ struct ExtractRequest {
   bool tetrahedra = false;  // the HT's tetrahedra, or the slice at `time` of an HP
   bool count_slice = false;  // HP with `time`: the slice's tetrahedra counted (statistics)
   bool check = false;        // --check: the result's conformity, from geometry
+  // The isosurface at `iso` of the leaves (query/isosurface.h), clipped
+  // and placed physically: `simplexdb isosurface`. Needs iso; an HP's, time.
+  bool surface = false;
   // --piece/--pieces: piece `piece` (0-based) alone of the mesh cut in
   // `pieces` (query/pieces.h: the same parts for every caller): its leaves,
   // tetrahedra and slices; depth-first only. Under MPI each rank asks for
@@ -97,6 +101,8 @@ struct ExtractResult {
   std::optional<uint64_t> slice_tetrahedra;  // an HP slice at `time`, counted or collected
   std::optional<double> given_time;          // request.time, as given
   std::optional<ConformityReport> conformity;  // request.check
+  std::optional<SurfaceData> surface;          // request.surface
+  double surface_seconds = 0;                  // contouring it (after the refinement's seconds)
   // request.pieces > 1: which piece, of how many, the mesh's level-L
   // partition (query/pieces.h), and the exchange: rounds, and splits sent
   // to and received from other pieces (8 bytes each).
@@ -125,7 +131,8 @@ struct ExtractResult {
 // --algorithm, --from without incremental, --budget and --time-limit but
 // with priority, --slices (an HT's, outside the store's times), --piece
 // outside 0..pieces-1, --pieces with another algorithm, --from or --check
-// (the pieces' union is the mesh, not one piece). O(1).
+// (the pieces' union is the mesh, not one piece), surface without --iso
+// or (an HP's) --time. O(1).
 Status CheckExtract(const SourceInfo& info, const ExtractRequest& request);
 
 // Called with each time slice of request.slices in order: its index, then

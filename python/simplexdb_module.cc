@@ -34,6 +34,8 @@
 #include "ops/export.h"
 #include "ops/extract.h"
 #include "ops/extract_output.h"
+#include "ops/isosurface.h"
+#include "query/surface_io.h"
 #include "ops/import.h"
 #include "ops/read_grid.h"
 #include "ops/store_info.h"
@@ -212,6 +214,67 @@ py::dict ExtractMesh(const std::shared_ptr<AnyStore>& store, const py::object& e
   }
   if (out.mesh_time) d["time"] = *out.mesh_time;
   return d;
+}
+
+// The isosurface (ops/isosurface.h, query/isosurface.h) at `iso` of the
+// leaves Extract gives for the same criteria, as arrays, and the
+// statistics as `isosurface --json` prints them.
+py::dict Isosurface(const std::shared_ptr<AnyStore>& store, double iso, const py::object& error,
+                    std::optional<std::vector<double>> box, std::optional<double> time, const std::string& units) {
+  ExtractRequest request;
+  request.error = AmountOf(error, "--error");
+  request.box = std::move(box);
+  request.iso = iso;
+  request.time = time;
+  request.units = units;
+  request.leaves = false;
+  request.surface = true;
+  Result<ExtractResult> result = [&] {
+    py::gil_scoped_release unlocked;
+    return Extract(*store, request);
+  }();
+  if (!result.ok()) Raise(result.status());
+  SurfaceData& s = *result->surface;
+  const auto points = static_cast<py::ssize_t>(s.point_count()), triangles = static_cast<py::ssize_t>(s.triangle_count());
+  py::dict d;
+  d["stats"] = DictOf(ExtractStatsJson(*result));
+  d["points"] = Hand(std::move(s.points), {points, 3});
+  d["normals"] = Hand(std::move(s.normals), {points, 3});
+  d["triangles"] = Hand(std::move(s.triangles), {triangles, 3});
+  d["error"] = Hand(std::move(s.error), {triangles});
+  d["comment"] = SurfaceComment(iso, result->info.path);
+  return d;
+}
+
+// A surface's arrays to .vtp or .ply, by the writers `simplexdb
+// isosurface` uses (query/surface_io.h).
+void SaveSurface(const std::string& path, py::array_t<double, py::array::c_style | py::array::forcecast> points,
+                 py::array_t<float, py::array::c_style | py::array::forcecast> normals,
+                 py::array_t<int64_t, py::array::c_style | py::array::forcecast> triangles,
+                 py::array_t<double, py::array::c_style | py::array::forcecast> error, const std::string& comment) {
+  const Result<std::string> format = SurfaceFormatOf(path);
+  if (!format.ok()) throw py::value_error(std::string(format.status().message()));
+  SurfaceData s;
+  s.points.assign(points.data(), points.data() + points.size());
+  s.normals.assign(normals.data(), normals.data() + normals.size());
+  s.triangles.assign(triangles.data(), triangles.data() + triangles.size());
+  s.error.assign(error.data(), error.data() + error.size());
+  if (s.points.size() % 3 != 0 || s.normals.size() != s.points.size() || s.triangles.size() % 3 != 0 ||
+      s.error.size() != s.triangle_count()) {
+    throw py::value_error(path + ": the surface's arrays do not agree in length");
+  }
+  for (const int64_t p : s.triangles) {
+    if (p < 0 || static_cast<uint64_t>(p) >= s.point_count()) {
+      throw py::value_error(path + ": a triangle names point " + std::to_string(p) + ", outside 0.." +
+                            std::to_string(s.point_count()));
+    }
+  }
+  Status status;
+  {
+    py::gil_scoped_release unlocked;
+    status = *format == "vtp" ? WriteVtp(s, path) : WritePly(s, path, comment);
+  }
+  if (!status.ok()) Raise(status);
 }
 
 // A mesh's arrays to .vtu or .pvd, by the writer `simplexdb extract` uses
@@ -495,6 +558,10 @@ PYBIND11_MODULE(_simplexdb, m) {
   m.def("extract", &ExtractMesh, py::arg("store"), py::arg("error"), py::arg("box"), py::arg("iso"),
         py::arg("time"), py::arg("units"), py::arg("algorithm"), py::arg("budget"), py::arg("previous"),
         py::arg("mesh"), py::arg("piece"), py::arg("pieces"));
+  m.def("isosurface", &Isosurface, py::arg("store"), py::arg("iso"), py::arg("error"), py::arg("box"),
+        py::arg("time"), py::arg("units"));
+  m.def("save_surface", &SaveSurface, py::arg("path"), py::arg("points"), py::arg("normals"),
+        py::arg("triangles"), py::arg("error"), py::arg("comment"));
   m.def("save_mesh", &SaveMesh, py::arg("path"), py::arg("points"), py::arg("cells"), py::arg("field"),
         py::arg("error"), py::arg("level"), py::arg("codes"), py::arg("time"));
   m.def("code_string", [](int dimension, uint64_t key) {

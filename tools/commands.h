@@ -38,5 +38,6 @@ void RegisterTo4dCommand(CLI::App& app);     // generate_command.cc
 void RegisterConvertCommand(CLI::App& app);  // convert_command.cc
 void RegisterUpdateCommand(CLI::App& app);   // convert_command.cc
 void RegisterExtractCommand(CLI::App& app);  // extract, conformity
+void RegisterIsosurfaceCommand(CLI::App& app);
 
 }  // namespace simplexdb::tools

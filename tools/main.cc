@@ -40,6 +40,7 @@ int main(int argc, char** argv) {
   simplexdb::tools::RegisterConvertCommand(app);
   simplexdb::tools::RegisterUpdateCommand(app);
   simplexdb::tools::RegisterExtractCommand(app);
+  simplexdb::tools::RegisterIsosurfaceCommand(app);
   // Under an MPI launcher (mpirun) only: a plain run never touches MPI.
   std::unique_ptr<simplexdb::MpiSession> mpi;
   if (simplexdb::MpiSession::Launched()) {

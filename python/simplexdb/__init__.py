@@ -9,6 +9,9 @@ arrays, hand them to VTK or write them for ParaView.
     mesh.save("tooth_3.pvd")                # the same, in a ParaView collection with its time
     grid = mesh.to_vtk()                    # a vtkUnstructuredGrid (needs VTK)
     grid = mesh.to_pyvista()                # the same as PyVista's grid (needs PyVista)
+    surface = store.isosurface(500, error="1%")   # marching tetrahedra over the leaves
+    surface.points, surface.triangles       # numpy arrays; .normals, .error
+    surface.save("bone.vtp")                # or .ply, as `simplexdb isosurface` writes
 
     store = simplexdb.import_volume(array, "v.sdb")   # numpy (Z, Y, X) C order, or a file
     store.export(roi=None, step=1)          # the grid as a (Z, Y, X) array: the array back
@@ -39,7 +42,7 @@ import sys as _sys
 
 from . import _simplexdb
 
-__all__ = ["open", "Store", "Mesh"]
+__all__ = ["open", "Store", "Mesh", "Surface"]
 
 
 def _path(value, what):
@@ -186,6 +189,64 @@ class Mesh:
         return grid
 
 
+class Surface:
+    """The result of Store.isosurface: a watertight triangle mesh (but where
+    it leaves the grid), as `simplexdb isosurface` writes it.
+
+    points      numpy float64, N x 3: physical coordinates
+    normals     numpy float32, N x 3: the field's unit gradient at each point
+                (toward increasing values; zeros where it vanishes)
+    triangles   numpy int64, M x 3: point indices, oriented so that their
+                normals point toward increasing values
+    error       numpy float64, M: the error bound of each triangle's tetrahedron
+    stats       dict: the statistics (as `isosurface --json`)
+    """
+
+    def __init__(self, result):
+        self.points = result["points"]
+        self.normals = result["normals"]
+        self.triangles = result["triangles"]
+        self.error = result["error"]
+        self.stats = result["stats"]
+        self._comment = result["comment"]  # the .ply header's, as the command writes it
+
+    def __repr__(self):
+        return f"<simplexdb.Surface: {len(self.triangles):,} triangles, {len(self.points):,} points>"
+
+    def save(self, path):
+        """Writes the surface, the format named by the extension: .vtp (VTK
+        XML PolyData, for ParaView) or .ply (binary). ValueError for another
+        extension; OSError when writing fails (nothing is left under the
+        name then)."""
+        _simplexdb.save_surface(_path(path, "path"), self.points, self.normals, self.triangles, self.error,
+                                self._comment)
+
+    def to_vtk(self):
+        """The surface as a vtkPolyData with point data "Normals" and cell
+        data "error" (needs VTK: Debian's python3-vtk9)."""
+        import numpy as np
+        from vtkmodules.util import numpy_support
+        from vtkmodules.vtkCommonCore import vtkPoints
+        from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+
+        poly = vtkPolyData()
+        points = vtkPoints()
+        points.SetData(numpy_support.numpy_to_vtk(self.points, deep=True))
+        poly.SetPoints(points)
+        offsets = np.arange(0, 3 * len(self.triangles) + 1, 3, dtype=np.int64)
+        cells = vtkCellArray()
+        cells.SetData(numpy_support.numpy_to_vtkIdTypeArray(offsets, deep=True),
+                      numpy_support.numpy_to_vtkIdTypeArray(self.triangles.reshape(-1).astype(np.int64), deep=True))
+        poly.SetPolys(cells)
+        normals = numpy_support.numpy_to_vtk(self.normals, deep=True)
+        normals.SetName("Normals")
+        poly.GetPointData().SetNormals(normals)
+        error = numpy_support.numpy_to_vtk(self.error, deep=True)
+        error.SetName("error")
+        poly.GetCellData().AddArray(error)
+        return poly
+
+
 class Store:
     """An open store: see simplexdb.open."""
 
@@ -246,6 +307,22 @@ class Store:
                                     None if previous is None else [int(k) for k in previous.codes], bool(mesh),
                                     0 if piece is None else piece, 1 if pieces is None else pieces)
         return Mesh(self.dimension, result)
+
+    def isosurface(self, iso, error="1%", box=None, time=None, units="grid"):
+        """The surface where the field equals `iso`, as `simplexdb
+        isosurface`: marching tetrahedra over the leaves extract(error,
+        iso=iso, box=box, time=time) gives, never collecting them; every
+        point's full-resolution value is within `error` of `iso` (inside
+        `box`, when given). An HP's surface is that of the time slice
+        `time` (required). Returns a Surface."""
+        if isinstance(iso, bool) or not isinstance(iso, (int, float)) and not hasattr(iso, "__float__"):
+            raise ValueError(f"iso: expected a number in field units, not {iso!r}")
+        if box is not None:
+            box = [float(x) for x in box]
+        units = _text(units, "units")
+        result = _simplexdb.isosurface(self._core, float(iso), _amount(error, "error"), box,
+                                       None if time is None else float(time), str(units))
+        return Surface(result)
 
     def export(self, roi=None, step=1, time=None, out=None, force=False):
         """The field on the grid, as `simplexdb export` writes it: a C-order

@@ -135,3 +135,21 @@ def test_the_same_incremental_refinement(stores, tmp_path):
     fine = simplexdb.open(store).extract("2%", algorithm="incremental", previous=coarse, mesh=False)
     assert fine.code_strings() == codes
     assert fine.stats["algorithm"] == "incremental" and len(codes) > len(coarse.codes)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("hierarchy", ["ht", "hp"])
+def test_the_same_isosurface(stores, tmp_path, hierarchy, kind):
+    """`simplexdb isosurface` and Store.isosurface: the same .vtp and .ply
+    bytes, and the arrays the files hold."""
+    store = stores / f"{hierarchy}.{kind}"
+    cli, py = folders(tmp_path)
+    extra = ["--time", "2.5"] if hierarchy == "hp" else []
+    s = simplexdb.open(store).isosurface(140, error="3%", time=2.5 if hierarchy == "hp" else None)
+    assert len(s.triangles) > 0 and s.normals.shape == s.points.shape and len(s.error) == len(s.triangles)
+    for ext in ("vtp", "ply"):
+        run("isosurface", store, "--iso", "140", "--error", "3%", *extra, "-q", "-o", cli / f"s.{ext}")
+        s.save(py / f"s.{ext}")
+        assert (cli / f"s.{ext}").read_bytes() == (py / f"s.{ext}").read_bytes(), ext
+    with pytest.raises(ValueError, match=".vtp"):
+        s.save(py / "s.stl")
