@@ -19,8 +19,14 @@
 
 namespace simplexdb {
 
-// "vtp" or "ply", as the path's extension names it.
+// "vtp", "ply" or "pvtp" (pieces: one .vtp per piece beside it), as the
+// path's extension names it.
 Result<std::string> SurfaceFormatOf(const std::string& path);
+
+// Piece r's file of the .pvtp `path`: PATH-without-.pvtp_<r>.vtp.
+std::string PvtpPieceFile(const std::string& path, int piece);
+// The .pvtp naming pieces 0..pieces-1 (query/pvd_writer.h), atomically.
+Status WritePvtpOf(const std::string& path, int pieces);
 
 // The .ply header's comment line for a surface at `iso` of the store at
 // `store_path`.
@@ -28,7 +34,11 @@ std::string SurfaceComment(double iso, const std::string& store_path);
 
 // The isosurface of `request` (its iso, error, box, time, units) over
 // `store`, written to `path` (.vtp or .ply) atomically; the result holds
-// the surface and the statistics.
-Result<ExtractResult> IsosurfaceToFile(const AnyStore& store, ExtractRequest request, const std::string& path);
+// the surface and the statistics. For .pvtp, piece request.piece of
+// request.pieces (with an `exchange`, as Extract's): its .vtp
+// (PvtpPieceFile), and the .pvtp too when the surface is one piece; else
+// the caller writes it (WritePvtpOf) once every piece is.
+Result<ExtractResult> IsosurfaceToFile(const AnyStore& store, ExtractRequest request, const std::string& path,
+                                       const PieceExchange& exchange = {});
 
 }  // namespace simplexdb

@@ -72,4 +72,25 @@ Status WritePvtu(std::span<const std::string> pieces, const std::string& path) {
   return WriteFileAtomically(path, PvtuText(pieces));
 }
 
+std::string PvtpText(std::span<const std::string> pieces) {
+  std::string x =
+      "<?xml version=\"1.0\"?>\n"
+      "<VTKFile type=\"PPolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
+      "<PPolyData GhostLevel=\"0\">\n"
+      "<PPointData Normals=\"Normals\">\n<PDataArray type=\"Float32\" Name=\"Normals\" NumberOfComponents=\"3\"/>\n"
+      "</PPointData>\n"
+      "<PCellData Scalars=\"error\">\n<PDataArray type=\"Float64\" Name=\"error\"/>\n</PCellData>\n"
+      "<PPoints>\n<PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n</PPoints>\n";
+  for (const std::string& piece : pieces) {
+    assert(piece.find('/') == std::string::npos);
+    x += "<Piece Source=\"" + XmlEscaped(piece) + "\"/>\n";
+  }
+  x += "</PPolyData>\n</VTKFile>\n";
+  return x;
+}
+
+Status WritePvtp(std::span<const std::string> pieces, const std::string& path) {
+  return WriteFileAtomically(path, PvtpText(pieces));
+}
+
 }  // namespace simplexdb

@@ -51,4 +51,12 @@ Status WritePvd(std::span<const PvdDataSet> datasets, const std::string& path);
 std::string PvtuText(std::span<const std::string> pieces);
 Status WritePvtu(std::span<const std::string> pieces, const std::string& path);
 
+// A parallel poly data (.pvtp, vtkXMLPPolyDataReader): the pieces' .vtp
+// files of an isosurface, each written by WriteVtp (query/surface_io.h),
+// whose arrays it declares: point data "Normals" (Float32, 3), cell data
+// "error", Float64 points. The one writer of them: `mpirun ... simplexdb
+// isosurface -o X.pvtp`.
+std::string PvtpText(std::span<const std::string> pieces);
+Status WritePvtp(std::span<const std::string> pieces, const std::string& path);
+
 }  // namespace simplexdb

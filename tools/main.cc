@@ -50,12 +50,12 @@ int main(int argc, char** argv) {
       return 1;
     }
     mpi = *std::move(started);
-    // Only import (one store, built by every rank) and extract (in pieces)
-    // run on several ranks; the other commands would each do the whole.
+    // Only import (one store, built by every rank), extract and isosurface
+    // (in pieces) run on several ranks; the others would each do the whole.
     const std::string command = argc > 1 ? argv[1] : "";
-    if (mpi->size() > 1 && command != "extract" && command != "import" && command.rfind("-", 0) != 0) {
+    if (mpi->size() > 1 && command != "extract" && command != "import" && command != "isosurface" && command.rfind("-", 0) != 0) {
       if (mpi->rank() == 0) {
-        std::fprintf(stderr, "simplexdb: %s: under mpirun with %d ranks only import and extract run; run %s "
+        std::fprintf(stderr, "simplexdb: %s: under mpirun with %d ranks only import, extract and isosurface run; run %s "
                      "without mpirun\n", command.c_str(), mpi->size(), command.c_str());
       }
       return 2;

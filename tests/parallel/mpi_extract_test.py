@@ -6,7 +6,8 @@ for the one-process .vtu): the union of the pieces is the one-process mesh
 cell for cell (each cell's code and its four points), for uniform, box and
 isovalue queries of an HT and time slices of an HP (one, and a .pvd series
 of .pvtu files), N = 1..4; the statistics
-add up; a rank that fails leaves neither the .pvtu nor any piece, and every
+add up; `isosurface -o OUT.pvtp` gives the one-process surface's triangles
+in pieces (vtkXMLPPolyDataReader); a rank that fails leaves neither the .pvtu nor any piece, and every
 rank stops with one message naming the failing rank.
 
     mpi_extract_test.py SIMPLEXDB_CLI WORKDIR
@@ -21,7 +22,8 @@ import sys
 from mpi_cli import require_mpirun, runner
 
 try:
-    from vtkmodules.vtkIOXML import vtkXMLPUnstructuredGridReader, vtkXMLUnstructuredGridReader
+    from vtkmodules.vtkIOXML import (vtkXMLPPolyDataReader, vtkXMLPolyDataReader, vtkXMLPUnstructuredGridReader,
+                                     vtkXMLUnstructuredGridReader)
     from vtkmodules.util.numpy_support import vtk_to_numpy
 except ImportError as error:
     print(f"cannot import VTK: {error}", file=sys.stderr)
@@ -73,6 +75,42 @@ def check(name, store, query, pieces):
               " of the mean")
 
 
+def triangles(path, parallel):
+    """A surface's triangles as a sorted list of their three points, each
+    rotated to start at its smallest point (orientation kept)."""
+    reader = vtkXMLPPolyDataReader() if parallel else vtkXMLPolyDataReader()
+    reader.SetFileName(path)
+    reader.Update()
+    s = reader.GetOutput()
+    points = vtk_to_numpy(s.GetPoints().GetData())
+    out = []
+    for t in vtk_to_numpy(s.GetPolys().GetConnectivityArray()).reshape(-1, 3):
+        p = [tuple(points[i]) for i in t]
+        k = p.index(min(p))
+        out.append(tuple(p[k:] + p[:k]))
+    return sorted(out)
+
+
+def check_surface(name, store, query, pieces):
+    """`isosurface -o OUT.pvtp` in N pieces: the one-process .vtp's
+    triangles, each once."""
+    one = os.path.join(WORK, name + "_one.vtp")
+    run(["isosurface", store, "-o", one, "--force", "-q"] + query)
+    want = triangles(one, False)
+    assert want, name
+    for n in pieces:
+        out = os.path.join(WORK, f"{name}_{n}.pvtp")
+        stats = json.loads(run(["isosurface", store, "-o", out, "--force", "--json"] + query, mpi=n).stdout)
+        got = triangles(out, True)
+        label = f"{name}, {n} ranks"
+        if got != want:
+            failures.append(f"{label}: {len(got)} triangles, the one-process surface has {len(want)}"
+                            f" ({len(set(got) - set(want))} not in it, {len(set(want) - set(got))} missing)")
+        if stats["triangles"] != len(got) or stats["pieces"] != n:
+            failures.append(f"{label}: the statistics say {stats['triangles']} triangles in {stats['pieces']} pieces")
+        print(f"{label}: {len(got)} triangles, the one-process surface")
+
+
 def datasets(pvd):
     """A .pvd's (timestep, file) pairs."""
     import xml.etree.ElementTree as ET
@@ -116,6 +154,8 @@ def main():
     check("time", hp, ["--error", "3%", "--time", "4"], [1, 2, 3])
     check("time_box", hp, ["--error", "2%", "--time", "2.5", "--box", "0,0,0,8,16,16"], [2, 4])
     check_series("series", hp, ["--error", "3%", "--slices", "1,4.5,8"], [2, 3])
+    check_surface("surface", ht, ["--iso", "128", "--error", "1%"], [2, 3])
+    check_surface("surface_hp", hp, ["--iso", "120", "--error", "2%", "--time", "4.5"], [2])
 
     # A rank that fails: rank 1's piece file cannot be written (a folder
     # stands there). Every rank stops, with rank 1's message once; no .pvtu
@@ -133,7 +173,7 @@ def main():
     # Only import and extract run on several ranks; extract's formats other
     # than .pvtu and the statistics are refused, once.
     p = run(["info", ht], mpi=2, expect=(2,))
-    if "only import and extract" not in p.stderr or p.stderr.count("simplexdb:") != 1:
+    if "only import, extract and isosurface" not in p.stderr or p.stderr.count("simplexdb:") != 1:
         failures.append(f"info under mpirun: {p.stderr!r}")
     p = run(["extract", ht, "--error", "2%", "-o", os.path.join(WORK, "x.vtu")], mpi=2, expect=(2,))
     if ".pvtu" not in p.stderr or p.stderr.count("simplexdb:") != 1:
