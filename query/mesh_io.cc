@@ -58,24 +58,14 @@ namespace {
 // May throw std::bad_alloc.
 Status WriteCompressedVtu(const TetMeshData& mesh, const std::string& path, const VtuOptions& options) {
   const uint64_t n_points = mesh.field.size(), n_cells = mesh.cells();
-  // Point indices are below n_points (CollectTetMesh, SliceHpMesh), so
-  // the narrowing casts below keep every index and offset.
-  const bool int32 = n_points <= options.int32_limit && 4 * n_cells <= options.int32_limit;
-  const int64_t* connectivity = mesh.connectivity.data();
   std::vector<AppendedArray> arrays;
   arrays.push_back(Stored(Element("Float64", "field"), mesh.field));
   arrays.push_back(Stored(Element("Float64", "error"), mesh.error));
   arrays.push_back(Stored(Element("UInt8", "level"), mesh.level));
   arrays.push_back(Stored(Element("UInt64", "code"), mesh.code));
   arrays.push_back(Stored(Element("Float64", nullptr, 3), mesh.points));
-  if (int32) {
-    arrays.push_back(Made<int32_t>(Element("Int32", "connectivity"), 4 * n_cells,
-                                   [connectivity](uint64_t i) { return connectivity[i]; }));
-    arrays.push_back(Made<int32_t>(Element("Int32", "offsets"), n_cells, [](uint64_t i) { return 4 * (i + 1); }));
-  } else {
-    arrays.push_back(Stored(Element("Int64", "connectivity"), mesh.connectivity));
-    arrays.push_back(Made<int64_t>(Element("Int64", "offsets"), n_cells, [](uint64_t i) { return 4 * (i + 1); }));
-  }
+  // Point indices are below n_points (CollectTetMesh, SliceHpMesh).
+  internal::AddCellArrays(arrays, mesh.connectivity, 4, n_points, options.int32_limit);
   arrays.push_back(Made<uint8_t>(Element("UInt8", "types"), n_cells, [](uint64_t) { return 10; }));  // VTK_TETRA
   return WriteAppendedVtk(path, arrays, options, [&](const std::vector<std::string>& e) {
     std::string xml;

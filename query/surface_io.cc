@@ -12,7 +12,6 @@ namespace simplexdb {
 
 using internal::AppendedArray;
 using internal::Element;
-using internal::Made;
 using internal::OutputFile;
 using internal::Stored;
 
@@ -21,20 +20,11 @@ namespace {
 Status WriteCompressedVtp(const SurfaceData& s, const std::string& path) {
   const internal::VtuOptions options = internal::DefaultVtuOptions();
   const uint64_t n_points = s.point_count(), n_cells = s.triangle_count();
-  const bool int32 = n_points <= options.int32_limit && 3 * n_cells <= options.int32_limit;
-  const int64_t* triangles = s.triangles.data();
   std::vector<AppendedArray> arrays;
   arrays.push_back(Stored(Element("Float32", "Normals", 3), s.normals));
   arrays.push_back(Stored(Element("Float64", "error"), s.error));
   arrays.push_back(Stored(Element("Float64", nullptr, 3), s.points));
-  if (int32) {
-    arrays.push_back(Made<int32_t>(Element("Int32", "connectivity"), 3 * n_cells,
-                                   [triangles](uint64_t i) { return triangles[i]; }));
-    arrays.push_back(Made<int32_t>(Element("Int32", "offsets"), n_cells, [](uint64_t i) { return 3 * (i + 1); }));
-  } else {
-    arrays.push_back(Stored(Element("Int64", "connectivity"), s.triangles));
-    arrays.push_back(Made<int64_t>(Element("Int64", "offsets"), n_cells, [](uint64_t i) { return 3 * (i + 1); }));
-  }
+  internal::AddCellArrays(arrays, s.triangles, 3, n_points, options.int32_limit);
   return internal::WriteAppendedVtk(path, arrays, options, [&](const std::vector<std::string>& e) {
     std::string xml;
     xml += "<?xml version=\"1.0\"?>\n";

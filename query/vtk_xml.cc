@@ -92,6 +92,19 @@ Status OutputFile::Flush() {
   return Status::OK();
 }
 
+void AddCellArrays(std::vector<AppendedArray>& arrays, const std::vector<int64_t>& connectivity, int corners,
+                   uint64_t points, uint64_t int32_limit) {
+  const uint64_t cells = connectivity.size() / corners, n = static_cast<uint64_t>(corners);
+  const int64_t* c = connectivity.data();
+  if (points <= int32_limit && connectivity.size() <= int32_limit) {
+    arrays.push_back(Made<int32_t>(Element("Int32", "connectivity"), connectivity.size(), [c](uint64_t i) { return c[i]; }));
+    arrays.push_back(Made<int32_t>(Element("Int32", "offsets"), cells, [n](uint64_t i) { return n * (i + 1); }));
+  } else {
+    arrays.push_back(Stored(Element("Int64", "connectivity"), connectivity));
+    arrays.push_back(Made<int64_t>(Element("Int64", "offsets"), cells, [n](uint64_t i) { return n * (i + 1); }));
+  }
+}
+
 std::string Element(const char* type, const char* name, int components) {
   std::string e = std::string("<DataArray type=\"") + type + "\"";
   if (name != nullptr) e += std::string(" Name=\"") + name + "\"";

@@ -73,6 +73,13 @@ AppendedArray Made(std::string element, uint64_t count, Value value) {
           }};
 }
 
+// The cells' "connectivity" and "offsets" arrays, `corners` point indices a
+// cell: Int32 when `points` and the connectivity's length are at most
+// `int32_limit`, else Int64 (the indices are below `points`, so the narrowing
+// keeps them). Reads `connectivity` when written: it must outlive the write.
+void AddCellArrays(std::vector<AppendedArray>& arrays, const std::vector<int64_t>& connectivity, int corners,
+                   uint64_t points, uint64_t int32_limit);
+
 // `<DataArray type="T" [Name="N"] [NumberOfComponents="C"] format="appended"`
 std::string Element(const char* type, const char* name, int components = 1);
 

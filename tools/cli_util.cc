@@ -209,4 +209,18 @@ std::function<void(const BuildProgress&)> ProgressTo(ProgressLine& line,
   return [&line, output](const BuildProgress& p) { line.Update(DescribeProgress(output, p)); };
 }
 
+AnyStore OpenQueriedStore(const std::string& path, bool in_memory, size_t cache_mb) {
+  // A usage error (exit 2) before anything is opened, as --in-memory names
+  // the option; AnyStore::Open would refuse it too.
+  if (in_memory && ProbeStoreKind(path) == StoreKind::kSparse) {
+    throw CommandError("--in-memory applies to dense stores; the LMDB store is read in place", 2);
+  }
+  StoreOptions options;
+  options.in_memory = in_memory;
+  options.cache_bytes = MebibytesOption(cache_mb, "--cache-mb");
+  Result<AnyStore> store = AnyStore::Open(path, options);
+  if (!store.ok()) Fail(store.status());
+  return *std::move(store);
+}
+
 }  // namespace simplexdb::tools

@@ -18,6 +18,7 @@
 #include <fmt/ranges.h>
 
 #include "query/criteria.h"  // Amount
+#include "query/open_store.h"
 #include "storage/error/progress.h"
 #include "storage/volume/volume.h"
 #include "parallel/mpi_session.h"
@@ -128,6 +129,11 @@ class ProgressLine {
 // socket, a directory, a dangling symlink, or a symlink without `force`.
 std::string CheckOutput(const std::string& path, const std::vector<std::string>& inputs,
                         bool force);
+
+// The store a query reads (extract, isosurface): --in-memory on a sparse
+// store is a usage error (exit 2), a store that does not open fails with 1;
+// `cache_mb` is --cache-mb.
+AnyStore OpenQueriedStore(const std::string& path, bool in_memory, size_t cache_mb);
 
 // Adds --force, bound to `force`, with the one help text for it.
 void AddForceOption(CLI::App* cmd, bool* force);

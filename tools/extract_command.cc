@@ -54,28 +54,19 @@ AnyStore PrepareExtract(ExtractArgs& a, const std::string& format) {
     if (!a.from.empty()) inputs.push_back(a.from);
     a.output = CheckOutput(a.output, inputs, a.force);
   }
-  // A usage error (exit 2) before anything is opened, as --in-memory names
-  // the option; AnyStore::Open would refuse it too.
-  if (a.in_memory && ProbeStoreKind(a.store) == StoreKind::kSparse) {
-    throw CommandError("--in-memory applies to dense stores; the LMDB store is read in place", 2);
-  }
   ExtractRequest& request = a.request;
   request.error = ParseAmountOption(a.error, "--error");
   if (!a.box.empty()) request.box = ParseNumberList(a.box, "--box", 1, 8);
   if (!a.slices.empty()) request.slices = ParseNumberList(a.slices, "--slices", 1, 100000);
-  StoreOptions options;
-  options.in_memory = a.in_memory;
-  options.cache_bytes = MebibytesOption(a.cache_mb, "--cache-mb");
-  Result<AnyStore> store = AnyStore::Open(a.store, options);
-  if (!store.ok()) Fail(store.status());
-  CheckUsage(CheckExtract(store->info(), request));
-  CheckUsage(CheckExtractOutput(store->info(), request, format, a.output));
+  AnyStore store = OpenQueriedStore(a.store, a.in_memory, a.cache_mb);
+  CheckUsage(CheckExtract(store.info(), request));
+  CheckUsage(CheckExtractOutput(store.info(), request, format, a.output));
   if (!a.from.empty()) {
-    Result<std::vector<uint64_t>> from = ReadLeafCodes(a.from, store->dimension());
+    Result<std::vector<uint64_t>> from = ReadLeafCodes(a.from, store.dimension());
     if (!from.ok()) Fail(from.status());
     request.from = *std::move(from);
   }
-  return *std::move(store);
+  return store;
 }
 
 bool ExtensionIsPvtu(const std::string& path) {

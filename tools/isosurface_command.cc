@@ -40,20 +40,13 @@ struct IsosurfaceArgs {
 AnyStore PrepareIsosurface(IsosurfaceArgs& a) {
   CheckUsage(SurfaceFormatOf(a.output).status());
   a.output = CheckOutput(a.output, {a.store}, a.force);
-  if (a.in_memory && ProbeStoreKind(a.store) == StoreKind::kSparse) {
-    throw CommandError("--in-memory applies to dense stores; the LMDB store is read in place", 2);
-  }
   ExtractRequest& request = a.request;
   request.error = ParseAmountOption(a.error, "--error");
   if (!a.box.empty()) request.box = ParseNumberList(a.box, "--box", 1, 8);
   request.surface = true;
-  StoreOptions options;
-  options.in_memory = a.in_memory;
-  options.cache_bytes = MebibytesOption(a.cache_mb, "--cache-mb");
-  Result<AnyStore> store = AnyStore::Open(a.store, options);
-  if (!store.ok()) Fail(store.status());
-  CheckUsage(CheckExtract(store->info(), request));
-  return *std::move(store);
+  AnyStore store = OpenQueriedStore(a.store, a.in_memory, a.cache_mb);
+  CheckUsage(CheckExtract(store.info(), request));
+  return store;
 }
 
 // Under mpirun with several ranks, -o OUT.pvtp: each rank contours its
