@@ -43,20 +43,6 @@ struct GenerateArgs {
   bool force = false;
 };
 
-// Rounds to the nearest value `type` holds, clamping integers to its range.
-double Representable(VoxelType type, double v) {
-  const auto clamp_round = [&](double lo, double hi) { return std::clamp(std::nearbyint(v), lo, hi); };
-  switch (type) {
-    case VoxelType::kU8: return clamp_round(0, 255);
-    case VoxelType::kI8: return clamp_round(-128, 127);
-    case VoxelType::kU16: return clamp_round(0, 65535);
-    case VoxelType::kI16: return clamp_round(-32768, 32767);
-    case VoxelType::kF32: return static_cast<double>(static_cast<float>(v));
-    case VoxelType::kF64: return v;
-  }
-  return v;
-}
-
 void RunGenerate(GenerateArgs a) {
   a.output = CheckOutput(a.output, {}, a.force);
   GenerateOptions options;
@@ -125,7 +111,7 @@ void RunGenerate(GenerateArgs a) {
         break;
       }
       generator.Fill(first, count, values.data());
-      for (double& v : values) v = Representable(*type, v);
+      for (double& v : values) v = RepresentableValue(*type, v);
       EncodeVoxels(*type, ByteOrder::kLittle, values.data(), count,
                    reinterpret_cast<std::byte*>(bytes.data()));
       Status s = out.WriteAt(header.size() + first * vsize, bytes);

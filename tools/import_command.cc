@@ -16,6 +16,7 @@
 
 #include "ops/import.h"
 #include "ops/process_memory.h"
+#include "storage/volume/generate.h"
 #include "tools/build_reports.h"
 #include "tools/cli_util.h"
 #include "tools/commands.h"
@@ -139,7 +140,43 @@ struct ImportArgs {
   bool json = false;
   bool quiet = false;
   bool force = false;
+  // --field: a generated field instead of a file (GeneratedVolume).
+  std::string field;
+  uint64_t seed = 1;
+  int octaves = 4;
+  double frequency = 4.0;
+  double constant = 0.0;
 };
+
+// The volume to build: the input files, or with --field the field that
+// `simplexdb generate` would write with the same options, computed as read.
+VolumeInfo ImportInput(const ImportArgs& a) {
+  if (a.field.empty()) {
+    if (a.inputs.empty()) throw CommandError("give a volume file to import, or --field to generate one", 2);
+    return OpenInputs(a.inputs, a.raw);
+  }
+  if (!a.inputs.empty()) {
+    throw CommandError("--field generates the volume: give no input file with it (" + a.inputs[0] + ")", 2);
+  }
+  if (a.raw.dims.empty()) throw CommandError("--field needs --dims X,Y,Z or X,Y,Z,T", 2);
+  if (a.raw.offset != 0 || a.raw.endian != "little") {
+    throw CommandError("--offset and --endian describe raw files, not a generated field", 2);
+  }
+  GenerateOptions g;
+  Result<FieldKind> kind = ParseFieldKind(a.field);
+  if (!kind.ok()) throw CommandError("--field: " + std::string(kind.status().message()), 2);
+  g.kind = *kind;
+  g.dims = ParseDims(a.raw.dims, &g.dimension);
+  g.seed = a.seed;
+  g.octaves = a.octaves;
+  g.frequency = a.frequency;
+  g.constant = a.constant;
+  Result<VoxelType> type = ParseVoxelType(a.raw.type.empty() ? "float32" : a.raw.type);
+  if (!type.ok()) throw CommandError("--type: " + std::string(type.status().message()), 2);
+  Result<VolumeInfo> v = GeneratedVolume(g, *type);
+  if (!v.ok()) throw CommandError(std::string(v.status().message()), 2);
+  return *std::move(v);
+}
 
 // The options parsed and checked against `input`, a.output resolved.
 ImportOptions PrepareImport(ImportArgs& a, const VolumeInfo& input) {
@@ -183,7 +220,7 @@ void RunImportTogether(ImportArgs a, MpiSession& mpi) {
   std::optional<VolumeInfo> input;
   ImportOptions options;
   Together(mpi, [&]() -> Status {
-    input.emplace(OpenInputs(a.inputs, a.raw));
+    input.emplace(ImportInput(a));
     options = PrepareImport(a, *input);
     options.group = &mpi;
     // The machine's cores shared among its ranks, unless --threads says.
@@ -215,7 +252,7 @@ void RunImport(ImportArgs a) {
     RunImportTogether(std::move(a), *mpi);
     return;
   }
-  const VolumeInfo input = OpenInputs(a.inputs, a.raw);
+  const VolumeInfo input = ImportInput(a);
   ImportOptions options = PrepareImport(a, input);
   ProgressLine line(!a.quiet && !(a.sparse && a.json));
   options.progress = ProgressTo(line, a.output);
@@ -244,13 +281,15 @@ float32). NaN marks a missing value; Inf or a value beyond float32's range
 Under mpirun -np N the ranks build one dense store together, each reading
 only its slabs of planes (and a halo) within --memory-mb: the same file,
 byte for byte, as one process builds; rank 0 prints the report.
-Example: simplexdb import tooth.raw --dims 103,94,161 --type uint8 -o tooth.sdb)";
+With --field no file is read: the generated field (as `simplexdb generate`) is computed as it is built.
+Example: simplexdb import tooth.raw --dims 103,94,161 --type uint8 -o tooth.sdb
+         mpirun -np 4 simplexdb import --field perlin --dims 2049,2049,2049 --type uint8 -o p2049.sdb)";
 
 }  // namespace
 
 void RegisterImportCommand(CLI::App& app) {
   auto [cmd, a] = AddCommand<ImportArgs>(app, "import", kImportHelp, RunImport);
-  cmd->add_option("input", a->inputs, "volume file(s); several 3D files form a time series")->required();
+  cmd->add_option("input", a->inputs, "volume file(s); several 3D files form a time series");
   AddOutputOptions(cmd, &a->output, &a->force, "the store to write");
   cmd->add_option("--hierarchy", a->hierarchy, "ht or hp (checked against the volume)")
       ->check(CLI::IsMember({"ht", "hp"}));
@@ -285,6 +324,15 @@ void RegisterImportCommand(CLI::App& app) {
                   "and built for size)")
       ->check(CLI::Range(1, 22));
   AddReportFlags(cmd, &a->json, &a->quiet, "print the build report as JSON");
+  cmd->add_option("--field", a->field,
+                  "no input file: build the field `simplexdb generate --field NAME` writes with the same "
+                  "--dims, --type (default float32), --seed, --octaves, --frequency and --constant, computed "
+                  "as it is read (under mpirun each rank computes its own planes)");
+  cmd->add_option("--seed", a->seed, "--field: random seed")->capture_default_str();
+  cmd->add_option("--octaves", a->octaves, "--field: Perlin octaves")->capture_default_str();
+  cmd->add_option("--frequency", a->frequency, "--field: periods across the domain")
+      ->capture_default_str()->check(DecimalNumber());
+  cmd->add_option("--constant", a->constant, "--field constant: its value")->check(DecimalNumber());
 }
 
 }  // namespace simplexdb::tools

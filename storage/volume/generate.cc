@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cassert>
+#include <charconv>
 #include <cmath>
+#include <memory>
 #include <numbers>
 #include <string>
 
@@ -343,6 +345,47 @@ void FieldGenerator::Fill(uint64_t first, size_t count, double* out) const {
     z = 0;
     ++t;
   }
+}
+
+double RepresentableValue(VoxelType type, double v) {
+  const auto clamp_round = [&](double lo, double hi) { return std::clamp(std::nearbyint(v), lo, hi); };
+  switch (type) {
+    case VoxelType::kU8: return clamp_round(0, 255);
+    case VoxelType::kI8: return clamp_round(-128, 127);
+    case VoxelType::kU16: return clamp_round(0, 65535);
+    case VoxelType::kI16: return clamp_round(-32768, 32767);
+    case VoxelType::kF32: return static_cast<double>(static_cast<float>(v));
+    case VoxelType::kF64: return v;
+  }
+  return v;
+}
+
+namespace {
+
+std::string Shortest(double v) {  // the shortest text that reads back as v
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof(buf), v);
+  return std::string(buf, r.ptr);
+}
+
+}  // namespace
+
+Result<VolumeInfo> GeneratedVolume(const GenerateOptions& options, VoxelType type) {
+  SDB_RETURN_IF_ERROR(ValidateGenerateOptions(options));
+  if (!IsValidVoxelType(type)) {
+    return Status::NotSupported("voxel type code " + std::to_string(static_cast<int>(type)));
+  }
+  VolumeInfo info;
+  info.dimension = options.dimension;
+  info.dims = options.dims;
+  info.type = type;
+  info.order = ByteOrder::kLittle;
+  info.encoding = VolumeInfo::Encoding::kGenerated;
+  info.generator = std::make_shared<const FieldGenerator>(options);
+  info.description = "generated " + std::string(FieldKindName(options.kind)) + " field (seed " +
+                     std::to_string(options.seed) + ", " + std::to_string(options.octaves) + " octaves, frequency " +
+                     Shortest(options.frequency) + ")";
+  return info;
 }
 
 }  // namespace simplexdb

@@ -58,8 +58,11 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <string_view>
 
+#include "storage/volume/volume.h"
+#include "storage/volume/voxel_type.h"
 #include "util/status.h"
 
 namespace simplexdb {
@@ -136,5 +139,16 @@ class FieldGenerator {
   std::array<std::array<double, 3>, 60> atoms_{};
   double atom_sigma_ = 1;
 };
+
+// `v` rounded to the nearest value `type` holds, integers clamped to its
+// range: how `simplexdb generate` stores a generated value.
+double RepresentableValue(VoxelType type, double v);
+
+// A volume of the field `options` describes, its voxels of `type`
+// (RepresentableValue), computed for whatever range a reader asks: the
+// same values as the NRRD `simplexdb generate` writes with these options,
+// without the file (a parallel build's ranks each compute their own
+// planes). Spacing 1, origin 0. InvalidArgument as ValidateGenerateOptions.
+Result<VolumeInfo> GeneratedVolume(const GenerateOptions& options, VoxelType type);
 
 }  // namespace simplexdb

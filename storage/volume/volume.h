@@ -83,9 +83,13 @@ class ByteSource;  // one open data file, raw or gzip (volume_reader.cc)
 //     as NRRD "data file: LIST" allows), x fastest within each.
 //   - file_offsets is empty (every file's voxels start at `offset`) or has
 //     one entry per file (a time series of files with different headers).
+class FieldGenerator;  // storage/volume/generate.h
+
 struct VolumeInfo {
   // kMemory: no data files; `memory` holds the voxels (MemoryVolume).
-  enum class Encoding : uint8_t { kRaw, kGzip, kMemory };
+  // kGenerated: no data files; `generator` computes the voxels of any range
+  // (GeneratedVolume, storage/volume/generate.h).
+  enum class Encoding : uint8_t { kRaw, kGzip, kMemory, kGenerated };
 
   int dimension = 3;                          // 3 or 4
   std::array<uint32_t, 4> dims = {1, 1, 1, 1};  // x fastest, then y, z, t; unused = 1
@@ -106,6 +110,9 @@ struct VolumeInfo {
   // VolumeInfo keeps the bytes alive and unchanged while any copy of it (a
   // VolumeReader's too) is in use; the deleter says how (MemoryVolume).
   std::shared_ptr<const std::byte> memory;
+  // kGenerated only: the field, each voxel rounded to `type` as `simplexdb
+  // generate` writes it; `files` is then empty.
+  std::shared_ptr<const FieldGenerator> generator;
   // Physical placement of grid point i on axis a: origin[a] + i * spacing[a]
   // (axis 3 is time). Metadata for the stores' headers: the readers never
   // use them. Unknown: spacing 1, origin 0. A negative spacing (x, y or z
@@ -291,6 +298,7 @@ class VolumeReader {
   explicit VolumeReader(VolumeInfo info);
   // Makes files[file] the open source.
   Status OpenFile(size_t file);
+  bool FileLess() const;
 
   VolumeInfo info_;
   uint64_t per_file_ = 0;  // voxels per data file

@@ -9,9 +9,12 @@
 #include <array>
 #include <cstddef>
 #include <cstring>
+#include <memory>
 #include <utility>
+#include <vector>
 
 #include "storage/io/read_only_file.h"
+#include "storage/volume/generate.h"
 
 namespace simplexdb {
 
@@ -164,11 +167,40 @@ class MemorySource final : public ByteSource {
   uint64_t size_;
 };
 
+// A generated field (VolumeInfo::kGenerated): the voxels of the range
+// computed, rounded to the volume's type and encoded as its bytes.
+class GeneratedSource final : public ByteSource {
+ public:
+  GeneratedSource(std::shared_ptr<const FieldGenerator> generator, VoxelType type, ByteOrder order)
+      : generator_(std::move(generator)), type_(type), order_(order) {}
+
+  Status ReadAt(uint64_t pos, size_t n, std::byte* out) override {
+    const size_t size = VoxelSize(type_);
+    const size_t count = n / size;
+    values_.resize(count);
+    generator_->Fill(pos / size, count, values_.data());
+    for (double& v : values_) v = RepresentableValue(type_, v);
+    EncodeVoxels(type_, order_, values_.data(), count, out);
+    return Status::OK();
+  }
+
+ private:
+  std::shared_ptr<const FieldGenerator> generator_;
+  VoxelType type_;
+  ByteOrder order_;
+  std::vector<double> values_;
+};
+
 }  // namespace
 }  // namespace volume_internal
 
+// Whether the voxels come from no file (memory, or a generated field).
+bool VolumeReader::FileLess() const {
+  return info_.encoding == Encoding::kMemory || info_.encoding == Encoding::kGenerated;
+}
+
 VolumeReader::VolumeReader(VolumeInfo info) : info_(std::move(info)) {
-  per_file_ = info_.encoding == Encoding::kMemory ? info_.voxel_count() : info_.voxels_per_file();
+  per_file_ = FileLess() ? info_.voxel_count() : info_.voxels_per_file();
 }
 
 VolumeReader::~VolumeReader() = default;
@@ -187,6 +219,14 @@ Result<std::unique_ptr<VolumeReader>> VolumeReader::Open(const VolumeInfo& info)
     auto reader = std::unique_ptr<VolumeReader>(new VolumeReader(info));
     reader->source_ = std::make_unique<volume_internal::MemorySource>(
         info.memory.get(), info.voxel_count() * VoxelSize(info.type));
+    return reader;
+  }
+  if (info.encoding == Encoding::kGenerated) {
+    if (info.generator == nullptr || !info.files.empty()) {
+      return Status::InvalidArgument(what + ": a generated volume has its generator and no data files");
+    }
+    auto reader = std::unique_ptr<VolumeReader>(new VolumeReader(info));
+    reader->source_ = std::make_unique<volume_internal::GeneratedSource>(info.generator, info.type, info.order);
     return reader;
   }
   if (info.files.empty() || info.voxel_count() % info.files.size() != 0) {
@@ -236,13 +276,13 @@ Status VolumeReader::Read(uint64_t first, size_t count, double* out) {
     const uint64_t in_file = first % per_file_;
     const size_t n = static_cast<size_t>(
         std::min<uint64_t>({count, per_file_ - in_file, kChunkVoxels}));
-    if (info_.encoding != Encoding::kMemory && (source_ == nullptr || current_file_ != file)) {
+    if (!FileLess() && (source_ == nullptr || current_file_ != file)) {
       SDB_RETURN_IF_ERROR(OpenFile(file));
     }
     bytes_.resize(n * voxel_size);
     Status s = source_->ReadAt(in_file * voxel_size, n * voxel_size, bytes_.data());
     if (!s.ok()) {
-      if (info_.encoding != Encoding::kMemory) source_.reset();  // start afresh on the next call
+      if (!FileLess()) source_.reset();  // start afresh on the next call
       return s;
     }
     DecodeVoxels(info_.type, info_.order, bytes_.data(), n, out);

@@ -4,7 +4,8 @@ one store, each reading its own slabs of planes; the file must be the one
 one process builds from the same input and options, byte for byte, and
 `verify` must pass on it. HT and HP; NRRD, raw (big-endian, non-cubic)
 and NIfTI input (a 3D float32 one with missing values, written here, and
-the shared 4D fMRI); N = 1..4. One process under a small --memory-mb
+the shared 4D fMRI), and a generated field (`--field`, no file);
+N = 1..4. One process under a small --memory-mb
 (many windows, spooled) must give the same bytes as one window. A rank
 that fails (an infinity in its slabs, a full disk) stops every rank with
 one message naming it and leaves neither a store nor a temporary; a rank
@@ -173,6 +174,23 @@ def killed_rank():
         failures.append(f"after a killed rank, the next run left {outputs(WORK, 'kill.sdb')}")
 
 
+def generated_field():
+    """import --field: no file; each rank computes its own planes. The
+    ranks' store is the one process's byte for byte, and both hold the
+    values of the NRRD `generate` writes with the same options (the stores
+    differ only in the header, which names the source)."""
+    for dims, kind, ranks in (("61,53,140", "uint8", [2, 3]), ("17,17,17,40", "float32", [2])):
+        field = ["--field", "perlin", "--dims", dims, "--type", kind, "--seed", "6"]
+        nrrd = os.path.join(WORK, "generated.nrrd")
+        run(["generate", "-o", nrrd, "--force", "--quiet"] + field[:6] + ["--seed", "6"])
+        from_file = os.path.join(WORK, "generated_file.sdb")
+        run(["import", nrrd, "-o", from_file, "--quiet", "--force"])
+        want = same_bytes("generated_" + kind, [], ranks, field)
+        got = open(from_file, "rb").read()
+        if len(got) != len(want) or got[4096:] != want[4096:]:
+            failures.append(f"import --field {dims} {kind}: not the values of the generated file's store")
+
+
 def main():
     # An interrupted run may have left its small disk mounted.
     subprocess.run(["umount", os.path.join(WORK, "disk")], capture_output=True)
@@ -232,6 +250,7 @@ def main():
     if left:
         failures.append(f"a failing rank left {left}")
 
+    generated_field()
     full_disk(ht)
     killed_rank()
 

@@ -9,6 +9,7 @@
 #include <bit>
 #include <cmath>
 #include <numbers>
+#include <utility>
 #include <vector>
 
 namespace simplexdb {
@@ -369,6 +370,45 @@ TEST(Buckyball, FieldIsAHollowSymmetricCage) {
       }
     }
   }
+}
+
+}  // namespace
+}  // namespace simplexdb
+
+namespace simplexdb {
+namespace {
+
+// A generated volume reads, over any range and through any number of
+// readers, the generator's values at those voxels rounded to its type
+// (integers rounded and clamped), computed independently here.
+TEST(GeneratedVolume, ReadsTheGeneratorsValuesRoundedToItsType) {
+  GenerateOptions g;
+  g.dims = {13, 11, 9, 1};
+  g.seed = 3;
+  for (const VoxelType type : {VoxelType::kU8, VoxelType::kI16, VoxelType::kF32}) {
+    SCOPED_TRACE(static_cast<int>(type));
+    const Result<VolumeInfo> v = GeneratedVolume(g, type);
+    ASSERT_TRUE(v.ok()) << v.status().ToString();
+    EXPECT_TRUE(v->files.empty());
+    const FieldGenerator gen(g);
+    const uint64_t n = v->voxel_count();
+    std::vector<double> want(n);
+    gen.Fill(0, n, want.data());
+    for (double& x : want) {
+      if (type == VoxelType::kU8) x = std::clamp(std::nearbyint(x), 0.0, 255.0);
+      if (type == VoxelType::kI16) x = std::clamp(std::nearbyint(x), -32768.0, 32767.0);
+      if (type == VoxelType::kF32) x = static_cast<float>(x);
+    }
+    auto reader = VolumeReader::Open(*v);
+    ASSERT_TRUE(reader.ok()) << reader.status().ToString();
+    for (const auto& [first, count] : {std::pair<uint64_t, size_t>{0, n}, {17, 300}, {n - 5, 5}}) {
+      std::vector<double> got(count);
+      ASSERT_TRUE((*reader)->Read(first, count, got.data()).ok());
+      for (size_t i = 0; i < count; ++i) ASSERT_EQ(got[i], want[first + i]) << first + i;
+    }
+  }
+  g.octaves = 0;
+  EXPECT_TRUE(GeneratedVolume(g, VoxelType::kU8).status().IsInvalidArgument());
 }
 
 }  // namespace
