@@ -382,9 +382,16 @@ Result<VolumeInfo> GeneratedVolume(const GenerateOptions& options, VoxelType typ
   info.order = ByteOrder::kLittle;
   info.encoding = VolumeInfo::Encoding::kGenerated;
   info.generator = std::make_shared<const FieldGenerator>(options);
-  info.description = "generated " + std::string(FieldKindName(options.kind)) + " field (seed " +
-                     std::to_string(options.seed) + ", " + std::to_string(options.octaves) + " octaves, frequency " +
-                     Shortest(options.frequency) + ")";
+  // What a store records as its source: the options the field uses.
+  info.description = "generated " + std::string(FieldKindName(options.kind)) + " field";
+  if (options.kind == FieldKind::kPerlin) {
+    info.description += " (seed " + std::to_string(options.seed) + ", " + std::to_string(options.octaves) +
+                        " octaves, frequency " + Shortest(options.frequency) + ")";
+  } else if (options.kind == FieldKind::kSineProduct) {
+    info.description += " (frequency " + Shortest(options.frequency) + ")";
+  } else if (options.kind == FieldKind::kConstant) {
+    info.description += " (" + Shortest(options.constant) + ")";
+  }
   return info;
 }
 
