@@ -138,7 +138,8 @@ void RunIsosurface(IsosurfaceArgs a) {
 
 constexpr const char* kIsosurfaceHelp = R"(The surface where the field equals --iso, straight from the hierarchy: marching tetrahedra over
 the leaves of the mesh `extract --iso V --error E` returns (the minimal conforming mesh in which
-every tetrahedron that may hold the value has error at most E), never collecting the mesh.
+every tetrahedron that may hold the value has error at most E, 1% of the range unless given),
+never collecting the mesh.
 The surface has no cracks (points are merged by the edge they cut, across tetrahedra of every
 level) and is closed wherever it does not leave the grid; every point's value in the field at
 full resolution (linear on the finest tetrahedra) is within E of the isovalue.
@@ -147,8 +148,8 @@ gradient, toward increasing values) and each triangle's tetrahedron's error, or 
 An HP store's surface is that of its time slice --time. Under mpirun every rank contours one
 piece (the pieces of extract): -o OUT.pvtp writes OUT_<rank>.vtp per rank and OUT.pvtp.
 Examples:
-  simplexdb isosurface tooth.sdb --iso 500 -o bone.vtp
-  simplexdb isosurface tooth.sdb --iso 500 --error 0.5% --box 20,20,40,80,70,120 --units physical -o zoom.ply
+  simplexdb isosurface tooth.sdb --iso 120 -o dentin.vtp
+  simplexdb isosurface tooth.sdb --iso 120 --error 0.5% --box 20,20,40,80,70,120 --units physical -o zoom.ply
   simplexdb isosurface fmri.sdb --iso 1000 --time 2 -o t2.vtp)";
 
 }  // namespace
