@@ -170,6 +170,18 @@ std::string Output(const std::string& path, const std::vector<std::string>& inpu
   return *std::move(resolved);
 }
 
+// The criteria both extract and isosurface take, as the command's options.
+ExtractRequest CriteriaRequest(const py::object& error, std::optional<std::vector<double>> box,
+                               std::optional<double> iso, std::optional<double> time, const std::string& units) {
+  ExtractRequest request;
+  request.error = AmountOf(error, "--error");
+  request.box = std::move(box);
+  request.iso = iso;
+  request.time = time;
+  request.units = units;
+  return request;
+}
+
 // Extract (ops/extract.h) over the store: the leaves' codes, the
 // tetrahedra (the HT's, or the HP's slice at `time`) as arrays, the
 // statistics as `extract --format json` prints them.
@@ -178,12 +190,7 @@ py::dict ExtractMesh(const std::shared_ptr<AnyStore>& store, const py::object& e
                      std::optional<double> time, const std::string& units, const std::string& algorithm,
                      uint64_t budget, std::optional<std::vector<uint64_t>> previous, bool mesh_wanted, int piece,
                      int pieces) {
-  ExtractRequest request;
-  request.error = AmountOf(error, "--error");
-  request.box = std::move(box);
-  request.iso = iso;
-  request.time = time;
-  request.units = units;
+  ExtractRequest request = CriteriaRequest(error, std::move(box), iso, time, units);
   request.algorithm = algorithm;
   request.budget = budget;
   request.from = std::move(previous);
@@ -221,12 +228,7 @@ py::dict ExtractMesh(const std::shared_ptr<AnyStore>& store, const py::object& e
 // statistics as `isosurface --json` prints them.
 py::dict Isosurface(const std::shared_ptr<AnyStore>& store, double iso, const py::object& error,
                     std::optional<std::vector<double>> box, std::optional<double> time, const std::string& units) {
-  ExtractRequest request;
-  request.error = AmountOf(error, "--error");
-  request.box = std::move(box);
-  request.iso = iso;
-  request.time = time;
-  request.units = units;
+  ExtractRequest request = CriteriaRequest(error, std::move(box), iso, time, units);
   request.leaves = false;
   request.surface = true;
   Result<ExtractResult> result = [&] {

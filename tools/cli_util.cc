@@ -223,4 +223,18 @@ AnyStore OpenQueriedStore(const std::string& path, bool in_memory, size_t cache_
   return *std::move(store);
 }
 
+GenerateOptions ParseFieldOptions(const FieldArgs& field, std::string_view dims) {
+  GenerateOptions options;
+  Result<FieldKind> kind = ParseFieldKind(field.field);
+  if (!kind.ok()) throw CommandError("--field: " + std::string(kind.status().message()), 2);
+  options.kind = *kind;
+  options.dims = ParseDims(dims, &options.dimension);
+  options.seed = field.seed;
+  options.octaves = field.octaves;
+  options.frequency = field.frequency;
+  options.constant = field.constant;
+  if (Status s = ValidateGenerateOptions(options); !s.ok()) throw CommandError(std::string(s.message()), 2);
+  return options;
+}
+
 }  // namespace simplexdb::tools

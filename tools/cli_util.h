@@ -20,6 +20,7 @@
 #include "query/criteria.h"  // Amount
 #include "query/open_store.h"
 #include "storage/error/progress.h"
+#include "storage/volume/generate.h"
 #include "storage/volume/volume.h"
 #include "parallel/mpi_session.h"
 #include "tools/commands.h"
@@ -80,6 +81,19 @@ size_t MebibytesOption(size_t mib, const char* option = "--memory-mb");
 
 // Grid dimensions "X,Y,Z[,T]": every entry a whole number >= 2.
 std::array<uint32_t, 4> ParseDims(std::string_view text, int* dimension);
+
+// What `generate` and `import --field` take to describe a generated field.
+struct FieldArgs {
+  std::string field = "perlin";
+  uint64_t seed = 1;
+  int octaves = 4;
+  double frequency = 4.0;
+  double constant = 0.0;
+};
+
+// `field` and `dims` (--dims) as GenerateOptions (storage/volume/generate.h),
+// checked: a usage error (exit 2) naming the bad option.
+GenerateOptions ParseFieldOptions(const FieldArgs& field, std::string_view dims);
 
 // How raw input is laid out (--dims, --type, --endian, --offset); empty
 // dims: the inputs describe themselves (NRRD, NIfTI-1).

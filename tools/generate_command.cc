@@ -30,14 +30,10 @@ namespace simplexdb::tools {
 namespace {
 
 struct GenerateArgs {
-  std::string field = "perlin";
+  FieldArgs f;
   std::string dims = "65,65,65";
   std::string type = "float32";
   std::string output;
-  uint64_t seed = 1;
-  int octaves = 4;
-  double frequency = 4.0;
-  double constant = 0.0;
   int threads = 0;
   bool quiet = false;
   bool force = false;
@@ -45,25 +41,14 @@ struct GenerateArgs {
 
 void RunGenerate(GenerateArgs a) {
   a.output = CheckOutput(a.output, {}, a.force);
-  GenerateOptions options;
-  Result<FieldKind> kind = ParseFieldKind(a.field);
-  if (!kind.ok()) throw CommandError("--field: " + std::string(kind.status().message()), 2);
-  options.kind = *kind;
-  options.dims = ParseDims(a.dims, &options.dimension);
-  options.seed = a.seed;
-  options.octaves = a.octaves;
-  options.frequency = a.frequency;
-  options.constant = a.constant;
+  const GenerateOptions options = ParseFieldOptions(a.f, a.dims);
   Result<VoxelType> type = ParseVoxelType(a.type);
   if (!type.ok()) throw CommandError("--type: " + std::string(type.status().message()), 2);
-  if (Status s = ValidateGenerateOptions(options); !s.ok()) {
-    throw CommandError(std::string(s.message()), 2);
-  }
   const FieldGenerator generator(options);
 
   std::string header = "NRRD0004\n";
   header += fmt::format("# simplexdb generate --field {} --seed {} --octaves {} --frequency {}\n",
-                        a.field, a.seed, a.octaves, a.frequency);
+                        a.f.field, a.f.seed, a.f.octaves, a.f.frequency);
   header += fmt::format("type: {}\ndimension: {}\nsizes:", NrrdTypeName(*type), options.dimension);
   for (int i = 0; i < options.dimension; ++i) header += fmt::format(" {}", options.dims[i]);
   header += "\nendian: little\nencoding: raw\nspacings:";
@@ -140,7 +125,7 @@ void RunGenerate(GenerateArgs a) {
   if (failed) throw CommandError(failure);
   if (Status s = out.Commit(); !s.ok()) throw CommandError(std::string(s.message()));
   if (!a.quiet) {
-    fmt::print("{}: {} {} field ({} points, {}) written\n", a.output, a.field,
+    fmt::print("{}: {} {} field ({} points, {}) written\n", a.output, a.f.field,
                FormatDims(options.dimension, options.dims), total, a.type);
   }
 }
@@ -207,16 +192,16 @@ void RegisterTo4dCommand(CLI::App& app) {
 void RegisterGenerateCommand(CLI::App& app) {
   auto [cmd, a] = AddCommand<GenerateArgs>(app, "generate", kGenerateHelp, RunGenerate);
   AddOutputOptions(cmd, &a->output, &a->force, "the NRRD file to write");
-  cmd->add_option("--field", a->field, "perlin|sphere|sines|marschner-lobb|constant|ramp|buckyball (C60, the seed's Buckyball)")
+  cmd->add_option("--field", a->f.field, "perlin|sphere|sines|marschner-lobb|constant|ramp|buckyball (C60, the seed's Buckyball)")
       ->capture_default_str();
   cmd->add_option("--dims", a->dims, "X,Y,Z or X,Y,Z,T")->capture_default_str();
   cmd->add_option("--type", a->type, "uint8|int8|uint16|int16|float32|float64 (integers are "
                                      "rounded and clamped)")
       ->capture_default_str();
-  cmd->add_option("--seed", a->seed, "random seed")->capture_default_str();
-  cmd->add_option("--octaves", a->octaves, "Perlin octaves")->capture_default_str();
-  cmd->add_option("--frequency", a->frequency, "periods across the domain")->capture_default_str()->check(DecimalNumber());
-  cmd->add_option("--constant", a->constant, "the value of --field constant")->capture_default_str()->check(DecimalNumber());
+  cmd->add_option("--seed", a->f.seed, "random seed")->capture_default_str();
+  cmd->add_option("--octaves", a->f.octaves, "Perlin octaves")->capture_default_str();
+  cmd->add_option("--frequency", a->f.frequency, "periods across the domain")->capture_default_str()->check(DecimalNumber());
+  cmd->add_option("--constant", a->f.constant, "the value of --field constant")->capture_default_str()->check(DecimalNumber());
   AddThreadsOption(cmd, &a->threads);
   AddQuietFlag(cmd, &a->quiet);
 }

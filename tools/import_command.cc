@@ -140,18 +140,15 @@ struct ImportArgs {
   bool json = false;
   bool quiet = false;
   bool force = false;
-  // --field: a generated field instead of a file (GeneratedVolume).
-  std::string field;
-  uint64_t seed = 1;
-  int octaves = 4;
-  double frequency = 4.0;
-  double constant = 0.0;
+  // --field: a generated field instead of a file (GeneratedVolume); none
+  // unless given.
+  FieldArgs f = {.field = ""};
 };
 
 // The volume to build: the input files, or with --field the field that
 // `simplexdb generate` would write with the same options, computed as read.
 VolumeInfo ImportInput(const ImportArgs& a) {
-  if (a.field.empty()) {
+  if (a.f.field.empty()) {
     if (a.inputs.empty()) throw CommandError("give a volume file to import, or --field to generate one", 2);
     return OpenInputs(a.inputs, a.raw);
   }
@@ -162,15 +159,7 @@ VolumeInfo ImportInput(const ImportArgs& a) {
   if (a.raw.offset != 0 || a.raw.endian != "little") {
     throw CommandError("--offset and --endian describe raw files, not a generated field", 2);
   }
-  GenerateOptions g;
-  Result<FieldKind> kind = ParseFieldKind(a.field);
-  if (!kind.ok()) throw CommandError("--field: " + std::string(kind.status().message()), 2);
-  g.kind = *kind;
-  g.dims = ParseDims(a.raw.dims, &g.dimension);
-  g.seed = a.seed;
-  g.octaves = a.octaves;
-  g.frequency = a.frequency;
-  g.constant = a.constant;
+  const GenerateOptions g = ParseFieldOptions(a.f, a.raw.dims);
   Result<VoxelType> type = ParseVoxelType(a.raw.type.empty() ? "float32" : a.raw.type);
   if (!type.ok()) throw CommandError("--type: " + std::string(type.status().message()), 2);
   Result<VolumeInfo> v = GeneratedVolume(g, *type);
@@ -324,15 +313,15 @@ void RegisterImportCommand(CLI::App& app) {
                   "and built for size)")
       ->check(CLI::Range(1, 22));
   AddReportFlags(cmd, &a->json, &a->quiet, "print the build report as JSON");
-  cmd->add_option("--field", a->field,
+  cmd->add_option("--field", a->f.field,
                   "no input file: build the field `simplexdb generate --field NAME` writes with the same "
                   "--dims, --type (default float32), --seed, --octaves, --frequency and --constant, computed "
                   "as it is read (under mpirun each rank computes its own planes)");
-  cmd->add_option("--seed", a->seed, "--field: random seed")->capture_default_str();
-  cmd->add_option("--octaves", a->octaves, "--field: Perlin octaves")->capture_default_str();
-  cmd->add_option("--frequency", a->frequency, "--field: periods across the domain")
+  cmd->add_option("--seed", a->f.seed, "--field: random seed")->capture_default_str();
+  cmd->add_option("--octaves", a->f.octaves, "--field: Perlin octaves")->capture_default_str();
+  cmd->add_option("--frequency", a->f.frequency, "--field: periods across the domain")
       ->capture_default_str()->check(DecimalNumber());
-  cmd->add_option("--constant", a->constant, "--field constant: its value")->check(DecimalNumber());
+  cmd->add_option("--constant", a->f.constant, "--field constant: its value")->check(DecimalNumber());
 }
 
 }  // namespace simplexdb::tools
